@@ -2,3 +2,4 @@
 //! nonwoven webs and their uniformity, after Battocchio & Sutcliffe.
 pub mod geometry;
 pub mod stages;
+pub mod uniformity;

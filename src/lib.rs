@@ -1,5 +1,20 @@
 //! laydown: single-fibre laydown on a moving belt, curvature spectra, stochastic
-//! nonwoven webs and their uniformity, after Battocchio & Sutcliffe.
+//! nonwoven webs and their uniformity, after Battocchio & Sutcliffe, "Modelling fibre
+//! laydown and web uniformity in nonwoven fabric".
+//!
+//! The crate is organised like the pipeline it runs:
+//! - [`pipeline`]: YAML pipeline files, checked with file/line/column diagnostics;
+//! - [`stages`]: one module per pipeline stage behind the [`stages::Stage`] contract;
+//! - [`archive`]: the versioned HDF5 archive with provenance;
+//! - [`runner`]: decides what to (re)run and records it;
+//! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation).
+pub mod archive;
+pub mod cli;
 pub mod geometry;
+pub mod params;
+pub mod pipeline;
+pub mod progress;
+pub mod runner;
+pub mod schema;
 pub mod stages;
 pub mod uniformity;

@@ -1,1 +1,6 @@
-fn main() {}
+use clap::Parser;
+
+fn main() {
+    let cli = laydown::cli::Cli::parse();
+    std::process::exit(laydown::cli::main_with(cli));
+}

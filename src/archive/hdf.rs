@@ -1,0 +1,213 @@
+//! Low-level HDF5 writing and reading of `Output`s: datasets with units, long names,
+//! chunking and compression, and HDF5 dimension scales (through libhdf5_hl) so that
+//! netCDF readers (h5netcdf, xarray) see named dimensions.
+use super::data::{Attr, Output, Values, Variable};
+use anyhow::{anyhow, Context, Result};
+use hdf5::types::VarLenUnicode;
+use ndarray::{ArrayD, IxDyn};
+use std::collections::BTreeMap;
+use std::ffi::CString;
+use std::str::FromStr;
+
+#[allow(non_snake_case)]
+mod ds {
+    use hdf5_sys::h5::herr_t;
+    use hdf5_sys::h5i::hid_t;
+    use std::os::raw::{c_char, c_uint};
+    #[link(name = "hdf5_hl")]
+    extern "C" {
+        pub fn H5DSset_scale(dsid: hid_t, dimname: *const c_char) -> herr_t;
+        pub fn H5DSattach_scale(did: hid_t, dsid: hid_t, idx: c_uint) -> herr_t;
+    }
+}
+
+/// Arrays with at least this many elements are chunked and deflate-compressed.
+const COMPRESS_FROM: usize = 4096;
+
+pub fn write_str_attr(loc: &hdf5::Location, name: &str, value: &str) -> Result<()> {
+    let v = VarLenUnicode::from_str(value).map_err(|e| anyhow!("attribute {name}: {e}"))?;
+    loc.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&v)?;
+    Ok(())
+}
+
+pub fn write_attr(loc: &hdf5::Location, name: &str, value: &Attr) -> Result<()> {
+    match value {
+        Attr::Str(s) => write_str_attr(loc, name, s),
+        Attr::F64(v) => Ok(loc.new_attr::<f64>().create(name)?.write_scalar(v)?),
+        Attr::I64(v) => Ok(loc.new_attr::<i64>().create(name)?.write_scalar(v)?),
+    }
+}
+
+pub fn read_attrs(loc: &hdf5::Location) -> Result<BTreeMap<String, Attr>> {
+    let mut out = BTreeMap::new();
+    for name in loc.attr_names()? {
+        let a = loc.attr(&name)?;
+        let value = if let Ok(s) = a.read_scalar::<VarLenUnicode>() {
+            Attr::Str(s.as_str().to_string())
+        } else if let Ok(v) = a.read_scalar::<i64>() {
+            Attr::I64(v)
+        } else if let Ok(v) = a.read_scalar::<f64>() {
+            Attr::F64(v)
+        } else {
+            continue;
+        };
+        out.insert(name, value);
+    }
+    Ok(out)
+}
+
+fn chunk_shape(shape: &[usize]) -> Vec<usize> {
+    // Aim for chunks of ~64k elements, cutting the leading dimensions first.
+    let mut chunk = shape.iter().map(|&n| n.max(1)).collect::<Vec<_>>();
+    let mut total: usize = chunk.iter().product();
+    let mut i = 0;
+    while total > 65536 && i < chunk.len() {
+        while total > 65536 && chunk[i] > 1 {
+            chunk[i] = chunk[i].div_ceil(2);
+            total = chunk.iter().product();
+        }
+        i += 1;
+    }
+    chunk
+}
+
+fn write_array<T: hdf5::H5Type>(group: &hdf5::Group, name: &str, data: &ArrayD<T>) -> Result<hdf5::Dataset> {
+    let mut builder = group.new_dataset_builder().with_data(data.view());
+    if data.len() >= COMPRESS_FROM {
+        builder = builder.chunk(chunk_shape(data.shape())).shuffle().deflate(4);
+    }
+    Ok(builder.create(name)?)
+}
+
+fn write_variable(group: &hdf5::Group, v: &Variable) -> Result<hdf5::Dataset> {
+    let ds = match &v.values {
+        Values::F64(a) => write_array(group, &v.name, a)?,
+        Values::I64(a) => write_array(group, &v.name, a)?,
+        Values::U8(a) => write_array(group, &v.name, a)?,
+        Values::Str(items) => {
+            let vs = items
+                .iter()
+                .map(|s| VarLenUnicode::from_str(s).map_err(|e| anyhow!("{}: {e}", v.name)))
+                .collect::<Result<Vec<_>>>()?;
+            let arr = ArrayD::from_shape_vec(IxDyn(&[vs.len()]), vs)?;
+            group.new_dataset_builder().with_data(arr.view()).create(v.name.as_str())?
+        }
+    };
+    if !v.units.is_empty() {
+        write_str_attr(&ds, "units", &v.units)?;
+    }
+    write_str_attr(&ds, "long_name", &v.long_name)?;
+    for (k, a) in &v.attrs {
+        write_attr(&ds, k, a)?;
+    }
+    Ok(ds)
+}
+
+/// Write all variables of `out` into `group`, with a dimension scale for every dimension.
+/// Dimensions without a coordinate variable get an integer index coordinate.
+pub fn write_output(group: &hdf5::Group, out: &Output) -> Result<()> {
+    let dims = out.dimensions().map_err(|e| anyhow!(e))?;
+    let mut scales: BTreeMap<String, hdf5::Dataset> = BTreeMap::new();
+    for (dim, &n) in &dims {
+        let coord = out.variables.iter().find(|v| &v.name == dim && v.dims.len() == 1 && &v.dims[0] == dim);
+        let ds = match coord {
+            Some(v) => write_variable(group, v)?,
+            None => {
+                let idx = ArrayD::from_shape_fn(IxDyn(&[n]), |i| i[0] as i64);
+                let ds = write_array(group, dim, &idx)?;
+                write_str_attr(&ds, "long_name", &format!("index along {dim}"))?;
+                write_str_attr(&ds, "units", "1")?;
+                ds
+            }
+        };
+        let cname = CString::new(dim.as_str())?;
+        let rc = hdf5::sync::sync(|| unsafe { ds::H5DSset_scale(ds.id(), cname.as_ptr()) });
+        if rc < 0 {
+            return Err(anyhow!("cannot make `{dim}` a dimension scale"));
+        }
+        scales.insert(dim.clone(), ds);
+    }
+    for v in &out.variables {
+        if scales.contains_key(&v.name) && v.dims.len() == 1 && v.dims[0] == v.name {
+            continue; // written above as a scale
+        }
+        let ds = write_variable(group, v).with_context(|| format!("writing `{}`", v.name))?;
+        for (i, d) in v.dims.iter().enumerate() {
+            let scale = &scales[d];
+            let rc = hdf5::sync::sync(|| unsafe { ds::H5DSattach_scale(ds.id(), scale.id(), i as u32) });
+            if rc < 0 {
+                return Err(anyhow!("cannot attach dimension `{d}` to `{}`", v.name));
+            }
+        }
+    }
+    for (k, a) in &out.attrs {
+        write_attr(group, k, a)?;
+    }
+    Ok(())
+}
+
+/// Content hash of an output: names, dimensions, units and the exact bytes of every value.
+pub fn content_hash(out: &Output) -> String {
+    let mut h = blake3::Hasher::new();
+    for v in &out.variables {
+        h.update(v.name.as_bytes());
+        h.update(&[0]);
+        for d in &v.dims {
+            h.update(d.as_bytes());
+            h.update(&[1]);
+        }
+        h.update(v.units.as_bytes());
+        h.update(v.values.type_name().as_bytes());
+        for n in v.values.shape() {
+            h.update(&(n as u64).to_le_bytes());
+        }
+        match &v.values {
+            Values::F64(a) => a.iter().for_each(|x| {
+                h.update(&x.to_bits().to_le_bytes());
+            }),
+            Values::I64(a) => a.iter().for_each(|x| {
+                h.update(&x.to_le_bytes());
+            }),
+            Values::U8(a) => a.iter().for_each(|x| {
+                h.update(&[*x]);
+            }),
+            Values::Str(s) => s.iter().for_each(|x| {
+                h.update(x.as_bytes());
+                h.update(&[0]);
+            }),
+        }
+    }
+    h.finalize().to_hex()[..32].to_string()
+}
+
+pub fn read_f64(group: &hdf5::Group, name: &str) -> Result<ArrayD<f64>> {
+    let ds = group.dataset(name).with_context(|| format!("no dataset `{name}` in {}", group.name()))?;
+    Ok(ds.read_dyn::<f64>()?)
+}
+
+pub fn read_i64(group: &hdf5::Group, name: &str) -> Result<ArrayD<i64>> {
+    let ds = group.dataset(name).with_context(|| format!("no dataset `{name}` in {}", group.name()))?;
+    Ok(ds.read_dyn::<i64>()?)
+}
+
+pub fn read_u8(group: &hdf5::Group, name: &str) -> Result<ArrayD<u8>> {
+    let ds = group.dataset(name).with_context(|| format!("no dataset `{name}` in {}", group.name()))?;
+    Ok(ds.read_dyn::<u8>()?)
+}
+
+pub fn read_strings(group: &hdf5::Group, name: &str) -> Result<Vec<String>> {
+    let ds = group.dataset(name).with_context(|| format!("no dataset `{name}` in {}", group.name()))?;
+    Ok(ds.read_raw::<VarLenUnicode>()?.into_iter().map(|s| s.as_str().to_string()).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_stay_near_64k() {
+        let c = chunk_shape(&[10, 10, 1001, 3]);
+        assert!(c.iter().product::<usize>() <= 65536);
+        assert_eq!(c[3], 3);
+    }
+}

@@ -1,0 +1,245 @@
+//! The study archive: one self-contained HDF5 file per study whose groups
+//! `/<stage>/v<N>` hold every run of every stage with its provenance, plus a soft link
+//! `/<stage>/latest`, root attributes (`Conventions`, `history`, `layout_version`).
+//!
+//! # Crash safety
+//! HDF5 1.10 has no journaling and a process killed mid-write can corrupt the file it
+//! was writing, so the archive is never modified in place. A stage's results are
+//! computed in memory; committing them copies the archive to `<archive>.partial`
+//! (a reflink where the file system supports it), appends the new version group there,
+//! flushes and fsyncs it, and renames it over the archive (atomic on POSIX). A process
+//! killed at any moment leaves either the old or the new archive, both complete; a
+//! version group exists only once complete (`status = complete`). Leftover `.partial`
+//! files are removed by the next run. `<archive>.lock` (an OS file lock, released by the
+//! kernel when the process dies) makes a second concurrent `laydown run` fail fast.
+//!
+//! The cost is one copy of the archive per committed stage version; see README.
+//! `schemas/archive_layout.md` documents the groups, datasets and attributes.
+pub mod data;
+pub mod hdf;
+pub mod provenance;
+
+use anyhow::{anyhow, bail, Context, Result};
+use data::{Attr, Output};
+use std::collections::BTreeMap;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// Version of the archive layout described in schemas/archive_layout.md.
+pub const LAYOUT_VERSION: i64 = 1;
+
+/// One complete version of a stage, as found in the archive.
+#[derive(Debug, Clone)]
+pub struct VersionInfo {
+    pub stage: String,
+    pub number: u32,
+    /// The archive file holding it.
+    pub file: PathBuf,
+    pub attrs: BTreeMap<String, Attr>,
+}
+
+impl VersionInfo {
+    /// Group path inside the archive.
+    pub fn group_path(&self) -> String {
+        format!("/{}/v{}", self.stage, self.number)
+    }
+    pub fn attr_str(&self, key: &str) -> Option<&str> {
+        match self.attrs.get(key) {
+            Some(Attr::Str(s)) => Some(s),
+            _ => None,
+        }
+    }
+    pub fn attr_f64(&self, key: &str) -> Option<f64> {
+        match self.attrs.get(key) {
+            Some(Attr::F64(v)) => Some(*v),
+            Some(Attr::I64(v)) => Some(*v as f64),
+            _ => None,
+        }
+    }
+    pub fn is_complete(&self) -> bool {
+        self.attr_str("status") == Some("complete")
+    }
+    /// Open the version's group for reading.
+    pub fn open(&self) -> Result<hdf5::Group> {
+        let file = hdf5::File::open(&self.file).with_context(|| format!("opening {}", self.file.display()))?;
+        file.group(&self.group_path())
+            .with_context(|| format!("{} has no group {}", self.file.display(), self.group_path()))
+    }
+}
+
+/// An archive on disk (which may not exist yet).
+pub struct Archive {
+    pub path: PathBuf,
+    _lock: Option<fs::File>,
+}
+
+impl Archive {
+    /// Open for reading; nothing is created.
+    pub fn open_read(path: &Path) -> Result<Self> {
+        if !path.exists() {
+            bail!("archive {} does not exist", path.display());
+        }
+        Ok(Archive { path: path.to_path_buf(), _lock: None })
+    }
+
+    /// Open for writing: takes the run lock (failing fast if another run holds it) and
+    /// removes a temporary copy left by a killed run. Creates nothing else.
+    pub fn open_write(path: &Path) -> Result<Self> {
+        if let Some(parent) = path.parent() {
+            if !parent.as_os_str().is_empty() {
+                fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+            }
+        }
+        let lock_path = sibling(path, ".lock");
+        let lock = fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)
+            .with_context(|| format!("opening {}", lock_path.display()))?;
+        match lock.try_lock() {
+            Ok(()) => {}
+            Err(fs::TryLockError::WouldBlock) => bail!(
+                "archive {} is in use by another `laydown run` (lock {} is held); wait for it to finish",
+                path.display(),
+                lock_path.display()
+            ),
+            Err(fs::TryLockError::Error(e)) => return Err(e).context("locking the archive"),
+        }
+        let partial = sibling(path, ".partial");
+        if partial.exists() {
+            fs::remove_file(&partial).with_context(|| format!("removing stale {}", partial.display()))?;
+        }
+        Ok(Archive { path: path.to_path_buf(), _lock: Some(lock) })
+    }
+
+    /// Stage names that have versions, sorted.
+    pub fn stages(&self) -> Result<Vec<String>> {
+        if !self.path.exists() {
+            return Ok(vec![]);
+        }
+        let file = hdf5::File::open(&self.path).with_context(|| format!("opening {}", self.path.display()))?;
+        let mut out: Vec<String> = file.groups()?.iter().map(|g| g.name().trim_start_matches('/').to_string()).collect();
+        out.sort();
+        Ok(out)
+    }
+
+    /// All versions of a stage, oldest first.
+    pub fn versions(&self, stage: &str) -> Result<Vec<VersionInfo>> {
+        if !self.path.exists() {
+            return Ok(vec![]);
+        }
+        let file = hdf5::File::open(&self.path).with_context(|| format!("opening {}", self.path.display()))?;
+        let Ok(group) = file.group(stage) else { return Ok(vec![]) };
+        let mut out = vec![];
+        for name in group.member_names()? {
+            let Some(number) = name.strip_prefix('v').and_then(|n| n.parse::<u32>().ok()) else { continue };
+            let vgroup = group.group(&name)?;
+            let attrs = hdf::read_attrs(&vgroup)?;
+            out.push(VersionInfo { stage: stage.to_string(), number, file: self.path.clone(), attrs });
+        }
+        out.sort_by_key(|v| v.number);
+        Ok(out)
+    }
+
+    pub fn version(&self, stage: &str, number: Option<u32>) -> Result<VersionInfo> {
+        let versions = self.versions(stage)?;
+        if versions.is_empty() {
+            let stages = self.stages()?;
+            bail!("stage `{stage}` has no versions in {}; stages present: {}", self.path.display(), stages.join(", "));
+        }
+        let found = match number {
+            Some(n) => versions.iter().find(|v| v.number == n).cloned(),
+            None => versions.last().cloned(),
+        };
+        found.ok_or_else(|| {
+            let have: Vec<String> = versions.iter().map(|v| format!("v{}", v.number)).collect();
+            anyhow!("stage `{stage}` has no version v{} in {}; it has {}", number.unwrap_or(0), self.path.display(), have.join(", "))
+        })
+    }
+
+    /// Commit a new version of `stage` (and a `history` line); returns its number.
+    /// Atomic: see the module docs.
+    pub fn commit_version(
+        &self,
+        title: &str,
+        stage: &str,
+        out: &Output,
+        attrs: &BTreeMap<String, Attr>,
+        history_line: &str,
+    ) -> Result<u32> {
+        let number = self.versions(stage)?.last().map(|v| v.number + 1).unwrap_or(1);
+        self.transaction(title, history_line, |file| {
+            let sgroup = match file.group(stage) {
+                Ok(g) => g,
+                Err(_) => file.create_group(stage)?,
+            };
+            let group = sgroup.create_group(&format!("v{number}"))?;
+            hdf::write_output(&group, out)?;
+            let mut all = attrs.clone();
+            all.insert("version".into(), Attr::I64(number as i64));
+            for (k, a) in &all {
+                hdf::write_attr(&group, k, a)?;
+            }
+            if sgroup.link_exists("latest") {
+                sgroup.unlink("latest")?;
+            }
+            sgroup.link_soft(&format!("/{stage}/v{number}"), "latest")?;
+            Ok(())
+        })?;
+        Ok(number)
+    }
+
+    /// Copy the archive (or start a new one), apply `f`, update the root attributes,
+    /// sync and rename into place.
+    fn transaction(&self, title: &str, history_line: &str, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
+        let partial = sibling(&self.path, ".partial");
+        let file = if self.path.exists() {
+            fs::copy(&self.path, &partial).with_context(|| format!("copying {} to {}", self.path.display(), partial.display()))?;
+            hdf5::File::open_rw(&partial)?
+        } else {
+            hdf5::File::create(&partial).with_context(|| format!("creating {}", partial.display()))?
+        };
+        let mut history = match hdf::read_attrs(&file)?.get("history") {
+            Some(Attr::Str(h)) => h.clone(),
+            _ => String::new(),
+        };
+        f(&file)?;
+        if !history.is_empty() && !history.ends_with('\n') {
+            history.push('\n');
+        }
+        history.push_str(history_line);
+        let root: [(&str, Attr); 5] = [
+            ("Conventions", Attr::Str("CF-1.8".into())),
+            ("title", Attr::Str(title.into())),
+            ("source", Attr::Str(format!("laydown {}", env!("CARGO_PKG_VERSION")))),
+            ("history", Attr::Str(history)),
+            ("layout_version", Attr::I64(LAYOUT_VERSION)),
+        ];
+        for (k, v) in &root {
+            if file.attr(k).is_ok() {
+                file.delete_attr(k)?;
+            }
+            hdf::write_attr(&file, k, v)?;
+        }
+        file.flush()?;
+        drop(file);
+        fs::File::open(&partial)?.sync_all()?;
+        fs::rename(&partial, &self.path)?;
+        if let Some(parent) = self.path.parent() {
+            // Persist the rename itself (the directory entry).
+            let dir = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
+            if let Ok(d) = fs::File::open(dir) {
+                let _ = d.sync_all();
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `<archive><suffix>` beside the archive.
+fn sibling(path: &Path, suffix: &str) -> PathBuf {
+    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    name.push(suffix);
+    path.with_file_name(name)
+}

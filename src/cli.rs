@@ -1,0 +1,240 @@
+//! The `laydown` command line: a thin layer over the pipeline runner and the archive.
+//! Exit codes: 0 success, 1 runtime failure, 2 bad input.
+use crate::archive::data::Attr;
+use crate::archive::{hdf, Archive};
+use crate::params::ParamKind;
+use crate::runner::{self, RunError, RunOptions};
+use crate::{pipeline, stages};
+use anyhow::{anyhow, Context, Result};
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+const AFTER_HELP: &str = "Stage kinds: laydown, spectra, web, grid, image. \
+`laydown stages KIND` prints a kind's parameters with units, defaults and allowed ranges.\n\
+Exit codes: 0 success, 1 runtime failure, 2 bad input.";
+
+#[derive(Parser, Debug)]
+#[command(name = "laydown", version, about = "Fibre laydown, curvature spectra, stochastic nonwoven webs and their uniformity, in one versioned HDF5 archive per study.", after_help = AFTER_HELP)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run a pipeline: every stage whose fingerprint (kind, code version, parameters,
+    /// seed, inputs) has no complete version in the archive yet.
+    Run {
+        /// The pipeline YAML file.
+        pipeline: PathBuf,
+        /// Run only this stage, on the existing versions of its inputs.
+        #[arg(long, value_name = "STAGE", conflicts_with = "from")]
+        only: Option<String>,
+        /// Run this stage and every stage downstream of it.
+        #[arg(long, value_name = "STAGE")]
+        from: Option<String>,
+        /// Ignore the cache for this stage (repeatable).
+        #[arg(long, value_name = "STAGE")]
+        force: Vec<String>,
+        /// Write to this archive instead of the pipeline's `archive:`.
+        #[arg(long, value_name = "PATH")]
+        archive: Option<PathBuf>,
+    },
+    /// Parse and check a pipeline without computing anything.
+    Validate { pipeline: PathBuf },
+    /// List stages and versions of an archive (status, params hash, wall time).
+    Ls { archive: PathBuf },
+    /// Show a stage version's provenance and datasets (`STAGE` is the latest version).
+    Show {
+        archive: PathBuf,
+        /// `STAGE` or `STAGE@vN`.
+        stage: String,
+        /// Machine-readable output.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List stage kinds, or print one kind's parameter table (units, defaults, ranges).
+    Stages { kind: Option<String> },
+    /// Print the JSON schema of pipeline files (schemas/pipeline.schema.json).
+    Schema,
+}
+
+/// Run the CLI; returns the process exit code.
+pub fn main_with(cli: Cli) -> i32 {
+    match cli.command {
+        Command::Run { pipeline: path, only, from, force, archive } => {
+            let mut p = match pipeline::load(&path) {
+                Ok(p) => p,
+                Err(d) => {
+                    eprintln!("{d}");
+                    return 2;
+                }
+            };
+            if let Some(a) = archive {
+                p.archive = a;
+            }
+            let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal() };
+            match runner::run(&p, &opts) {
+                Ok(_) => {
+                    println!("archive: {}", p.archive.display());
+                    0
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    e.exit_code()
+                }
+            }
+        }
+        Command::Validate { pipeline: path } => match pipeline::load(&path) {
+            Ok(p) => {
+                let n: usize = p.stages.iter().map(|s| s.points().0.len() * s.replicates).sum();
+                println!("{}: ok ({} stages, {} units of work)", path.display(), p.stages.len(), n);
+                0
+            }
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
+        Command::Ls { archive } => report(ls(&archive)),
+        Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
+        Command::Stages { kind } => report(describe_stages(kind.as_deref())),
+        Command::Schema => {
+            println!("{}", serde_json::to_string_pretty(&crate::schema::pipeline_schema()).unwrap());
+            0
+        }
+    }
+}
+
+fn report(r: Result<()>) -> i32 {
+    match r {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if e.downcast_ref::<RunError>().is_some_and(|r| r.exit_code() == 1) {
+                1
+            } else {
+                2
+            }
+        }
+    }
+}
+
+fn ls(path: &PathBuf) -> Result<()> {
+    let archive = Archive::open_read(path)?;
+    println!("{:<16} {:>4} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)");
+    for stage in archive.stages()? {
+        for v in archive.versions(&stage)? {
+            println!(
+                "{:<16} {:>4} {:<10} {:<10} {:<17} {:>10.2}  {}",
+                stage,
+                format!("v{}", v.number),
+                v.attr_str("stage_kind").unwrap_or("?"),
+                v.attr_str("status").unwrap_or("?"),
+                v.attr_str("params_hash").unwrap_or("?"),
+                v.attr_f64("wall_seconds").unwrap_or(f64::NAN),
+                v.attr_str("end_utc").unwrap_or("?"),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Parse `STAGE` or `STAGE@vN`.
+pub fn parse_stage_ref(s: &str) -> Result<(String, Option<u32>)> {
+    match s.split_once('@') {
+        None => Ok((s.to_string(), None)),
+        Some((name, v)) => {
+            let n = v
+                .strip_prefix('v')
+                .and_then(|n| n.parse().ok())
+                .ok_or_else(|| anyhow!("`{s}`: expected STAGE or STAGE@vN, e.g. fibre@v2"))?;
+            Ok((name.to_string(), Some(n)))
+        }
+    }
+}
+
+fn show(path: &PathBuf, stage_ref: &str, json: bool) -> Result<()> {
+    let archive = Archive::open_read(path)?;
+    let (stage, number) = parse_stage_ref(stage_ref)?;
+    let v = archive.version(&stage, number)?;
+    let file = v.open()?;
+    let mut datasets = vec![];
+    for name in file.member_names()? {
+        if let Ok(ds) = file.dataset(&name) {
+            let attrs = hdf::read_attrs(&ds)?;
+            let s = |k: &str| match attrs.get(k) {
+                Some(Attr::Str(s)) => s.clone(),
+                _ => String::new(),
+            };
+            datasets.push((name, ds.shape(), s("units"), s("long_name")));
+        }
+    }
+    if json {
+        let prov: serde_json::Map<String, serde_json::Value> = v
+            .attrs
+            .iter()
+            .map(|(k, a)| {
+                let val = match a {
+                    Attr::Str(s) => serde_json::Value::String(s.clone()),
+                    Attr::F64(f) => serde_json::json!(f),
+                    Attr::I64(i) => serde_json::json!(i),
+                };
+                (k.clone(), val)
+            })
+            .collect();
+        let ds: Vec<serde_json::Value> = datasets
+            .iter()
+            .map(|(n, shape, u, l)| serde_json::json!({"name": n, "shape": shape, "units": u, "long_name": l}))
+            .collect();
+        let doc = serde_json::json!({"stage": stage, "version": v.number, "group": v.group_path(), "provenance": prov, "datasets": ds});
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
+    println!("{} ({})", v.group_path(), v.file.display());
+    println!("provenance:");
+    for (k, a) in &v.attrs {
+        let text = match a {
+            Attr::Str(s) => s.trim_end().replace('\n', "\n      "),
+            Attr::F64(f) => format!("{f}"),
+            Attr::I64(i) => format!("{i}"),
+        };
+        println!("  {k}: {text}");
+    }
+    println!("datasets:");
+    for (n, shape, u, l) in datasets {
+        println!("  {n:<36} {:<20} [{u}] {l}", format!("{shape:?}"));
+    }
+    Ok(())
+}
+
+fn describe_stages(kind: Option<&str>) -> Result<()> {
+    match kind {
+        None => {
+            for s in stages::registry() {
+                println!("{:<10} {}", s.kind(), s.summary());
+            }
+            println!("\n`laydown stages KIND` prints a kind's parameters.");
+        }
+        Some(k) => {
+            let s = stages::find(k).ok_or_else(|| {
+                anyhow!("unknown stage kind `{k}`; allowed: {}", stages::kinds().join(", "))
+            }).context("laydown stages")?;
+            println!("{} — {}\n", s.kind(), s.summary());
+            let rule = s.inputs();
+            if rule.max > 0 {
+                println!("input: {} to {} stage(s) of kind {}\n", rule.min, rule.max, rule.kinds.join(" or "));
+            }
+            println!("{:<32} {:<10} {:<14} {:<40} {}", "parameter", "unit", "default", "allowed", "meaning");
+            for p in s.params() {
+                let unit = if p.unit.is_empty() { "-" } else { p.unit };
+                let allowed = match &p.kind {
+                    ParamKind::Choice(c) => c.join("|"),
+                    _ => p.allowed(),
+                };
+                println!("{:<32} {:<10} {:<14} {:<40} {}", p.name, unit, p.default.to_string(), allowed, p.doc);
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,683 @@
+//! Pipeline files: parsing and checking YAML into a [`Pipeline`] of stage declarations.
+//!
+//! ```yaml
+//! pipeline: quickstart
+//! archive: results/quickstart.h5
+//! seed: 42
+//! stages:
+//!   - name: spectra
+//!     kind: spectra
+//!     params: { source: idealised, preset: spectrum1 }
+//!     sweep: { ... }          # optional: parameter -> list of values
+//!     sweep_mode: cartesian   # or zip
+//!     replicates: 1
+//! ```
+//! Every problem is reported with file, line, column, key path and what is allowed;
+//! checking collects all problems rather than stopping at the first.
+pub mod yaml;
+
+use crate::params::{ParamSet, ParamSpec, ParamValue};
+use crate::stages;
+use std::collections::{BTreeMap, HashMap};
+use std::fmt;
+use std::path::{Path, PathBuf};
+use yaml::{Kind, Node, Pos, Scalar};
+
+/// One problem in a pipeline file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnostic {
+    pub file: String,
+    pub pos: Pos,
+    /// Key path such as `stages[1].params.diameter`.
+    pub key: String,
+    pub message: String,
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "{}:{}:{}: {}", self.file, self.pos.line, self.pos.col, self.message)
+        } else {
+            write!(f, "{}:{}:{}: {}: {}", self.file, self.pos.line, self.pos.col, self.key, self.message)
+        }
+    }
+}
+
+/// All problems found in a pipeline file.
+#[derive(Debug, Clone)]
+pub struct Diagnostics(pub Vec<Diagnostic>);
+
+impl fmt::Display for Diagnostics {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, d) in self.0.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "error: {d}")?;
+        }
+        Ok(())
+    }
+}
+impl std::error::Error for Diagnostics {}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SweepMode {
+    /// Every combination of the listed values.
+    Cartesian,
+    /// The i-th values of every list together (lists of equal length).
+    Zip,
+}
+
+/// One stage as declared in the pipeline, checked against its kind's parameter table.
+#[derive(Debug, Clone)]
+pub struct StageDecl {
+    pub name: String,
+    pub kind: String,
+    pub inputs: Vec<String>,
+    /// Parameters with every default filled in (the base of every sweep point).
+    pub params: ParamSet,
+    pub sweep: Vec<(String, Vec<ParamValue>)>,
+    pub sweep_mode: SweepMode,
+    pub replicates: usize,
+    /// Seed override for this stage; the pipeline seed otherwise.
+    pub seed: Option<u64>,
+    pub pos: Pos,
+}
+
+impl StageDecl {
+    /// The parameter sets of all sweep points, in sweep order (last parameter fastest
+    /// for cartesian products), with each point's swept values.
+    pub fn points(&self) -> (Vec<ParamSet>, Vec<(String, Vec<ParamValue>)>) {
+        if self.sweep.is_empty() {
+            return (vec![self.params.clone()], vec![]);
+        }
+        let combos: Vec<Vec<usize>> = match self.sweep_mode {
+            SweepMode::Zip => (0..self.sweep[0].1.len()).map(|i| vec![i; self.sweep.len()]).collect(),
+            SweepMode::Cartesian => {
+                let mut combos = vec![vec![]];
+                for (_, values) in &self.sweep {
+                    combos = combos
+                        .into_iter()
+                        .flat_map(|c| (0..values.len()).map(move |i| [c.clone(), vec![i]].concat()))
+                        .collect();
+                }
+                combos
+            }
+        };
+        let mut coords: Vec<(String, Vec<ParamValue>)> = self.sweep.iter().map(|(n, _)| (n.clone(), vec![])).collect();
+        let points = combos
+            .iter()
+            .map(|combo| {
+                let mut p = self.params.clone();
+                for (k, &i) in combo.iter().enumerate() {
+                    let (name, values) = &self.sweep[k];
+                    p.0.insert(name.clone(), values[i].clone());
+                    coords[k].1.push(values[i].clone());
+                }
+                p
+            })
+            .collect();
+        (points, coords)
+    }
+
+    /// Canonical description of the sweep (part of the fingerprint and provenance).
+    pub fn sweep_yaml(&self) -> String {
+        if self.sweep.is_empty() {
+            return String::new();
+        }
+        let mode = match self.sweep_mode {
+            SweepMode::Cartesian => "cartesian",
+            SweepMode::Zip => "zip",
+        };
+        let mut s = format!("mode: {mode}\n");
+        for (name, values) in &self.sweep {
+            let vs: Vec<String> = values.iter().map(|v| v.to_string()).collect();
+            s.push_str(&format!("{name}: [{}]\n", vs.join(", ")));
+        }
+        s
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Pipeline {
+    pub file: PathBuf,
+    pub name: String,
+    pub archive: PathBuf,
+    pub seed: u64,
+    pub description: String,
+    pub stages: Vec<StageDecl>,
+}
+
+impl Pipeline {
+    pub fn stage(&self, name: &str) -> Option<&StageDecl> {
+        self.stages.iter().find(|s| s.name == name)
+    }
+
+    /// Stage names in an order where every stage comes after its inputs (file order
+    /// otherwise).
+    pub fn topological_order(&self) -> Vec<String> {
+        let mut done: Vec<String> = vec![];
+        while done.len() < self.stages.len() {
+            let before = done.len();
+            for s in &self.stages {
+                if !done.contains(&s.name) && s.inputs.iter().all(|i| done.contains(i)) {
+                    done.push(s.name.clone());
+                }
+            }
+            assert!(done.len() > before, "cycle slipped through validation");
+        }
+        done
+    }
+
+    /// Stages downstream of `name` (including itself), in topological order.
+    pub fn downstream(&self, name: &str) -> Vec<String> {
+        let mut set = vec![name.to_string()];
+        for s in self.topological_order() {
+            if self.stage(&s).unwrap().inputs.iter().any(|i| set.contains(i)) && !set.contains(&s) {
+                set.push(s);
+            }
+        }
+        self.topological_order().into_iter().filter(|s| set.contains(s)).collect()
+    }
+}
+
+/// Read and check a pipeline file.
+pub fn load(path: &Path) -> Result<Pipeline, Diagnostics> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        Diagnostics(vec![Diagnostic {
+            file: file.clone(),
+            pos: Pos { line: 0, col: 0 },
+            key: String::new(),
+            message: format!("cannot read the pipeline file: {e}"),
+        }])
+    })?;
+    parse(&text, path)
+}
+
+/// Check pipeline text (`path` is used in messages and kept in the result).
+pub fn parse(text: &str, path: &Path) -> Result<Pipeline, Diagnostics> {
+    let mut c = Checker { file: path.display().to_string(), diags: vec![] };
+    let root = match yaml::parse(text) {
+        Ok(r) => r,
+        Err((pos, msg)) => {
+            c.err(pos, "", format!("invalid YAML: {msg}"));
+            return Err(Diagnostics(c.diags));
+        }
+    };
+    let pipeline = c.pipeline(&root, path);
+    if c.diags.is_empty() {
+        Ok(pipeline.expect("no diagnostics means a pipeline"))
+    } else {
+        Err(Diagnostics(c.diags))
+    }
+}
+
+struct Checker {
+    file: String,
+    diags: Vec<Diagnostic>,
+}
+
+const TOP_KEYS: &[&str] = &["pipeline", "archive", "seed", "description", "stages"];
+const STAGE_KEYS: &[&str] = &["name", "kind", "input", "params", "sweep", "sweep_mode", "replicates", "seed", "description"];
+const MAX_SWEEP_POINTS: usize = 100_000;
+
+impl Checker {
+    fn err(&mut self, pos: Pos, key: &str, message: impl Into<String>) {
+        self.diags.push(Diagnostic { file: self.file.clone(), pos, key: key.to_string(), message: message.into() });
+    }
+
+    fn map<'a>(&mut self, node: &'a Node, key: &str, what: &str) -> Option<&'a [(String, Pos, Node)]> {
+        match &node.kind {
+            Kind::Map(entries) => Some(entries),
+            _ => {
+                self.err(node.pos, key, format!("expected {what} (a mapping), found {}", node.type_name()));
+                None
+            }
+        }
+    }
+
+    fn unknown_keys(&mut self, entries: &[(String, Pos, Node)], allowed: &[&str], prefix: &str, what: &str) {
+        for (k, pos, _) in entries {
+            if !allowed.contains(&k.as_str()) {
+                let hint = suggest(k, allowed.iter().copied()).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
+                self.err(*pos, &join(prefix, k), format!("unknown key in {what}; allowed keys: {}{hint}", allowed.join(", ")));
+            }
+        }
+    }
+
+    fn string(&mut self, node: &Node, key: &str) -> Option<String> {
+        match &node.kind {
+            Kind::Scalar(Scalar::Str(s)) => Some(s.clone()),
+            _ => {
+                self.err(node.pos, key, format!("expected text, found {}", node.type_name()));
+                None
+            }
+        }
+    }
+
+    fn identifier(&mut self, node: &Node, key: &str) -> Option<String> {
+        let s = self.string(node, key)?;
+        let ok = !s.is_empty()
+            && s.chars().next().is_some_and(|c| c.is_ascii_lowercase())
+            && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+        if !ok {
+            self.err(node.pos, key, format!("`{s}` is not a valid name; allowed: lowercase letters, digits and _, starting with a letter"));
+            return None;
+        }
+        Some(s)
+    }
+
+    fn uint(&mut self, node: &Node, key: &str, min: i64, max: i64) -> Option<i64> {
+        match &node.kind {
+            Kind::Scalar(Scalar::Int(i)) if *i >= min && *i <= max => Some(*i),
+            Kind::Scalar(Scalar::Int(i)) => {
+                self.err(node.pos, key, format!("{i} is out of range; allowed: a whole number from {min} to {max}"));
+                None
+            }
+            _ => {
+                self.err(node.pos, key, format!("expected a whole number from {min} to {max}, found {}", node.type_name()));
+                None
+            }
+        }
+    }
+
+    fn pipeline(&mut self, root: &Node, path: &Path) -> Option<Pipeline> {
+        let entries = self.map(root, "", "a pipeline")?;
+        self.unknown_keys(entries, TOP_KEYS, "", "the pipeline");
+        let get = |k: &str| entries.iter().find(|(n, _, _)| n == k).map(|(_, _, v)| v);
+        let missing = |c: &mut Self, k: &str| c.err(root.pos, k, "required key is missing");
+
+        let name = match get("pipeline") {
+            Some(n) => self.string(n, "pipeline"),
+            None => {
+                missing(self, "pipeline");
+                None
+            }
+        };
+        let archive = match get("archive") {
+            Some(n) => self.string(n, "archive").and_then(|a| {
+                if a.trim().is_empty() {
+                    self.err(n.pos, "archive", "the archive path is empty");
+                    None
+                } else {
+                    Some(PathBuf::from(a))
+                }
+            }),
+            None => {
+                missing(self, "archive");
+                None
+            }
+        };
+        let seed = match get("seed") {
+            Some(n) => self.uint(n, "seed", 0, i64::MAX).map(|s| s as u64),
+            None => Some(0),
+        };
+        let description = get("description").and_then(|n| self.string(n, "description")).unwrap_or_default();
+        let stages = match get("stages") {
+            Some(n) => self.stages(n),
+            None => {
+                missing(self, "stages");
+                None
+            }
+        };
+        Some(Pipeline {
+            file: path.to_path_buf(),
+            name: name?,
+            archive: archive?,
+            seed: seed?,
+            description,
+            stages: stages?,
+        })
+    }
+
+    fn stages(&mut self, node: &Node) -> Option<Vec<StageDecl>> {
+        let Kind::Seq(items) = &node.kind else {
+            self.err(node.pos, "stages", format!("expected a list of stages, found {}", node.type_name()));
+            return None;
+        };
+        if items.is_empty() {
+            self.err(node.pos, "stages", "the pipeline has no stages; allowed: a list of at least one stage");
+            return None;
+        }
+        let before = self.diags.len();
+        let decls: Vec<Option<StageDecl>> = items.iter().enumerate().map(|(i, n)| self.stage(n, &format!("stages[{i}]"))).collect();
+        // Names unique.
+        let mut seen: HashMap<String, usize> = HashMap::new();
+        for (i, d) in decls.iter().enumerate() {
+            if let Some(d) = d {
+                if let Some(j) = seen.insert(d.name.clone(), i) {
+                    self.err(d.pos, &format!("stages[{i}].name"), format!("stage name `{}` is already used by stages[{j}]", d.name));
+                }
+            }
+        }
+        let all: Vec<&StageDecl> = decls.iter().flatten().collect();
+        // Inputs exist and have the right kinds.
+        for (i, d) in decls.iter().enumerate() {
+            let Some(d) = d else { continue };
+            let Some(stage) = stages::find(&d.kind) else { continue };
+            let rule = stage.inputs();
+            let key = format!("stages[{i}].input");
+            if d.inputs.len() < rule.min || d.inputs.len() > rule.max {
+                let kinds = rule.kinds.join(" or ");
+                let want = if rule.max == 0 {
+                    "no input".to_string()
+                } else if rule.min == rule.max {
+                    format!("exactly {} input stage(s) of kind {kinds}", rule.min)
+                } else {
+                    format!("{} to {} input stage(s) of kind {kinds}", rule.min, rule.max)
+                };
+                self.err(d.pos, &key, format!("stage `{}` of kind {} takes {want}, but has {}", d.name, d.kind, d.inputs.len()));
+            }
+            for inp in &d.inputs {
+                match all.iter().find(|s| &s.name == inp) {
+                    None => {
+                        let hint = suggest(inp, all.iter().map(|s| s.name.as_str())).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
+                        let names: Vec<&str> = all.iter().map(|s| s.name.as_str()).filter(|n| *n != d.name).collect();
+                        self.err(d.pos, &key, format!("input `{inp}` names no stage of this pipeline; allowed: {}{hint}", names.join(", ")));
+                    }
+                    Some(up) if !rule.kinds.contains(&up.kind.as_str()) => {
+                        self.err(d.pos, &key, format!("input `{inp}` is a {} stage; a {} stage takes {}", up.kind, d.kind, rule.kinds.join(" or ")));
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if self.diags.len() == before {
+            if let Some(cycle) = find_cycle(&all) {
+                let first = all.iter().find(|s| s.name == cycle[0]).unwrap();
+                self.err(first.pos, "stages", format!("the stages' inputs form a cycle: {}; allowed: inputs that lead back to stages without input", cycle.join(" -> ")));
+            }
+        }
+        if self.diags.len() > before {
+            return None;
+        }
+        Some(decls.into_iter().flatten().collect())
+    }
+
+    fn stage(&mut self, node: &Node, key: &str) -> Option<StageDecl> {
+        let entries = self.map(node, key, "a stage")?;
+        self.unknown_keys(entries, STAGE_KEYS, key, "a stage");
+        let get = |k: &str| entries.iter().find(|(n, _, _)| n == k).map(|(_, _, v)| v);
+        let name = match get("name") {
+            Some(n) => self.identifier(n, &join(key, "name")),
+            None => {
+                self.err(node.pos, &join(key, "name"), "required key is missing");
+                None
+            }
+        };
+        let kinds = stages::kinds();
+        let (kind, stage) = match get("kind") {
+            Some(n) => match self.string(n, &join(key, "kind")) {
+                Some(k) => match stages::find(&k) {
+                    Some(s) => (Some(k), Some(s)),
+                    None => {
+                        let hint = suggest(&k, kinds.iter().copied()).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
+                        self.err(n.pos, &join(key, "kind"), format!("unknown stage kind `{k}`; allowed: {}{hint}", kinds.join(", ")));
+                        (None, None)
+                    }
+                },
+                None => (None, None),
+            },
+            None => {
+                self.err(node.pos, &join(key, "kind"), format!("required key is missing; allowed: {}", kinds.join(", ")));
+                (None, None)
+            }
+        };
+        let inputs = match get("input") {
+            None => Some(vec![]),
+            Some(n) => match &n.kind {
+                Kind::Scalar(Scalar::Str(s)) => Some(vec![s.clone()]),
+                Kind::Seq(items) => items.iter().enumerate().map(|(i, it)| self.string(it, &format!("{key}.input[{i}]"))).collect(),
+                _ => {
+                    self.err(n.pos, &join(key, "input"), format!("expected a stage name or a list of stage names, found {}", n.type_name()));
+                    None
+                }
+            },
+        };
+        let replicates = match get("replicates") {
+            Some(n) => self.uint(n, &join(key, "replicates"), 1, 100_000).map(|r| r as usize),
+            None => Some(1),
+        };
+        let seed = match get("seed") {
+            Some(n) => self.uint(n, &join(key, "seed"), 0, i64::MAX).map(|s| Some(s as u64)),
+            None => Some(None),
+        };
+        let sweep_mode = match get("sweep_mode") {
+            None => Some(SweepMode::Cartesian),
+            Some(n) => match self.string(n, &join(key, "sweep_mode")).as_deref() {
+                Some("cartesian") => Some(SweepMode::Cartesian),
+                Some("zip") => Some(SweepMode::Zip),
+                Some(other) => {
+                    self.err(n.pos, &join(key, "sweep_mode"), format!("`{other}` is not allowed; allowed: cartesian, zip"));
+                    None
+                }
+                None => None,
+            },
+        };
+        if let Some(n) = get("description") {
+            self.string(n, &join(key, "description"));
+        }
+        let stage = stage?;
+        let specs = stage.params();
+        let given = match get("params") {
+            Some(n) => self.params(n, &join(key, "params"), &specs, stage.kind()),
+            None => Some(BTreeMap::new()),
+        };
+        let sweep = match get("sweep") {
+            Some(n) => self.sweep(n, &join(key, "sweep"), &specs, stage.kind(), sweep_mode),
+            None => Some(vec![]),
+        };
+        let given = given?;
+        let params = ParamSet::resolve(&specs, &given);
+        let decl = StageDecl {
+            name: name?,
+            kind: kind?,
+            inputs: inputs?,
+            params,
+            sweep: sweep?,
+            sweep_mode: sweep_mode?,
+            replicates: replicates?,
+            seed: seed?,
+            pos: node.pos,
+        };
+        // Cross-parameter checks on every sweep point.
+        let (points, _) = decl.points();
+        for p in &points {
+            if let Err((param, msg)) = stage.check(p) {
+                let pos = find_param_pos(entries, &param).unwrap_or(node.pos);
+                self.err(pos, &format!("{key}.params.{param}"), msg);
+                return None;
+            }
+        }
+        Some(decl)
+    }
+
+    fn params(&mut self, node: &Node, key: &str, specs: &[ParamSpec], kind: &str) -> Option<BTreeMap<String, ParamValue>> {
+        let mut flat = vec![];
+        self.flatten(node, key, "", &mut flat)?;
+        let before = self.diags.len();
+        let mut out = BTreeMap::new();
+        for (name, vnode) in flat {
+            let full = join(key, &name);
+            match specs.iter().find(|s| s.name == name) {
+                None => {
+                    let hint = suggest(&name, specs.iter().map(|s| s.name)).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
+                    self.err(vnode.pos, &full, format!("unknown parameter for a {kind} stage{hint} (see `laydown stages {kind}` for the table)"));
+                }
+                Some(spec) => {
+                    if let Some(v) = self.value(&vnode, &full, spec) {
+                        out.insert(name, v);
+                    }
+                }
+            }
+        }
+        (self.diags.len() == before).then_some(out)
+    }
+
+    /// Flatten nested parameter mappings into dotted names.
+    fn flatten(&mut self, node: &Node, key: &str, prefix: &str, out: &mut Vec<(String, Node)>) -> Option<()> {
+        let entries = self.map(node, key, "parameters")?;
+        for (k, _, v) in entries {
+            let name = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+            match &v.kind {
+                Kind::Map(_) => self.flatten(v, &join(key, k), &name, out)?,
+                _ => out.push((name, v.clone())),
+            }
+        }
+        Some(())
+    }
+
+    fn value(&mut self, node: &Node, key: &str, spec: &ParamSpec) -> Option<ParamValue> {
+        let raw = match &node.kind {
+            Kind::Scalar(Scalar::Null) => ParamValue::Auto,
+            Kind::Scalar(Scalar::Str(s)) if s == "auto" && spec.auto => ParamValue::Auto,
+            Kind::Scalar(Scalar::Bool(b)) => ParamValue::Bool(*b),
+            Kind::Scalar(Scalar::Int(i)) => ParamValue::Int(*i),
+            Kind::Scalar(Scalar::Float(f)) => ParamValue::Float(*f),
+            Kind::Scalar(Scalar::Str(s)) => ParamValue::Text(s.clone()),
+            _ => {
+                self.err(node.pos, key, format!("expected {}, found {}", spec.allowed(), node.type_name()));
+                return None;
+            }
+        };
+        match spec.check(&raw) {
+            Ok(v) => Some(v),
+            Err(msg) => {
+                self.err(node.pos, key, msg);
+                None
+            }
+        }
+    }
+
+    fn sweep(
+        &mut self,
+        node: &Node,
+        key: &str,
+        specs: &[ParamSpec],
+        kind: &str,
+        mode: Option<SweepMode>,
+    ) -> Option<Vec<(String, Vec<ParamValue>)>> {
+        let mut flat = vec![];
+        self.flatten(node, key, "", &mut flat)?;
+        let before = self.diags.len();
+        let mut out = vec![];
+        for (name, vnode) in &flat {
+            let full = join(key, name);
+            let Some(spec) = specs.iter().find(|s| s.name == name) else {
+                let hint = suggest(name, specs.iter().map(|s| s.name)).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
+                self.err(vnode.pos, &full, format!("unknown parameter for a {kind} stage{hint}"));
+                continue;
+            };
+            let Kind::Seq(items) = &vnode.kind else {
+                self.err(vnode.pos, &full, format!("expected a list of values to sweep, found {}", vnode.type_name()));
+                continue;
+            };
+            if items.is_empty() {
+                self.err(vnode.pos, &full, "the sweep list is empty; allowed: at least one value");
+                continue;
+            }
+            let values: Vec<Option<ParamValue>> = items.iter().enumerate().map(|(i, it)| self.value(it, &format!("{full}[{i}]"), spec)).collect();
+            if let Some(values) = values.into_iter().collect::<Option<Vec<_>>>() {
+                out.push((name.clone(), values));
+            }
+        }
+        if self.diags.len() > before {
+            return None;
+        }
+        if mode == Some(SweepMode::Zip) {
+            if let Some((first, n)) = out.first().map(|(k, v)| (k.clone(), v.len())) {
+                for (name, values) in &out {
+                    if values.len() != n {
+                        let pos = flat.iter().find(|(k, _)| k == name).map(|(_, v)| v.pos).unwrap_or(node.pos);
+                        self.err(pos, &join(key, name), format!("zipped sweep lists must have equal lengths: `{first}` has {n} values, `{name}` has {}", values.len()));
+                        return None;
+                    }
+                }
+            }
+        }
+        let points: usize = match mode {
+            Some(SweepMode::Zip) => out.first().map(|(_, v)| v.len()).unwrap_or(1),
+            _ => out.iter().map(|(_, v)| v.len()).product(),
+        };
+        if points > MAX_SWEEP_POINTS {
+            self.err(node.pos, key, format!("the sweep has {points} points; allowed: at most {MAX_SWEEP_POINTS}"));
+            return None;
+        }
+        Some(out)
+    }
+}
+
+fn join(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() {
+        key.to_string()
+    } else {
+        format!("{prefix}.{key}")
+    }
+}
+
+fn find_param_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option<Pos> {
+    let (_, _, params) = stage_entries.iter().find(|(k, _, _)| k == "params")?;
+    let mut node = params;
+    let mut pos = None;
+    for part in dotted.split('.') {
+        let Kind::Map(entries) = &node.kind else { return pos };
+        let (_, _, v) = entries.iter().find(|(k, _, _)| k == part)?;
+        pos = Some(v.pos);
+        node = v;
+    }
+    pos
+}
+
+fn find_cycle(stages: &[&StageDecl]) -> Option<Vec<String>> {
+    fn visit(name: &str, stages: &[&StageDecl], path: &mut Vec<String>, done: &mut Vec<String>) -> Option<Vec<String>> {
+        if let Some(i) = path.iter().position(|p| p == name) {
+            let mut cycle = path[i..].to_vec();
+            cycle.push(name.to_string());
+            return Some(cycle);
+        }
+        if done.iter().any(|d| d == name) {
+            return None;
+        }
+        path.push(name.to_string());
+        if let Some(s) = stages.iter().find(|s| s.name == name) {
+            for i in &s.inputs {
+                if let Some(c) = visit(i, stages, path, done) {
+                    return Some(c);
+                }
+            }
+        }
+        path.pop();
+        done.push(name.to_string());
+        None
+    }
+    let mut done = vec![];
+    for s in stages {
+        if let Some(c) = visit(&s.name, stages, &mut vec![], &mut done) {
+            return Some(c);
+        }
+    }
+    None
+}
+
+/// The closest allowed word within a small edit distance.
+fn suggest<'a>(word: &str, candidates: impl Iterator<Item = &'a str>) -> Option<&'a str> {
+    candidates
+        .map(|c| (edit_distance(word, c), c))
+        .filter(|(d, c)| *d <= 2.max(c.len() / 4) && *d > 0)
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, c)| c)
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1];
+        for (j, cb) in b.iter().enumerate() {
+            cur.push((prev[j] + usize::from(ca != *cb)).min(prev[j + 1] + 1).min(cur[j] + 1));
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}

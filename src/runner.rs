@@ -1,0 +1,395 @@
+//! Runs a pipeline against its archive: decides for every stage whether a complete
+//! version with the same fingerprint exists (`up to date (v3)`) or why it must run
+//! (`params.diameter changed 5e-05 -> 2e-05`, `input fibre v1 -> v2`, `new stage`),
+//! runs what must run, and writes each result as a new version with provenance.
+//!
+//! The fingerprint of a stage run is blake3 over: kind, cache_version, canonical
+//! parameters (defaults filled in), sweep, replicates, seed, and the content hashes of
+//! the input versions. Equal fingerprints mean equal results (stages are deterministic).
+use crate::archive::data::{Attr, Output, Values};
+use crate::archive::{provenance, Archive, VersionInfo};
+use crate::params::ParamValue;
+use crate::pipeline::{Pipeline, StageDecl};
+use crate::stages::{self, BadInput, Input, RunContext};
+use anyhow::{anyhow, Result};
+use ndarray::{ArrayD, IxDyn};
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+#[derive(Debug, Default, Clone)]
+pub struct RunOptions {
+    /// Run only this stage, on the existing versions of its inputs.
+    pub only: Option<String>,
+    /// Run this stage and everything downstream of it.
+    pub from: Option<String>,
+    /// Ignore the cache for these stages.
+    pub force: Vec<String>,
+    pub progress: bool,
+}
+
+/// Why a run failed: bad input (exit 2) or a runtime failure (exit 1).
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("{0}")]
+    BadInput(String),
+    #[error("{0:#}")]
+    Runtime(anyhow::Error),
+}
+
+impl RunError {
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            RunError::BadInput(_) => 2,
+            RunError::Runtime(_) => 1,
+        }
+    }
+}
+
+fn classify(e: anyhow::Error) -> RunError {
+    if let Some(b) = e.downcast_ref::<BadInput>() {
+        RunError::BadInput(b.0.clone())
+    } else {
+        RunError::Runtime(e)
+    }
+}
+
+/// What happened to one stage.
+#[derive(Debug, Clone)]
+pub struct StageReport {
+    pub stage: String,
+    pub version: u32,
+    /// `None` when up to date, otherwise why it ran.
+    pub ran_because: Option<String>,
+    pub wall_seconds: f64,
+}
+
+pub fn fingerprint(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(String, String)]) -> String {
+    let mut h = blake3::Hasher::new();
+    let mut field = |k: &str, v: &str| {
+        h.update(k.as_bytes());
+        h.update(b"=");
+        h.update(v.as_bytes());
+        h.update(b"\n");
+    };
+    field("kind", &decl.kind);
+    field("cache_version", &cache_version.to_string());
+    field("params", &decl.params.canonical_yaml());
+    field("sweep", &decl.sweep_yaml());
+    field("replicates", &decl.replicates.to_string());
+    field("seed", &seed.to_string());
+    for (name, hash) in inputs {
+        field(&format!("input.{name}"), hash);
+    }
+    h.finalize().to_hex()[..32].to_string()
+}
+
+/// Human reason why `decl` differs from the previous version `prev`.
+fn reason(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(String, u32)], prev: Option<&VersionInfo>) -> String {
+    let Some(prev) = prev else { return "new stage".into() };
+    let mut why = vec![];
+    if prev.attr_str("stage_kind") != Some(decl.kind.as_str()) {
+        why.push(format!("kind {} -> {}", prev.attr_str("stage_kind").unwrap_or("?"), decl.kind));
+    }
+    let prev_cache = prev.attr_f64("cache_version").unwrap_or(-1.0) as i64;
+    if prev_cache != cache_version as i64 {
+        why.push(format!("stage code changed (cache_version {prev_cache} -> {cache_version})"));
+    }
+    let old: BTreeMap<String, String> = flatten_yaml(prev.attr_str("params_yaml").unwrap_or(""));
+    let new: BTreeMap<String, String> = flatten_yaml(&decl.params.canonical_yaml());
+    for (k, v) in &new {
+        match old.get(k) {
+            Some(o) if o != v => why.push(format!("params.{k} changed {o} -> {v}")),
+            None => why.push(format!("params.{k} is new ({v})")),
+            _ => {}
+        }
+    }
+    for k in old.keys().filter(|k| !new.contains_key(*k)) {
+        why.push(format!("params.{k} removed"));
+    }
+    if prev.attr_str("sweep_yaml").unwrap_or("") != decl.sweep_yaml() {
+        why.push("sweep changed".into());
+    }
+    let prev_reps = prev.attr_f64("replicates").unwrap_or(-1.0) as i64;
+    if prev_reps != decl.replicates as i64 {
+        why.push(format!("replicates {prev_reps} -> {}", decl.replicates));
+    }
+    let prev_seed = prev.attr_str("seed").unwrap_or("?").to_string();
+    if prev_seed != seed.to_string() {
+        why.push(format!("seed {prev_seed} -> {seed}"));
+    }
+    let prev_inputs = prev.attr_str("inputs").unwrap_or("");
+    for (name, v) in inputs {
+        let old = prev_inputs
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("/{name}/v")).and_then(|r| r.split_whitespace().next()).map(|s| s.to_string()));
+        match old {
+            Some(o) if o != v.to_string() => why.push(format!("input {name} v{o} -> v{v}")),
+            Some(_) => {}
+            None => why.push(format!("input {name} is new (v{v})")),
+        }
+    }
+    if why.is_empty() {
+        why.push("no complete version with this fingerprint".into());
+    }
+    why.join(", ")
+}
+
+/// `a: {b: 1}` → {"a.b": "1"}, for comparing canonical parameter YAML.
+fn flatten_yaml(text: &str) -> BTreeMap<String, String> {
+    fn walk(prefix: &str, v: &serde_yaml_ng::Value, out: &mut BTreeMap<String, String>) {
+        match v {
+            serde_yaml_ng::Value::Mapping(m) => {
+                for (k, v) in m {
+                    let k = k.as_str().unwrap_or("?");
+                    let name = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+                    walk(&name, v, out);
+                }
+            }
+            serde_yaml_ng::Value::Number(n) => {
+                let s = match n.as_f64() {
+                    Some(f) if n.is_f64() => crate::params::format_float(f),
+                    _ => n.to_string(),
+                };
+                out.insert(prefix.to_string(), s);
+            }
+            serde_yaml_ng::Value::Null => {
+                out.insert(prefix.to_string(), "auto".into());
+            }
+            other => {
+                let s = serde_yaml_ng::to_string(other).unwrap_or_default();
+                out.insert(prefix.to_string(), s.trim().to_string());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    if let Ok(v) = serde_yaml_ng::from_str::<serde_yaml_ng::Value>(text) {
+        walk("", &v, &mut out);
+    }
+    out
+}
+
+/// Add the swept parameters as coordinates along `point`.
+fn add_sweep_coordinates(out: &mut Output, sweep: &[(String, Vec<ParamValue>)]) -> Result<()> {
+    if sweep.is_empty() {
+        return Ok(());
+    }
+    let n = sweep[0].1.len();
+    if out.dimensions().map_err(|e| anyhow!(e))?.get("point").is_some_and(|&m| m != n) {
+        return Err(anyhow!("stage output has a `point` dimension of the wrong length"));
+    }
+    let mut names = vec![];
+    for (param, values) in sweep {
+        let mut name = param.replace('.', "_");
+        if out.get(&name).is_some() {
+            name = format!("sweep_{name}");
+        }
+        let long = format!("swept parameter {param}");
+        let var = if values.iter().all(|v| matches!(v, ParamValue::Float(_) | ParamValue::Int(_))) {
+            let data: Vec<f64> = values
+                .iter()
+                .map(|v| match v {
+                    ParamValue::Float(f) => *f,
+                    ParamValue::Int(i) => *i as f64,
+                    _ => f64::NAN,
+                })
+                .collect();
+            out.f64(&name, &["point"], ArrayD::from_shape_vec(IxDyn(&[n]), data)?, "", &long)
+        } else {
+            out.strings(&name, "point", values.iter().map(|v| v.to_string()).collect(), &long)
+        };
+        var.attrs.insert("parameter".into(), Attr::Str(param.clone()));
+        names.push(name);
+    }
+    let coords = names.join(" ");
+    for v in out.variables.iter_mut() {
+        if v.dims.iter().any(|d| d == "point") && !names.contains(&v.name) {
+            v.attrs.insert("coordinates".into(), Attr::Str(coords.clone()));
+        }
+    }
+    Ok(())
+}
+
+fn units_of_sweep(out: &mut Output, sweep: &[(String, Vec<ParamValue>)], specs: &[crate::params::ParamSpec]) {
+    for (param, _) in sweep {
+        let unit = specs.iter().find(|s| s.name == param).map(|s| s.unit).unwrap_or("");
+        for v in out.variables.iter_mut() {
+            if matches!(v.attrs.get("parameter"), Some(Attr::Str(p)) if p == param) && matches!(v.values, Values::F64(_)) {
+                v.units = if unit.is_empty() { "1".into() } else { unit.into() };
+            }
+        }
+    }
+}
+
+/// Run the pipeline; prints one line per stage to stdout.
+pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, RunError> {
+    for name in opts.only.iter().chain(opts.from.iter()).chain(opts.force.iter()) {
+        if pipeline.stage(name).is_none() {
+            let names: Vec<&str> = pipeline.stages.iter().map(|s| s.name.as_str()).collect();
+            return Err(RunError::BadInput(format!(
+                "{}: no stage named `{name}`; allowed: {}",
+                pipeline.file.display(),
+                names.join(", ")
+            )));
+        }
+    }
+    let selected: Vec<String> = match (&opts.only, &opts.from) {
+        (Some(only), _) => vec![only.clone()],
+        (None, Some(from)) => pipeline.downstream(from),
+        (None, None) => pipeline.topological_order(),
+    };
+    let archive = Archive::open_write(&pipeline.archive).map_err(RunError::Runtime)?;
+    let mut chosen: BTreeMap<String, VersionInfo> = BTreeMap::new();
+    let mut reports = vec![];
+
+    for name in pipeline.topological_order() {
+        let decl = pipeline.stage(&name).unwrap();
+        let stage = stages::find(&decl.kind).expect("validated kind");
+        let seed = decl.seed.unwrap_or(pipeline.seed);
+        let versions = archive.versions(&name).map_err(RunError::Runtime)?;
+        let complete: Vec<&VersionInfo> = versions.iter().filter(|v| v.is_complete()).collect();
+
+        // Inputs: the versions chosen for upstream stages in this run.
+        let mut inputs = vec![];
+        for inp in &decl.inputs {
+            match chosen.get(inp) {
+                Some(v) => inputs.push(v.clone()),
+                None => {
+                    return Err(RunError::BadInput(format!(
+                        "stage `{name}` needs input `{inp}`, which has no complete version in {}; run it first (without --only)",
+                        pipeline.archive.display()
+                    )))
+                }
+            }
+        }
+        let input_hashes: Vec<(String, String)> = inputs
+            .iter()
+            .map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string()))
+            .collect();
+        let fp = fingerprint(decl, stage.cache_version(), seed, &input_hashes);
+        let cached = complete.iter().rev().find(|v| v.attr_str("fingerprint") == Some(fp.as_str())).copied();
+
+        if !selected.contains(&name) {
+            let v = cached.or(complete.last().copied());
+            match v {
+                Some(v) => {
+                    println!("{name}: not selected, using v{}", v.number);
+                    chosen.insert(name.clone(), v.clone());
+                }
+                None => println!("{name}: not selected, no version yet"),
+            }
+            continue;
+        }
+        let forced = opts.force.contains(&name);
+        if let (Some(v), false) = (cached, forced) {
+            println!("{name}: up to date (v{})", v.number);
+            chosen.insert(name.clone(), v.clone());
+            reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
+            continue;
+        }
+        let input_versions: Vec<(String, u32)> = inputs.iter().map(|v| (v.stage.clone(), v.number)).collect();
+        let why = if forced && cached.is_some() {
+            "forced (--force)".to_string()
+        } else {
+            reason(decl, stage.cache_version(), seed, &input_versions, complete.last().copied())
+        };
+        println!("{name}: runs: {why}");
+
+        let (points, sweep) = decl.points();
+        let ctx = RunContext {
+            stage_name: name.clone(),
+            points,
+            sweep: sweep.clone(),
+            replicates: decl.replicates,
+            seed,
+            inputs: decl
+                .inputs
+                .iter()
+                .zip(&inputs)
+                .map(|(n, v)| Input { name: n.clone(), kind: pipeline.stage(n).unwrap().kind.clone(), version: v.clone() })
+                .collect(),
+            progress: opts.progress,
+        };
+        let start_utc = provenance::utc_now();
+        let cpu0 = provenance::cpu_seconds();
+        let t0 = Instant::now();
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| stage.run(&ctx)));
+        let mut out = match result {
+            Ok(Ok(out)) => out,
+            Ok(Err(e)) => {
+                let e = classify(e);
+                eprintln!("{name}: failed; nothing was written for this stage");
+                return Err(match e {
+                    RunError::BadInput(m) => RunError::BadInput(format!("stage `{name}`: {m}")),
+                    RunError::Runtime(e) => RunError::Runtime(e.context(format!("stage `{name}` failed"))),
+                });
+            }
+            Err(panic) => {
+                let msg = panic
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_else(|| "unknown panic".into());
+                return Err(RunError::Runtime(anyhow!("stage `{name}` crashed: {msg}; nothing was written for this stage")));
+            }
+        };
+        let wall = t0.elapsed().as_secs_f64();
+        let cpu = provenance::cpu_seconds() - cpu0;
+        add_sweep_coordinates(&mut out, &sweep).map_err(RunError::Runtime)?;
+        units_of_sweep(&mut out, &sweep, &stage.params());
+        let content_hash = crate::archive::hdf::content_hash(&out);
+
+        let mut attrs = provenance::environment();
+        let mut put = |k: &str, v: Attr| {
+            attrs.insert(k.to_string(), v);
+        };
+        put("stage_name", Attr::Str(name.clone()));
+        put("stage_kind", Attr::Str(decl.kind.clone()));
+        put("cache_version", Attr::I64(stage.cache_version() as i64));
+        put("params_yaml", Attr::Str(decl.params.canonical_yaml()));
+        put("params_hash", Attr::Str(blake3::hash(decl.params.canonical_yaml().as_bytes()).to_hex()[..16].to_string()));
+        put("sweep_yaml", Attr::Str(decl.sweep_yaml()));
+        put("replicates", Attr::I64(decl.replicates as i64));
+        put("seed", Attr::Str(seed.to_string()));
+        put("rng_scheme", Attr::Str(provenance::RNG_SCHEME.into()));
+        put(
+            "inputs",
+            Attr::Str(
+                inputs
+                    .iter()
+                    .map(|v| format!("{} content_hash={}", v.group_path(), v.attr_str("content_hash").unwrap_or("")))
+                    .collect::<Vec<_>>()
+                    .join("\n"),
+            ),
+        );
+        put("fingerprint", Attr::Str(fp.clone()));
+        put("content_hash", Attr::Str(content_hash));
+        put("pipeline_name", Attr::Str(pipeline.name.clone()));
+        put("pipeline_file", Attr::Str(pipeline.file.display().to_string()));
+        put("run_reason", Attr::Str(why.clone()));
+        put("start_utc", Attr::Str(start_utc));
+        put("end_utc", Attr::Str(provenance::utc_now()));
+        put("wall_seconds", Attr::F64(wall));
+        put("cpu_seconds", Attr::F64(cpu));
+        put("status", Attr::Str("complete".into()));
+        put("layout_version", Attr::I64(crate::archive::LAYOUT_VERSION));
+
+        let number = archive
+            .commit_version(
+                &format!("laydown archive of pipeline {}", pipeline.name),
+                &name,
+                &out,
+                &attrs,
+                &format!(
+                    "{} laydown run {}: {name} ({why})",
+                    provenance::utc_now(),
+                    pipeline.file.display()
+                ),
+            )
+            .map_err(RunError::Runtime)?;
+        let v = archive.version(&name, Some(number)).map_err(RunError::Runtime)?;
+        println!("{name}: wrote v{number} in {wall:.2} s");
+        chosen.insert(name.clone(), v);
+        reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });
+    }
+    Ok(reports)
+}

@@ -1,0 +1,70 @@
+//! The archive's on-disk format: versions committed atomically, `latest`, history,
+//! dimension scales, attributes readable back, the run lock.
+use laydown::archive::data::{Attr, Output};
+use laydown::archive::{hdf, Archive};
+use ndarray::{Array1, Array2};
+use std::collections::BTreeMap;
+
+pub fn sample_output() -> Output {
+    let mut out = Output::new();
+    out.coord("node", (0..5).map(|i| i as f64 * 0.25).collect(), "m", "arc length of node");
+    out.f64("positions", &["node", "xyz"], Array2::from_shape_fn((5, 3), |(i, j)| (i * 3 + j) as f64), "m", "node positions");
+    out.flags("valid", &["replicate"], Array1::from(vec![true, false]), "replicate is valid");
+    out.strings("invalid_reason", "replicate", vec!["".into(), "bounced".into()], "why a replicate is invalid");
+    out.i64("steps", &["replicate"], Array1::from(vec![10i64, 12]), "1", "time steps taken");
+    out
+}
+
+pub fn complete() -> BTreeMap<String, Attr> {
+    let mut attrs = BTreeMap::new();
+    attrs.insert("status".to_string(), Attr::Str("complete".into()));
+    attrs.insert("wall_seconds".to_string(), Attr::F64(1.5));
+    attrs
+}
+
+#[test]
+fn versions_latest_history_and_attributes_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("study.h5");
+    let archive = Archive::open_write(&path).unwrap();
+    let n1 = archive.commit_version("t", "fibre", &sample_output(), &complete(), "line one").unwrap();
+    let n2 = archive.commit_version("t", "fibre", &sample_output(), &complete(), "line two").unwrap();
+    assert_eq!((n1, n2), (1, 2));
+
+    // A second writer fails fast while the first holds the lock.
+    let err = Archive::open_write(&path).err().expect("lock must be exclusive").to_string();
+    assert!(err.contains("in use by another"), "{err}");
+
+    let f = hdf5::File::open(&path).unwrap();
+    let root = hdf::read_attrs(&f).unwrap();
+    assert_eq!(root.get("history"), Some(&Attr::Str("line one\nline two".into())));
+    assert_eq!(root.get("layout_version"), Some(&Attr::I64(1)));
+    let latest = f.group("fibre/latest").unwrap();
+    assert_eq!(hdf::read_attrs(&latest).unwrap().get("version"), Some(&Attr::I64(2)));
+    let pos = hdf::read_f64(&f.group("fibre/v1").unwrap(), "positions").unwrap();
+    assert_eq!(pos.shape(), &[5, 3]);
+    assert_eq!(pos[[4, 2]], 14.0);
+    let reasons = hdf::read_strings(&f.group("fibre/v2").unwrap(), "invalid_reason").unwrap();
+    assert_eq!(reasons, vec!["".to_string(), "bounced".to_string()]);
+    let versions = archive.versions("fibre").unwrap();
+    assert_eq!(versions.len(), 2);
+    assert!(versions[1].is_complete());
+}
+
+#[test]
+fn stale_partial_copy_is_removed_and_archive_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("study.h5");
+    {
+        let archive = Archive::open_write(&path).unwrap();
+        archive.commit_version("t", "fibre", &sample_output(), &complete(), "h").unwrap();
+    }
+    let before = std::fs::read(&path).unwrap();
+    // A killed run leaves its half-written copy behind.
+    let partial = dir.path().join("study.h5.partial");
+    std::fs::write(&partial, b"half written").unwrap();
+    let archive = Archive::open_write(&path).unwrap();
+    assert!(!partial.exists(), "stale partial copy must be removed");
+    assert_eq!(archive.versions("fibre").unwrap().len(), 1);
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+}

@@ -261,7 +261,7 @@ mod tests {
     #[test]
     fn float_range_and_int_promotion() {
         let s = ParamSpec::float("diameter", "m", 5e-5, 1e-6, 1e-3, "fibre diameter");
-        assert_eq!(s.check(&ParamValue::Int(0)).unwrap_err(), "0 is out of range; allowed: a number from 1e-06 to 0.001 m");
+        assert_eq!(s.check(&ParamValue::Int(0)).unwrap_err(), "0.0 is out of range; allowed: a number from 1e-06 to 0.001 m");
         assert_eq!(s.check(&ParamValue::Float(2e-5)).unwrap(), ParamValue::Float(2e-5));
         assert!(s.check(&ParamValue::Text("x".into())).unwrap_err().contains("found the text `x`"));
         assert!(s.check(&ParamValue::Float(f64::NAN)).is_err());
@@ -274,7 +274,7 @@ mod tests {
         m.insert("diameter".to_string(), ParamValue::Float(5e-5));
         m.insert("elements".to_string(), ParamValue::Int(1000));
         let y = ParamSet(m).canonical_yaml();
-        assert_eq!(y, "diameter: 5.0e-5\neffects:\n  drag: false\nelements: 1000\n");
+        assert_eq!(y, "diameter: 0.00005\neffects:\n  drag: false\nelements: 1000\n");
     }
 
     #[test]

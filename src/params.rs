@@ -36,7 +36,7 @@ pub fn format_float(v: f64) -> String {
         // Rust prints 5e-5; write the exponent with two digits like YAML/Python do.
         match s.split_once('e') {
             Some((m, e)) => {
-                let (sign, digits) = e.strip_prefix('-').map(|d| ("-", d)).unwrap_or(("", e));
+                let (sign, digits) = e.strip_prefix('-').map(|d| ("-", d)).unwrap_or(("+", e));
                 format!("{m}e{sign}{digits:0>2}")
             }
             None => s,
@@ -102,6 +102,8 @@ impl ParamSpec {
         let unit = if self.unit.is_empty() || self.unit == "1" { String::new() } else { format!(" {}", self.unit) };
         let base = match &self.kind {
             ParamKind::Float { min, max } => match (min.is_finite(), max.is_finite()) {
+                (true, true) if *min == f64::MIN_POSITIVE => format!("a number > 0 and ≤ {}{unit}", format_float(*max)),
+                (true, false) if *min == f64::MIN_POSITIVE => format!("a number > 0{unit}"),
                 (true, true) => format!("a number from {} to {}{unit}", format_float(*min), format_float(*max)),
                 (true, false) => format!("a number ≥ {}{unit}", format_float(*min)),
                 (false, true) => format!("a number ≤ {}{unit}", format_float(*max)),
@@ -282,5 +284,22 @@ mod tests {
         assert_eq!(format_float(5e-5), "5e-05");
         assert_eq!(format_float(0.2), "0.2");
         assert_eq!(format_float(1000.0), "1000.0");
+    }
+}
+
+/// The numerics modules keep their own static tables (`stages::param_table`); this
+/// turns a row into the pipeline's spec so there is one source of truth per parameter.
+impl From<&crate::stages::param_table::ParamSpec> for ParamSpec {
+    fn from(p: &crate::stages::param_table::ParamSpec) -> Self {
+        use crate::stages::param_table::ParamDefault;
+        let (kind, default) = match p.default {
+            ParamDefault::Real(v) => (ParamKind::Float { min: p.min, max: p.max }, ParamValue::Float(v)),
+            ParamDefault::Integer(v) => (
+                ParamKind::Int { min: p.min as i64, max: if p.max >= i64::MAX as f64 { i64::MAX } else { p.max as i64 } },
+                ParamValue::Int(v as i64),
+            ),
+            ParamDefault::Choice(c) => (ParamKind::Choice(p.choices), ParamValue::Text(c.to_string())),
+        };
+        ParamSpec { name: p.name, unit: p.unit, kind, default, auto: false, doc: p.doc }
     }
 }

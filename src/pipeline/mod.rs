@@ -383,7 +383,7 @@ impl Checker {
                 }
             }
         }
-        if self.diags.len() == before {
+        {
             if let Some(cycle) = find_cycle(&all) {
                 let first = all.iter().find(|s| s.name == cycle[0]).unwrap();
                 self.err(first.pos, "stages", format!("the stages' inputs form a cycle: {}; allowed: inputs that lead back to stages without input", cycle.join(" -> ")));
@@ -498,12 +498,12 @@ impl Checker {
         self.flatten(node, key, "", &mut flat)?;
         let before = self.diags.len();
         let mut out = BTreeMap::new();
-        for (name, vnode) in flat {
+        for (name, kpos, vnode) in flat {
             let full = join(key, &name);
             match specs.iter().find(|s| s.name == name) {
                 None => {
                     let hint = suggest(&name, specs.iter().map(|s| s.name)).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
-                    self.err(vnode.pos, &full, format!("unknown parameter for a {kind} stage{hint} (see `laydown stages {kind}` for the table)"));
+                    self.err(kpos, &full, format!("unknown parameter for a {kind} stage{hint} (see `laydown stages {kind}` for the table)"));
                 }
                 Some(spec) => {
                     if let Some(v) = self.value(&vnode, &full, spec) {
@@ -516,13 +516,13 @@ impl Checker {
     }
 
     /// Flatten nested parameter mappings into dotted names.
-    fn flatten(&mut self, node: &Node, key: &str, prefix: &str, out: &mut Vec<(String, Node)>) -> Option<()> {
+    fn flatten(&mut self, node: &Node, key: &str, prefix: &str, out: &mut Vec<(String, Pos, Node)>) -> Option<()> {
         let entries = self.map(node, key, "parameters")?;
-        for (k, _, v) in entries {
+        for (k, kpos, v) in entries {
             let name = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
             match &v.kind {
                 Kind::Map(_) => self.flatten(v, &join(key, k), &name, out)?,
-                _ => out.push((name, v.clone())),
+                _ => out.push((name, *kpos, v.clone())),
             }
         }
         Some(())
@@ -562,11 +562,11 @@ impl Checker {
         self.flatten(node, key, "", &mut flat)?;
         let before = self.diags.len();
         let mut out = vec![];
-        for (name, vnode) in &flat {
+        for (name, kpos, vnode) in &flat {
             let full = join(key, name);
             let Some(spec) = specs.iter().find(|s| s.name == name) else {
                 let hint = suggest(name, specs.iter().map(|s| s.name)).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
-                self.err(vnode.pos, &full, format!("unknown parameter for a {kind} stage{hint}"));
+                self.err(*kpos, &full, format!("unknown parameter for a {kind} stage{hint}"));
                 continue;
             };
             let Kind::Seq(items) = &vnode.kind else {
@@ -589,7 +589,7 @@ impl Checker {
             if let Some((first, n)) = out.first().map(|(k, v)| (k.clone(), v.len())) {
                 for (name, values) in &out {
                     if values.len() != n {
-                        let pos = flat.iter().find(|(k, _)| k == name).map(|(_, v)| v.pos).unwrap_or(node.pos);
+                        let pos = flat.iter().find(|(k, _, _)| k == name).map(|(_, _, v)| v.pos).unwrap_or(node.pos);
                         self.err(pos, &join(key, name), format!("zipped sweep lists must have equal lengths: `{first}` has {n} values, `{name}` has {}", values.len()));
                         return None;
                     }

@@ -124,7 +124,8 @@ impl MarkedEventReceiver for Builder {
             Event::SequenceEnd | Event::MappingEnd => {
                 let node = match self.stack.pop() {
                     Some(Frame::Seq(p, items)) => Node { pos: p, kind: Kind::Seq(items) },
-                    Some(Frame::Map(p, entries, _)) => Node { pos: p, kind: Kind::Map(entries) },
+                    // A block mapping "starts" at its first key, where a reader looks.
+                    Some(Frame::Map(p, entries, _)) => Node { pos: entries.first().map(|e| e.1).unwrap_or(p), kind: Kind::Map(entries) },
                     None => return,
                 };
                 self.push_node(node);

@@ -13,6 +13,11 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
+pub mod grid;
+pub mod param_table;
+pub mod spectra;
+pub mod web;
+
 /// What upstream stages a stage accepts.
 #[derive(Debug, Clone, Copy)]
 pub struct InputRule {
@@ -130,7 +135,7 @@ pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
 
 /// Every stage kind the pipeline knows.
 pub fn registry() -> Vec<&'static dyn Stage> {
-    vec![]
+    vec![&spectra::SpectraStage]
 }
 
 pub fn find(kind: &str) -> Option<&'static dyn Stage> {

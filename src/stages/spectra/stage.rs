@@ -1,0 +1,241 @@
+//! `kind: spectra` — the pipeline stage around the spectra numerics: curvature spectra
+//! of laid fibres (input: a laydown stage) or idealised square-wave spectra (no input).
+use super::{analyse_fibres, CurvatureSpectrum, SpectraParams, SquareWaveParams, SPECTRA_PARAMS, SQUARE_WAVE_PARAMS};
+use crate::archive::data::Output;
+use crate::params::{ParamSet, ParamSpec};
+use crate::stages::{BadInput, InputRule, RunContext, Stage};
+use anyhow::{anyhow, Result};
+use ndarray::{Array1, Array2, Array3, Axis};
+use num_complex::Complex64;
+
+pub struct SpectraStage;
+
+const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
+
+/// One spectrum with what produced it.
+struct Row {
+    spectrum: CurvatureSpectrum,
+    curvature: Vec<f64>,
+    tangent_angle: Vec<f64>,
+    e_from_curvature: f64,
+    valid: bool,
+}
+
+impl Stage for SpectraStage {
+    fn kind(&self) -> &'static str {
+        "spectra"
+    }
+    fn summary(&self) -> &'static str {
+        "curvature spectra K_r, S_r of laid fibres (eqs 9-10) or idealised square-wave spectra (eqs A.1-A.5)"
+    }
+    fn cache_version(&self) -> u32 {
+        1
+    }
+    fn inputs(&self) -> InputRule {
+        InputRule { kinds: &["laydown"], min: 0, max: 1 }
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        let mut v = vec![
+            ParamSpec::choice("preset", PRESETS, "none", "idealised source: the paper's Fig 10 spectra (sets bending_energy, cutoff_number; L = 1 m, N = 1000)"),
+            ParamSpec::flag("belt_removed", true, "laid-fibre source: analyse positions with the belt motion removed (the web stage adds the belt drift by eq 14)"),
+        ];
+        for p in SQUARE_WAVE_PARAMS {
+            if p.name == "points_per_segment" {
+                continue;
+            }
+            v.push(p.into());
+        }
+        for p in SPECTRA_PARAMS {
+            v.push(p.into());
+        }
+        v
+    }
+    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
+        if p.text("preset") == "none" {
+            let n = p.usize("points_per_segment");
+            let n = if n == 0 { 1000 } else { n };
+            let nc = p.usize("cutoff_number");
+            if 2 * nc >= n {
+                return Err(("cutoff_number".into(), format!("n_c = {nc} is at or beyond the Nyquist bin N/2 = {} for N = {n}; allowed: 2·n_c < N", n / 2)));
+            }
+        }
+        Ok(())
+    }
+
+    fn run(&self, ctx: &RunContext) -> Result<Output> {
+        let rows: Vec<Vec<Row>> = if ctx.inputs.is_empty() {
+            ctx.points.iter().map(|p| idealised(ctx, p)).collect::<Result<_>>()?
+        } else {
+            if !ctx.sweep.is_empty() {
+                return Err(BadInput("a spectra stage reading a laydown stage takes the laydown's sweep points; it cannot have a sweep of its own".into()).into());
+            }
+            laid(ctx, &ctx.points[0])?
+        };
+        Ok(assemble(&rows))
+    }
+}
+
+fn idealised(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Row>> {
+    let mut sq = match p.text("preset") {
+        "none" => SquareWaveParams {
+            bending_energy: p.f64("bending_energy"),
+            cutoff_number: p.usize("cutoff_number"),
+            segment_length: p.f64("segment_length"),
+            points_per_segment: 1000,
+        },
+        name => SquareWaveParams::preset(name).ok_or_else(|| anyhow!("unknown preset {name}"))?,
+    };
+    if p.text("preset") == "none" && p.usize("points_per_segment") > 0 {
+        sq.points_per_segment = p.usize("points_per_segment");
+    }
+    let spectrum = sq.spectrum().map_err(|e| BadInput(e.to_string()))?;
+    // One random realisation per replicate (eqs 11-13), to show κ(s) and check e.
+    Ok((0..ctx.replicates)
+        .map(|rep| {
+            let mut rng = ctx.rng(rep, 0);
+            let realised = spectrum.with_random_phases(&mut rng);
+            let curvature = realised.curvature();
+            let tangent_angle = super::tangent_angles(&curvature, spectrum.spacing(), 0.0);
+            let e = realised.bending_energy();
+            Row { spectrum: spectrum.clone(), curvature, tangent_angle, e_from_curvature: e, valid: true }
+        })
+        .collect())
+}
+
+/// One row per laydown sweep point, each with one spectrum per replicate.
+fn laid(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Vec<Row>>> {
+    let input = ctx.input(0);
+    let name = if p.bool("belt_removed") { "positions_belt_removed" } else { "positions" };
+    let positions = input.read_f64(name)?; // (point, replicate, node, xyz)
+    let valid = input.read_u8("valid")?; // (point, replicate)
+    let params = SpectraParams { sample_spacing: p.f64("sample_spacing"), points_per_segment: p.usize("points_per_segment") };
+    params.validate().map_err(|e| BadInput(e.to_string()))?;
+    let (npoints, nreps) = (positions.shape()[0], positions.shape()[1]);
+    let mut out = vec![];
+    for pt in 0..npoints {
+        let mut fibres = vec![];
+        let mut which = vec![];
+        for r in 0..nreps {
+            if valid[[pt, r]] == 0 {
+                continue;
+            }
+            let nodes: Vec<[f64; 3]> = positions
+                .index_axis(Axis(0), pt)
+                .index_axis(Axis(0), r)
+                .outer_iter()
+                .map(|n| [n[0], n[1], n[2]])
+                .filter(|n| n.iter().all(|v| v.is_finite()))
+                .collect();
+            fibres.push(nodes);
+            which.push(r);
+        }
+        if fibres.is_empty() {
+            return Err(BadInput(format!(
+                "laydown {} point {pt} has no valid replicate (all {nreps} were rejected); nothing to analyse",
+                input.version.group_path()
+            ))
+            .into());
+        }
+        let analyses = analyse_fibres(&fibres, &params)
+            .map_err(|(i, e)| BadInput(format!("laydown {} point {pt} replicate {}: {e}", input.version.group_path(), which[i])))?;
+        out.push(
+            analyses
+                .into_iter()
+                .map(|a| Row {
+                    tangent_angle: a.signal.tangent_angles(),
+                    curvature: a.signal.curvature.clone(),
+                    e_from_curvature: a.bending_energy_samples,
+                    spectrum: a.spectrum,
+                    valid: true,
+                })
+                .collect(),
+        );
+    }
+    Ok(out)
+}
+
+fn assemble(rows: &[Vec<Row>]) -> Output {
+    let npoints = rows.len();
+    let nfibres = rows.iter().map(|r| r.len()).max().unwrap_or(0);
+    let nbins = rows.iter().flatten().map(|r| r.spectrum.points()).max().unwrap_or(0);
+    let nangles = rows.iter().flatten().map(|r| r.tangent_angle.len()).max().unwrap_or(0);
+    let nan = f64::NAN;
+    let mut re = Array3::from_elem((npoints, nfibres, nbins), nan);
+    let mut im = re.clone();
+    let mut energy = re.clone();
+    let mut kappa = re.clone();
+    let mut theta = Array3::from_elem((npoints, nfibres, nangles), nan);
+    let mut e_k = Array2::from_elem((npoints, nfibres), nan);
+    let mut e_s = e_k.clone();
+    let mut valid = Array2::from_elem((npoints, nfibres), false);
+    let mut mean_re = Array2::from_elem((npoints, nbins), nan);
+    let mut mean_im = mean_re.clone();
+    let mut mean_energy = mean_re.clone();
+    let mut spacing = Array1::from_elem(npoints, nan);
+    let mut length = spacing.clone();
+    let mut omega = Array2::from_elem((npoints, nbins), nan);
+    for (p, fibres) in rows.iter().enumerate() {
+        for (f, row) in fibres.iter().enumerate() {
+            let s = &row.spectrum;
+            for (r, c) in s.coefficients().iter().enumerate() {
+                re[[p, f, r]] = c.re;
+                im[[p, f, r]] = c.im;
+                energy[[p, f, r]] = c.norm_sqr();
+            }
+            for (m, k) in row.curvature.iter().enumerate() {
+                kappa[[p, f, m]] = *k;
+            }
+            for (m, t) in row.tangent_angle.iter().enumerate() {
+                theta[[p, f, m]] = *t;
+            }
+            e_k[[p, f]] = row.e_from_curvature;
+            e_s[[p, f]] = s.bending_energy();
+            valid[[p, f]] = row.valid;
+        }
+        let spectra: Vec<CurvatureSpectrum> = fibres.iter().map(|r| r.spectrum.clone()).collect();
+        if let Ok(mean) = CurvatureSpectrum::mean(&spectra) {
+            for (r, c) in mean.coefficients().iter().enumerate() {
+                let c: &Complex64 = c;
+                mean_re[[p, r]] = c.re;
+                mean_im[[p, r]] = c.im;
+                mean_energy[[p, r]] = c.norm_sqr();
+                omega[[p, r]] = mean.angular_frequency(r);
+            }
+            spacing[p] = mean.spacing();
+            length[p] = mean.segment_length();
+        }
+    }
+    let mut out = Output::new();
+    out.i64("bin", &["bin"], Array1::from_iter(0..nbins as i64), "1", "DFT index r (eq 10); r > N/2 are the negative frequencies r − N");
+    out.f64("angular_frequency", &["point", "bin"], omega, "rad m-1", "ω_r = 2πr/L (signed: r − N for r > N/2)");
+    out.f64("curvature_spectrum_real", &["point", "fibre", "bin"], re, "m-1", "real part of K_r (eq 10)");
+    out.f64("curvature_spectrum_imag", &["point", "fibre", "bin"], im, "m-1", "imaginary part of K_r (eq 10)");
+    out.f64("energy_spectrum", &["point", "fibre", "bin"], energy, "m-2", "S_r = |K_r|^2");
+    out.f64("mean_curvature_spectrum_real", &["point", "bin"], mean_re, "m-1", "energy-averaged spectrum over fibres: sqrt(mean S_r), zero phase (r = 0 keeps the mean curvature's sign)");
+    out.f64("mean_curvature_spectrum_imag", &["point", "bin"], mean_im, "m-1", "imaginary part of the mean spectrum (zero)");
+    out.f64("mean_energy_spectrum", &["point", "bin"], mean_energy, "m-2", "mean S_r over fibres");
+    out.f64("curvature", &["point", "fibre", "sample"], kappa, "m-1", "κ_m at s_m = mΔs (eq 9)");
+    out.f64("tangent_angle", &["point", "fibre", "angle_sample"], theta, "rad", "θ_m, unwrapped tangent angle in the belt plane (x = machine direction)");
+    out.f64("bending_energy_from_curvature", &["point", "fibre"], e_k, "1", "e = (L/2) Σ κ_m² Δs (eqs 6, A.3)");
+    out.f64("bending_energy_from_spectrum", &["point", "fibre"], e_s, "1", "e = (L²/2) Σ S_r (Parseval, eq A.4)");
+    out.flags("valid", &["point", "fibre"], valid, "spectrum present (padding is false)");
+    out.f64("sample_spacing", &["point"], spacing, "m", "Δs, arc-length spacing of the samples");
+    out.f64("segment_length", &["point"], length, "m", "L = NΔs, length of the analysed fibre or segment");
+    out
+}
+
+impl CurvatureSpectrum {
+    /// A random realisation with the same magnitudes (eq 11): K'_r = |K_r| e^{iθ_r},
+    /// θ_r uniform in [0, 2π), θ_{−r} = −θ_r; K_0 and K_{N/2} keep their (real) values.
+    pub fn with_random_phases(&self, rng: &mut impl rand::Rng) -> CurvatureSpectrum {
+        let k = self.coefficients();
+        let n = k.len();
+        let mut out = k.to_vec();
+        for r in 1..n.div_ceil(2) {
+            let phase: f64 = rng.random::<f64>() * std::f64::consts::TAU;
+            out[r] = Complex64::from_polar(k[r].norm(), phase);
+            out[n - r] = out[r].conj();
+        }
+        CurvatureSpectrum::new(self.segment_length(), out).expect("same shape as a valid spectrum")
+    }
+}

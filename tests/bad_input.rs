@@ -1,0 +1,90 @@
+//! The bad-pipeline corpus: every file in tests/bad_pipelines/ must be rejected with
+//! exit code 2 and the message in its `# expect:` line (file, line, column, key path,
+//! what is allowed), by `validate` and by `run`, leaving an existing archive
+//! byte-identical.
+mod common;
+use common::*;
+use std::fs;
+
+fn corpus() -> Vec<(String, String)> {
+    let dir = repo_root().join("tests/bad_pipelines");
+    let mut cases: Vec<(String, String)> = fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.ends_with(".yaml"))
+        .map(|n| {
+            let text = fs::read_to_string(dir.join(&n)).unwrap();
+            let expect = text
+                .lines()
+                .next()
+                .and_then(|l| l.strip_prefix("# expect: "))
+                .unwrap_or_else(|| panic!("{n}: first line must be `# expect: ...`"))
+                .to_string();
+            (n, expect)
+        })
+        .collect();
+    cases.sort();
+    cases
+}
+
+#[test]
+fn corpus_is_large_enough() {
+    assert!(corpus().len() >= 15, "keep at least 15 bad pipelines");
+}
+
+#[test]
+fn validate_rejects_each_with_its_message() {
+    let dir = repo_root().join("tests/bad_pipelines");
+    let mut failures = vec![];
+    for (name, expect) in corpus() {
+        let out = run_in(&dir, &["validate", &name]);
+        let (_, err) = text(&out);
+        if out.status.code() != Some(2) || !err.contains(&expect) {
+            failures.push(format!("{name}: exit {:?}\n  expected: {expect}\n  got: {err}", out.status.code()));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn run_rejects_each_and_leaves_the_archive_byte_identical() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A real archive with one version in it.
+    let good = write_pipeline(
+        tmp.path(),
+        "good.yaml",
+        "pipeline: good\narchive: study.h5\nstages:\n  - {name: s, kind: spectra, params: {preset: spectrum1}}\n",
+    );
+    let out = run_in(tmp.path(), &["run", good.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    let archive = tmp.path().join("study.h5");
+    let before = fs::read(&archive).unwrap();
+    let dir = repo_root().join("tests/bad_pipelines");
+    for (name, expect) in corpus() {
+        let out = run_in(&dir, &["run", &name, "--archive", archive.to_str().unwrap()]);
+        let (_, err) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+        assert!(err.contains(&expect), "{name}: expected `{expect}` in:\n{err}");
+        assert_eq!(fs::read(&archive).unwrap(), before, "{name} changed the archive");
+    }
+    assert!(!tmp.path().join("results").exists(), "nothing may be created for bad input");
+}
+
+#[test]
+fn unknown_stage_in_cli_flags_is_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = write_pipeline(tmp.path(), "p.yaml", "pipeline: p\narchive: a.h5\nstages:\n  - {name: s, kind: spectra}\n");
+    let out = run_in(tmp.path(), &["run", p.to_str().unwrap(), "--only", "nope"]);
+    let (_, err) = text(&out);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(err.contains("no stage named `nope`; allowed: s"), "{err}");
+    assert!(!tmp.path().join("a.h5").exists());
+}
+
+#[test]
+fn missing_pipeline_file_is_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = run_in(tmp.path(), &["validate", "nope.yaml"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out).1.contains("nope.yaml"), "{:?}", text(&out));
+}

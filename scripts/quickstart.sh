@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# From a fresh clone: install what is missing, build in release mode, run
+# pipelines/quickstart.yaml end to end and say where the results are.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+cargo build --release --quiet
+./target/release/laydown run pipelines/quickstart.yaml
+echo
+./target/release/laydown ls results/quickstart.h5
+echo
+echo "archive: $(pwd)/results/quickstart.h5"
+echo "inspect: ./target/release/laydown show results/quickstart.h5 ideal"
+echo "python:  xarray.open_dataset('results/quickstart.h5', group='/ideal/latest', engine='h5netcdf')"

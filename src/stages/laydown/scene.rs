@@ -127,6 +127,8 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         steps: 0,
         projection_residual: 0.0,
         max_compression: 0.0,
+        projection_iterations: 0,
+        projection_calls: 0,
         compliance: if p.integrator == Integrator::ImplicitAxial { 1.0 / p.axial_stiffness() } else { 0.0 },
     }
 }
@@ -225,6 +227,9 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             }
         }
         sim.dt = dt_max;
+    }
+    if std::env::var_os("LAYDOWN_DEBUG").is_some() {
+        eprintln!("projection calls {} iterations {} steps {}", sim.projection_calls, sim.projection_iterations, sim.steps);
     }
     if error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
         sim.rod.x.copy_from_slice(&last_good);

@@ -14,6 +14,9 @@ pub struct LaydownResult {
     /// such bounced fibres) or when the run failed.
     pub valid: bool,
     pub invalid_reason: Option<String>,
+    /// Highest rise of any node above the belt after its landing (m); compared with
+    /// `bounce_tolerance` for `valid`.
+    pub max_lift_after_landing: f64,
     /// Laid nodes (those that landed), in fibre order.
     pub landed_nodes: usize,
     /// Arc length of the laid polyline (m).
@@ -59,6 +62,7 @@ impl LaydownResult {
             landing_time: Vec::new(),
             valid: false,
             invalid_reason: Some(error.clone()),
+            max_lift_after_landing: 0.0,
             landed_nodes: 0,
             laid_length: 0.0,
             radius_of_gyration: 0.0,

@@ -240,8 +240,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     let (s, e) = shape_measures(&laid);
     let (sr, er) = shape_measures(&laid_removed);
     let mut invalid_reason = error.clone();
-    if invalid_reason.is_none() {
-        let worst = sim
+    let worst = sim
             .max_lift
             .iter()
             .zip(&sim.landing_time)
@@ -249,14 +248,14 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             .filter(|(_, (_, t))| t.is_finite())
             .map(|(i, (h, _))| (i, *h))
             .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
-        if worst.1 > p.bounce_tolerance {
-            invalid_reason = Some(format!(
-                "bounced: node {} rose {:.3e} m above the belt after landing (bounce_tolerance {:.3e} m)",
-                worst.0, worst.1, p.bounce_tolerance
-            ));
-        }
+    if invalid_reason.is_none() && worst.1 > p.bounce_tolerance {
+        invalid_reason = Some(format!(
+            "bounced: node {} rose {:.3e} m above the belt after landing (bounce_tolerance {:.3e} m)",
+            worst.0, worst.1, p.bounce_tolerance
+        ));
     }
     LaydownResult {
+        max_lift_after_landing: worst.1,
         landed_nodes: laid.len(),
         laid_length: arc_length(&laid),
         positions: sim.rod.x.clone(),

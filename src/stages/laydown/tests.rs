@@ -3,8 +3,8 @@ use super::*;
 
 fn summary(r: &LaydownResult) -> String {
     format!(
-        "err={:?} valid={} reason={:?} landed={} laid={:.4} S={:.5} e={:.1} S_rm={:.5} e_rm={:.1} steps={} rej={} dt={:.3e} mindt={:.2e} wall={:.2}s pen={:.2e} cons={:.1e}",
-        r.error, r.valid, r.invalid_reason, r.landed_nodes, r.laid_length, r.radius_of_gyration, r.bending_energy,
+        "err={:?} valid={} lift={:.2e} reason={:?} landed={} laid={:.4} S={:.5} e={:.1} S_rm={:.5} e_rm={:.1} steps={} rej={} dt={:.3e} mindt={:.2e} wall={:.2}s pen={:.2e} cons={:.1e}",
+        r.error, r.valid, r.max_lift_after_landing, r.invalid_reason, r.landed_nodes, r.laid_length, r.radius_of_gyration, r.bending_energy,
         r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed, r.steps, r.rejected_steps, r.time_step, r.min_time_step, r.wall_seconds,
         r.max_penetration, r.max_constraint_error
     )
@@ -351,5 +351,190 @@ fn debug_friction() {
     advance(&mut sim, 0.02, |_| {});
     for i in 0..21 {
         println!("{i} {:?} {:?} {:?}", sim.ws.contact[i], sim.rod.x[i], sim.rod.v[i]);
+    }
+}
+
+// ---------------------------------------------------------------- whole replicates
+
+/// Reduced Table 1 scene: 0.3 m of fibre, 300 elements, 0.05 s, 0.25 m laid.
+fn reduced() -> LaydownParams {
+    let mut p = LaydownParams::default();
+    p.length = 0.3;
+    p.elements = 300;
+    p
+}
+
+fn bits(r: &LaydownResult) -> String {
+    format!("{:?}", r.clone().without_wall_time())
+}
+
+#[test]
+fn determinism_seed_and_threads() {
+    let mut p = reduced();
+    p.length = 0.15;
+    p.elements = 150;
+    let jobs: Vec<LaydownJob> = (0..4).map(|r| LaydownJob { params: p.clone(), seed: 7, replicate: r }).collect();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| run_jobs(&jobs));
+    let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| run_jobs(&jobs));
+    for (a, b) in one.iter().zip(&two) {
+        assert!(a.error.is_none(), "{:?}", a.error);
+        assert_eq!(bits(a), bits(b), "1 vs 2 threads");
+    }
+    // same seed and stream, sequential call: bit-identical; another stream differs
+    let again = simulate(&p, &mut replicate_rng(7, 2));
+    assert_eq!(bits(&again), bits(&one[2]));
+    assert_ne!(one[0].positions, one[1].positions);
+}
+
+#[test]
+fn disabled_imperfections_leave_the_rng_alone_and_the_fibre_straight_in_x() {
+    let mut p = reduced();
+    p.length = 0.1;
+    p.elements = 100;
+    p.effects.imperfections = false;
+    p.oscillation_amplitude = 0.0;
+    let r = simulate(&p, &mut replicate_rng(1, 0));
+    assert!(r.error.is_none());
+    // with no perturbation in x and the oscillation along y only, nothing breaks the x symmetry
+    assert!(r.positions.iter().all(|x| x[0].is_finite()));
+}
+
+fn check_replicate(name: &str, r: &LaydownResult, p: &LaydownParams) {
+    println!("{name}: {}", summary(r));
+    assert!(!r.positions.is_empty());
+    for x in &r.positions {
+        assert!(x.iter().all(|c| c.is_finite()), "{name}: non-finite position");
+        assert!(x[2] >= -p.penetration_tolerance, "{name}: penetration {}", x[2]);
+        assert!(x[0].abs() < 10.0 && x[1].abs() < 10.0 && x[2] < 2.0 * p.length, "{name}: unbounded {x:?}");
+    }
+    for v in [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed] {
+        assert!(v.is_finite() && v >= 0.0, "{name}: metric {v}");
+    }
+    assert!(r.diagnostics.iter().all(|d| d.kinetic.is_finite() && d.elastic.is_finite()));
+    match &r.error {
+        None => assert!(r.landed_nodes > 10, "{name}: only {} nodes landed", r.landed_nodes),
+        Some(e) => assert!(!e.is_empty()),
+    }
+}
+
+#[test]
+fn hard_cases_stay_stable() {
+    let cases: Vec<(&str, Box<dyn Fn(&mut LaydownParams)>)> = vec![
+        ("fibre_speed 50", Box::new(|p| p.fibre_speed = 50.0)),
+        ("mu 0", Box::new(|p| p.friction_coefficient = 0.0)),
+        ("mu 5", Box::new(|p| p.friction_coefficient = 5.0)),
+        ("d 5 um", Box::new(|p| p.diameter = 5e-6)),
+        ("d 200 um", Box::new(|p| p.diameter = 200e-6)),
+        ("air 0", Box::new(|p| p.air_speed = 0.0)),
+        ("air 50", Box::new(|p| p.air_speed = 50.0)),
+        ("u0 100 mm", Box::new(|p| p.oscillation_amplitude = 0.1)),
+        ("f 200 Hz", Box::new(|p| p.oscillation_frequency = 200.0)),
+        ("belt 0", Box::new(|p| p.belt_speed = 0.0)),
+        ("belt 2 v_f", Box::new(|p| p.belt_speed = 2.0 * p.fibre_speed)),
+    ];
+    for (name, set) in cases {
+        let mut p = reduced();
+        p.length = 0.15;
+        p.elements = 150;
+        set(&mut p);
+        let r = simulate(&p, &mut replicate_rng(3, 0));
+        check_replicate(name, &r, &p);
+        assert!(r.error.is_none(), "{name}: {:?}", r.error);
+    }
+}
+
+#[test]
+fn explicit_reference_hard_case_fails_clearly_or_runs() {
+    // An explicit step far above its limit must end with a clear error, not NaN or a panic.
+    let mut p = reduced();
+    p.length = 0.1;
+    p.elements = 100;
+    p.integrator = Integrator::Explicit;
+    p.time_step_factor = 1.0;
+    let mut sim = build(&p, scene::paper_start(&p, 100, &mut replicate_rng(1, 0)));
+    sim.dt *= 20.0;
+    sim.limits.chosen = sim.dt;
+    let r = scene::run(&mut sim, &p, 0.01);
+    assert!(r.error.is_some(), "expected a blow-up");
+    println!("{:?}", r.error);
+    assert!(r.positions.iter().all(|x| x.iter().all(|c| c.is_finite())));
+    assert!(!r.valid);
+    // bad parameters: clear error naming the parameter
+    let mut q = LaydownParams::default();
+    q.friction_coefficient = -1.0;
+    let r = simulate(&q, &mut replicate_rng(1, 0));
+    assert!(r.error.as_deref().unwrap().contains("friction_coefficient"));
+}
+
+fn mean_metrics(p: &LaydownParams, n: u64) -> [f64; 4] {
+    let jobs: Vec<LaydownJob> = (0..n).map(|r| LaydownJob { params: p.clone(), seed: 11, replicate: r }).collect();
+    let res = run_jobs(&jobs);
+    let mut m = [0.0; 4];
+    let mut k = 0.0;
+    for r in res.iter().filter(|r| r.error.is_none()) {
+        m[0] += r.radius_of_gyration;
+        m[1] += r.bending_energy;
+        m[2] += r.radius_of_gyration_belt_removed;
+        m[3] += r.bending_energy_belt_removed;
+        k += 1.0;
+    }
+    assert!(k >= n as f64 - 1.0, "too many failed replicates");
+    m.map(|x| x / k)
+}
+
+#[test]
+fn paper_trends() {
+    let n = 4;
+    let with = |f: &dyn Fn(&mut LaydownParams)| {
+        let mut p = reduced();
+        f(&mut p);
+        mean_metrics(&p, n)
+    };
+    // friction: S falls, e rises with mu (Figs 5a, 6a)
+    let lo = with(&|p| p.friction_coefficient = 0.1);
+    let hi = with(&|p| p.friction_coefficient = 3.0);
+    println!("mu 0.1 {lo:?}\nmu 3 {hi:?}");
+    assert!(lo[0] > hi[0] * 1.05, "S(mu): {} vs {}", lo[0], hi[0]);
+    assert!(lo[1] < hi[1] * 0.8, "e(mu): {} vs {}", lo[1], hi[1]);
+    // diameter: S grows with d (Fig 5b), e falls (Fig 6b)
+    let thin = with(&|p| p.diameter = 30e-6);
+    let thick = with(&|p| p.diameter = 80e-6);
+    println!("d 30 {thin:?}\nd 80 {thick:?}");
+    assert!(thick[0] > 1.3 * thin[0], "S(d): {} vs {}", thin[0], thick[0]);
+    assert!(thick[1] < thin[1], "e(d): {} vs {}", thin[1], thick[1]);
+    // belt speed: raw S grows, with the belt motion removed S and e hardly change (Figs 5d, 6d)
+    let slow = with(&|p| p.belt_speed = 0.05);
+    let fast = with(&|p| p.belt_speed = 0.5);
+    println!("belt 0.05 {slow:?}\nbelt 0.5 {fast:?}");
+    assert!(fast[0] > slow[0] * 1.08, "raw S grows with belt speed");
+    assert!((fast[2] - slow[2]).abs() < 0.1 * slow[2], "S_removed: {} vs {}", slow[2], fast[2]);
+    // e with the belt removed is noisier: nodes laid out of order during the start-up
+    // impact get kinked by the subtraction (see the module docs); only a loose check.
+    assert!(fast[3] < 2.0 * slow[3] && fast[3] > 0.5 * slow[3], "e_removed: {} vs {}", slow[3], fast[3]);
+}
+
+#[test]
+#[ignore]
+fn debug_removed() {
+    let mut p = reduced();
+    p.belt_speed = 0.5;
+    for rep in 0..3 {
+        let r = simulate(&p, &mut replicate_rng(2024, rep));
+        let laid = laid_polyline(&r.positions, &r.landing_time, Some((p.belt_speed, r.end_time)));
+        let idx: Vec<usize> = (0..r.positions.len()).filter(|&i| r.landing_time[i].is_finite()).collect();
+        let mut contrib: Vec<(f64, usize, f64, f64)> = Vec::new();
+        for k in 1..laid.len() - 1 {
+            let a = crate::geometry::sub(&laid[k], &laid[k - 1]);
+            let b = crate::geometry::sub(&laid[k + 1], &laid[k]);
+            let phi = crate::geometry::turning_angle(&a, &b);
+            let v = 0.5 * (crate::geometry::norm(&a) + crate::geometry::norm(&b));
+            contrib.push((phi * phi / v, idx[k], crate::geometry::norm(&a), r.landing_time[idx[k]]));
+        }
+        let total: f64 = contrib.iter().map(|c| c.0).sum();
+        contrib.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap());
+        println!("rep {rep} e_rm {} total {total}", r.bending_energy_belt_removed);
+        for c in contrib.iter().take(8) {
+            println!("   node {} share {:.3} seg {:.2e} t_land {:.4}", c.1, c.0 / total, c.2, c.3);
+        }
     }
 }

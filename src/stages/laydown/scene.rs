@@ -127,6 +127,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         steps: 0,
         projection_residual: 0.0,
         max_compression: 0.0,
+        segment_force: vec![0.0; n - 1],
         projection_iterations: 0,
         projection_calls: 0,
         compliance: if p.integrator == Integrator::ImplicitAxial { 1.0 / p.axial_stiffness() } else { 0.0 },

@@ -111,3 +111,18 @@ fn same_seed_gives_bit_identical_datasets_with_one_or_two_threads() {
         assert!(ka.iter().zip(kb.iter()).all(|(x, y)| x.to_bits() == y.to_bits()));
     }
 }
+
+#[test]
+fn changing_an_upstream_stage_reruns_downstream_with_the_reason() {
+    let tmp = tempfile::tempdir().unwrap();
+    let chain = "pipeline: chain\narchive: study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60, diameter: 5.0e-05}\n    replicates: 2\n  - name: spectra\n    kind: spectra\n    input: fibre\n";
+    write_pipeline(tmp.path(), "p.yaml", chain);
+    let o = run(tmp.path(), &["run", "p.yaml"]);
+    assert!(o.contains("fibre: runs: new stage") && o.contains("spectra: runs: new stage"), "{o}");
+    write_pipeline(tmp.path(), "p.yaml", &chain.replace("diameter: 5.0e-05", "diameter: 4.0e-05"));
+    let o = run(tmp.path(), &["run", "p.yaml"]);
+    assert!(o.contains("fibre: runs: params.diameter changed 5e-05 -> 4e-05"), "{o}");
+    assert!(o.contains("spectra: runs: input fibre v1 -> v2"), "{o}");
+    let o = run(tmp.path(), &["run", "p.yaml", "--only", "spectra", "--force", "spectra"]);
+    assert!(o.contains("fibre: not selected, using v2") && o.contains("spectra: runs: forced (--force)"), "{o}");
+}

@@ -14,6 +14,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 pub mod grid;
+pub mod laydown;
 pub mod param_table;
 pub mod spectra;
 pub mod web;
@@ -135,7 +136,7 @@ pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
 
 /// Every stage kind the pipeline knows.
 pub fn registry() -> Vec<&'static dyn Stage> {
-    vec![&spectra::SpectraStage]
+    vec![&laydown::LaydownStage, &spectra::SpectraStage]
 }
 
 pub fn find(kind: &str) -> Option<&'static dyn Stage> {

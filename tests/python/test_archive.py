@@ -42,14 +42,19 @@ def test_every_version_has_full_provenance_and_units(quickstart_archive):
 def test_xarray_sees_named_dimensions(quickstart_archive):
     with h5py.File(quickstart_archive, "r") as f:
         paths = [p for p, _ in version_groups(f)]
-    for path in paths + ["/ideal/latest"]:
+    for path in paths + ["/ideal/latest", "/fibre/latest"]:
         ds = xr.open_dataset(quickstart_archive, group=path, engine="h5netcdf")
         assert not any(d.startswith("phony_dim") for d in ds.sizes), (path, dict(ds.sizes))
-        assert "point" in ds.sizes and "bin" in ds.sizes
-        assert ds["energy_spectrum"].dims == ("point", "fibre", "bin")
+        assert "point" in ds.sizes
         ds.close()
+    ideal = xr.open_dataset(quickstart_archive, group="/ideal/latest", engine="h5netcdf")
+    assert ideal["energy_spectrum"].dims == ("point", "fibre", "bin")
+    fibre = xr.open_dataset(quickstart_archive, group="/fibre/latest", engine="h5netcdf")
+    assert fibre["positions"].dims == ("point", "replicate", "node", "xyz")
+    assert list(fibre["xyz"].values) == ["x", "y", "z"]
+    assert fibre["positions"].attrs["units"] == "m"
     tree = xr.open_datatree(quickstart_archive, engine="h5netcdf")
-    assert "ideal" in tree.children
+    assert {"fibre", "spectra", "ideal"} <= set(tree.children)
 
 
 def test_bending_energy_recomputed_with_numpy(quickstart_archive):
@@ -66,3 +71,17 @@ def test_bending_energy_recomputed_with_numpy(quickstart_archive):
     np.testing.assert_allclose(e_parseval, e_numpy, rtol=1e-9)
     np.testing.assert_allclose(ds["bending_energy_from_spectrum"].values[0], 2500.0, rtol=1e-9)
     ds.close()
+
+
+def test_laydown_statistics_recomputed_with_numpy(quickstart_archive):
+    """Radius of gyration (eq 5) of each stored laid fibre and the per-point mean over valid replicates."""
+    ds = xr.open_dataset(quickstart_archive, group="/fibre/latest", engine="h5netcdf")
+    laid = ds["laid_positions"].values[0]          # (replicate, laid_node, xyz)
+    valid = ds["valid"].values[0].astype(bool)
+    for r in range(laid.shape[0]):
+        nodes = laid[r][~np.isnan(laid[r][:, 0])]
+        s = np.sqrt(np.mean(np.sum((nodes - nodes.mean(axis=0)) ** 2, axis=1)))
+        np.testing.assert_allclose(s, ds["radius_of_gyration"].values[0, r], rtol=1e-9)
+    s_valid = ds["radius_of_gyration"].values[0][valid]
+    np.testing.assert_allclose(ds["radius_of_gyration_mean"].values[0], s_valid.mean(), rtol=1e-12)
+    np.testing.assert_allclose(ds["radius_of_gyration_std"].values[0], s_valid.std(ddof=1), rtol=1e-9)

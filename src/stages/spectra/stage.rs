@@ -105,7 +105,7 @@ fn idealised(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Row>> {
 /// One row per laydown sweep point, each with one spectrum per replicate.
 fn laid(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Vec<Row>>> {
     let input = ctx.input(0);
-    let name = if p.bool("belt_removed") { "positions_belt_removed" } else { "positions" };
+    let name = if p.bool("belt_removed") { "laid_positions_belt_removed" } else { "laid_positions" };
     let positions = input.read_f64(name)?; // (point, replicate, node, xyz)
     let valid = input.read_u8("valid")?; // (point, replicate)
     let params = SpectraParams { sample_spacing: p.f64("sample_spacing"), points_per_segment: p.usize("points_per_segment") };

@@ -1,0 +1,70 @@
+//! Rigid belt plane z = 0 moving at belt_speed along +x: unilateral contact and
+//! Coulomb friction as velocity-level impulses, node by node (the plane couples
+//! no nodes to each other).
+//!
+//! For a node that would end the step below the plane (z + Δt v_z ≤ 0):
+//! - normal: v_z ← −z/Δt, so the node lands exactly on z = 0 (perfectly inelastic);
+//!   the normal impulse per unit mass is p_n = v_z,new − v_z ≥ 0;
+//! - friction (Coulomb μ): with w the tangential velocity relative to the belt, if
+//!   |w| ≤ μ p_n the node sticks (tangential velocity set to the belt's, exactly);
+//!   otherwise it slips and the impulse is μ p_n opposite w. With μ = 0 the node slides freely.
+//!
+//! Under the inextensible scheme the contact state also restricts the node's
+//! effective inverse mass in the length projection: a sticking node is fixed, a
+//! sliding one keeps only its in-plane freedom.
+
+use super::rod::{sym_inverse_xy, NodeContact, Rod, Workspace};
+
+#[derive(Clone, Debug)]
+pub struct BeltContact {
+    pub belt_speed: f64,
+    /// Coulomb μ; None = frictionless contact (friction effect off).
+    pub friction: Option<f64>,
+}
+
+impl BeltContact {
+    /// Apply contact and friction to the velocities of nodes 0..`end` (the driven
+    /// top node is excluded). Returns the work of the normal and of the tangential impulses (J).
+    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, end: usize, restrict_w: bool) -> (f64, f64) {
+        let mut w_normal = 0.0;
+        let mut w_friction = 0.0;
+        let vb = self.belt_speed;
+        let idt = 1.0 / dt;
+        for i in 0..end {
+            let z = rod.x[i][2];
+            let v = rod.v[i];
+            if z + dt * v[2] > 0.0 {
+                continue;
+            }
+            let m = rod.mass[i];
+            let vz = -z * idt;
+            let pn = vz - v[2];
+            w_normal += m * pn * 0.5 * (vz + v[2]);
+            let mut state = NodeContact::Slide;
+            let mut vt = [v[0], v[1]];
+            if let Some(mu) = self.friction {
+                let w = [v[0] - vb, v[1]];
+                let wn = (w[0] * w[0] + w[1] * w[1]).sqrt();
+                let limit = mu * pn;
+                if wn <= limit {
+                    vt = [vb, 0.0];
+                    state = NodeContact::Stick;
+                } else {
+                    let s = limit / wn;
+                    vt = [v[0] - s * w[0], v[1] - s * w[1]];
+                }
+                let dv = [vt[0] - v[0], vt[1] - v[1]];
+                w_friction += m * (dv[0] * 0.5 * (vt[0] + v[0]) + dv[1] * 0.5 * (vt[1] + v[1]));
+            }
+            rod.v[i] = [vt[0], vt[1], vz];
+            ws.contact[i] = state;
+            if restrict_w {
+                ws.winv[i] = match state {
+                    NodeContact::Stick => [0.0; 6],
+                    _ => sym_inverse_xy(&ws.amat[i]).unwrap_or([0.0; 6]),
+                };
+            }
+        }
+        (w_normal, w_friction)
+    }
+}

@@ -1,0 +1,372 @@
+//! Force terms. Each enabled effect is one [`Term`], built once per replicate; the
+//! integrator loops over the list, so a disabled effect costs nothing.
+//!
+//! Terms contribute either an explicit nodal force (elasticity, gravity) or a
+//! linear, node-diagonal implicit part (drag, oscillator, Rayleigh damping). A
+//! linear implicit force F = −G (v' − v_target) − K (x + Δt v' − x_target) adds
+//! Δt G + Δt² K to the nodal 3×3 matrix and Δt G v_target − Δt K (x − x_target)
+//! to the right-hand side of (m I + …) v' = m v + Δt F_explicit + …. Treating these
+//! implicitly means the oscillator damper (c/m ≈ 5·10⁵ 1/s) and the drag of thin
+//! fibres never limit the step.
+
+use super::rod::{Rod, Workspace};
+
+/// Exponent of Re in the tangential skin-friction law, C_t = β Re^-0.61 (eq 2).
+pub const TANGENTIAL_RE_EXPONENT: f64 = 0.61;
+/// Fitted normal drag law C_n = A Re^-b (d/d0)^c of eq 4 (d = 13-390 µm).
+pub const NORMAL_DRAG_A: f64 = 6.96;
+pub const NORMAL_DRAG_B: f64 = 0.440;
+pub const NORMAL_DRAG_C: f64 = 0.404;
+pub const NORMAL_DRAG_D0: f64 = 78e-6;
+
+/// Tangential skin-friction coefficient C_t = β Re_t^-0.61 (eq 2).
+pub fn tangential_drag_coefficient(reynolds: f64, beta: f64) -> f64 {
+    beta * reynolds.powf(-TANGENTIAL_RE_EXPONENT)
+}
+
+/// Normal drag coefficient C_n = 6.96 Re_n^-0.44 (d/78 µm)^0.404 (eq 4).
+pub fn normal_drag_coefficient(reynolds: f64, diameter: f64) -> f64 {
+    NORMAL_DRAG_A * reynolds.powf(-NORMAL_DRAG_B) * (diameter / NORMAL_DRAG_D0).powf(NORMAL_DRAG_C)
+}
+
+/// Air-drag law of the fibre (eqs 1-4) written as f = K |V|^p, which tends to 0
+/// smoothly as Re → 0 (no division by Re, no NaN).
+#[derive(Clone, Copy, Debug)]
+pub struct DragLaw {
+    /// f_t = k_t |V_t|^(2−0.61): k_t = ½ π d ρ_a β (d/ν)^-0.61 (eqs 1-2).
+    pub k_tangential: f64,
+    /// f_n = k_n |V_n|^(2−0.44): k_n = ½ d ρ_a 6.96 (d/ν)^-0.44 (d/d0)^0.404 (eqs 3-4).
+    pub k_normal: f64,
+}
+
+impl DragLaw {
+    pub fn new(diameter: f64, air_density: f64, viscosity: f64, beta: f64) -> Self {
+        let dn = diameter / viscosity;
+        DragLaw {
+            k_tangential: 0.5 * std::f64::consts::PI * diameter * air_density * beta * dn.powf(-TANGENTIAL_RE_EXPONENT),
+            k_normal: 0.5
+                * diameter
+                * air_density
+                * NORMAL_DRAG_A
+                * dn.powf(-NORMAL_DRAG_B)
+                * (diameter / NORMAL_DRAG_D0).powf(NORMAL_DRAG_C),
+        }
+    }
+    /// Tangential drag per unit length (N/m) for a relative tangential speed |V_t| (eq 1).
+    pub fn tangential(&self, speed: f64) -> f64 {
+        self.k_tangential * speed.abs().powf(2.0 - TANGENTIAL_RE_EXPONENT)
+    }
+    /// Normal drag per unit length (N/m) for a relative normal speed |V_n| (eq 3).
+    pub fn normal(&self, speed: f64) -> f64 {
+        self.k_normal * speed.abs().powf(2.0 - NORMAL_DRAG_B)
+    }
+    /// Speed at which the tangential drag carries a load q per unit length: f_t(V) = q.
+    pub fn tangential_terminal_speed(&self, load_per_length: f64) -> f64 {
+        (load_per_length / self.k_tangential).powf(1.0 / (2.0 - TANGENTIAL_RE_EXPONENT))
+    }
+    /// Speed at which the normal drag carries a load q per unit length: f_n(V) = q.
+    pub fn normal_terminal_speed(&self, load_per_length: f64) -> f64 {
+        (load_per_length / self.k_normal).powf(1.0 / (2.0 - NORMAL_DRAG_B))
+    }
+}
+
+/// Drag in the laydown zone, per element, split into the tangential part (eqs 1-2)
+/// and the normal part (eqs 3-4).
+///
+/// The normal force is applied along the normal relative velocity V_n with
+/// magnitude f_n(|V_n|), not per normal direction n1, n2 as in the paper's VDLOAD:
+/// for a round fibre the force must not depend on the (arbitrary) choice of n1, n2
+/// (frame invariance about the axis). Both agree whenever V_n lies along n1 or n2; for
+/// an oblique V_n at 45° to n1 the per-direction sum is smaller by 1 − 2^(−0.28) ≈ 18 %.
+#[derive(Clone, Debug)]
+pub struct Drag {
+    pub law: DragLaw,
+    /// Air velocity (0, 0, −V_air).
+    pub air_velocity: [f64; 3],
+    /// Top of the zone z0; the zone is 0 ≤ z ≤ z0 for an element's midpoint.
+    pub zone_top: f64,
+}
+
+/// Oscillator of eq 7: nodes above z0 are tied in x and y to the dummy point
+/// (0, u0 sin ωt) by a spring k and a damper c per node.
+#[derive(Clone, Debug)]
+pub struct Oscillation {
+    pub amplitude: f64,
+    pub angular_frequency: f64,
+    pub stiffness: f64,
+    pub damping: f64,
+    pub zone_top: f64,
+}
+
+#[derive(Clone, Debug)]
+pub enum Term {
+    /// Axial springs EA (l − l0)/l0 (explicit integrator only).
+    Axial,
+    /// Discrete elastic rod bending (no twist).
+    Bending,
+    Gravity { g: f64 },
+    Drag(Drag),
+    Oscillation(Oscillation),
+    /// Rayleigh mass damping F = −α m v.
+    Damping { alpha: f64 },
+}
+
+impl Term {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Term::Axial => "axial",
+            Term::Bending => "bending",
+            Term::Gravity { .. } => "gravity",
+            Term::Drag(_) => "drag",
+            Term::Oscillation(_) => "oscillation",
+            Term::Damping { .. } => "damping",
+        }
+    }
+
+    /// Add this term's contribution for the step t → t + dt.
+    /// Needs `ws.tangent`/`ws.seg_len` filled for the current positions.
+    pub fn accumulate(&self, rod: &Rod, ws: &mut Workspace, t: f64, dt: f64) {
+        match self {
+            Term::Axial => axial_forces(rod, ws),
+            Term::Bending => bending_forces(rod, ws),
+            Term::Gravity { g } => {
+                for (f, m) in ws.force.iter_mut().zip(&rod.mass) {
+                    f[2] -= m * g;
+                }
+            }
+            Term::Damping { alpha } => {
+                for (a, m) in ws.amat.iter_mut().zip(&rod.mass) {
+                    let h = dt * alpha * m;
+                    a[0] += h;
+                    a[1] += h;
+                    a[2] += h;
+                }
+            }
+            Term::Drag(d) => drag_implicit(d, rod, ws, dt),
+            Term::Oscillation(o) => {
+                let tn = t + dt;
+                let (s, c) = (o.angular_frequency * tn).sin_cos();
+                let u = o.amplitude * s;
+                let du = o.amplitude * o.angular_frequency * c;
+                let h = dt * o.damping + dt * dt * o.stiffness;
+                for i in 0..rod.x.len() {
+                    if rod.x[i][2] > o.zone_top {
+                        let a = &mut ws.amat[i];
+                        a[0] += h;
+                        a[1] += h;
+                        let r = &mut ws.rhs[i];
+                        r[0] += -dt * o.stiffness * rod.x[i][0];
+                        r[1] += dt * o.damping * du - dt * o.stiffness * (rod.x[i][1] - u);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Power delivered by this term's force at the end-of-step velocities (W), for the
+    /// energy diagnostics. Explicit elastic terms return 0 (they are in the elastic energy).
+    pub fn power(&self, rod: &Rod, ws: &Workspace, t: f64) -> f64 {
+        match self {
+            Term::Axial | Term::Bending => 0.0,
+            Term::Gravity { g } => rod.v.iter().zip(&rod.mass).map(|(v, m)| -m * g * v[2]).sum(),
+            Term::Damping { alpha } => {
+                rod.v.iter().zip(&rod.mass).map(|(v, m)| -alpha * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])).sum()
+            }
+            Term::Drag(d) => {
+                let mut p = 0.0;
+                for (g, v) in ws.drag_g.iter().zip(&rod.v) {
+                    let w = [v[0] - d.air_velocity[0], v[1] - d.air_velocity[1], v[2] - d.air_velocity[2]];
+                    let f = sym_mul(g, &w);
+                    p -= f[0] * v[0] + f[1] * v[1] + f[2] * v[2];
+                }
+                p
+            }
+            Term::Oscillation(o) => {
+                let (s, c) = (o.angular_frequency * t).sin_cos();
+                let u = o.amplitude * s;
+                let du = o.amplitude * o.angular_frequency * c;
+                let mut p = 0.0;
+                for (x, v) in rod.x.iter().zip(&rod.v) {
+                    if x[2] > o.zone_top {
+                        let fx = -o.stiffness * x[0] - o.damping * v[0];
+                        let fy = -o.stiffness * (x[1] - u) - o.damping * (v[1] - du);
+                        p += fx * v[0] + fy * v[1];
+                    }
+                }
+                p
+            }
+        }
+    }
+}
+
+/// x^p for x ≥ 0 and 0 < p < 1 as exp(p ln x) (cheaper than `powf`, ~1 ulp apart);
+/// exactly 0 at x = 0, so the drag vanishes smoothly as Re → 0.
+#[inline]
+fn pow_pos(x: f64, p: f64) -> f64 {
+    if x > 0.0 {
+        (p * x.ln()).exp()
+    } else {
+        0.0
+    }
+}
+
+/// y = S x for a symmetric 3×3 stored as [xx, yy, zz, xy, xz, yz].
+#[inline]
+pub fn sym_mul(s: &[f64; 6], x: &[f64; 3]) -> [f64; 3] {
+    [
+        s[0] * x[0] + s[3] * x[1] + s[4] * x[2],
+        s[3] * x[0] + s[1] * x[1] + s[5] * x[2],
+        s[4] * x[0] + s[5] * x[1] + s[2] * x[2],
+    ]
+}
+
+/// Axial springs: T = EA (l − l0)/l0 along each segment.
+fn axial_forces(rod: &Rod, ws: &mut Workspace) {
+    let ea = rod.axial_stiffness;
+    for k in 0..rod.rest.len() {
+        let t = ws.tangent[k];
+        let tension = ea * (ws.seg_len[k] - rod.rest[k]) / rod.rest[k];
+        let f = [tension * t[0], tension * t[1], tension * t[2]];
+        let a = &mut ws.force[k];
+        a[0] += f[0];
+        a[1] += f[1];
+        a[2] += f[2];
+        let b = &mut ws.force[k + 1];
+        b[0] -= f[0];
+        b[1] -= f[1];
+        b[2] -= f[2];
+    }
+}
+
+/// Lower bound on 1 + cos φ in the bending energy (φ → π is a fold-back).
+const MIN_ONE_PLUS_COS: f64 = 1e-2;
+
+/// Discrete-elastic-rod bending (Bergou et al. 2008) of an isotropic rod without twist.
+///
+/// At interior node i with unit tangents t_a, t_b of the adjacent segments and
+/// c = cos φ = t_a·t_b, the curvature binormal has |κb| = 2 tan(φ/2) and the energy is
+/// V_i = EI |κb|²/(2 V_i) = (2 EI/V_i)(1 − c)/(1 + c), V_i the Voronoi (rest) length,
+/// which tends to EI φ²/(2 V_i) = ½ EI κ² V_i, the discrete form of eq 6. Twist is
+/// omitted: for an isotropic, initially straight and untwisted rod with no applied
+/// torque the twist stays zero and decouples from bending (Kirchhoff).
+fn bending_forces(rod: &Rod, ws: &mut Workspace) {
+    let ei = rod.bending_stiffness;
+    let n = rod.x.len();
+    for i in 1..n - 1 {
+        let ta = ws.tangent[i - 1];
+        let tb = ws.tangent[i];
+        let la = ws.seg_len[i - 1];
+        let lb = ws.seg_len[i];
+        let c = ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2];
+        let opc = (1.0 + c).max(MIN_ONE_PLUS_COS);
+        // dV/dc
+        let g = -4.0 * ei * rod.inv_voronoi[i] / (opc * opc);
+        // dc/da = (t_b − c t_a)/|a|, dc/db = (t_a − c t_b)/|b|
+        let ga = g / la;
+        let gb = g / lb;
+        let da = [ga * (tb[0] - c * ta[0]), ga * (tb[1] - c * ta[1]), ga * (tb[2] - c * ta[2])];
+        let db = [gb * (ta[0] - c * tb[0]), gb * (ta[1] - c * tb[1]), gb * (ta[2] - c * tb[2])];
+        // F_{i-1} = g dc/da, F_i = −g (dc/da − dc/db), F_{i+1} = −g dc/db
+        let f = &mut ws.force;
+        for k in 0..3 {
+            f[i - 1][k] += da[k];
+            f[i][k] += db[k] - da[k];
+            f[i + 1][k] -= db[k];
+        }
+    }
+}
+
+/// Bending energy Σ (2 EI/V_i)(1 − c)/(1 + c) (J).
+pub fn bending_energy_of(rod: &Rod, ws: &Workspace) -> f64 {
+    let ei = rod.bending_stiffness;
+    let mut e = 0.0;
+    for i in 1..rod.x.len() - 1 {
+        let ta = ws.tangent[i - 1];
+        let tb = ws.tangent[i];
+        let c = ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2];
+        e += 2.0 * ei * rod.inv_voronoi[i] * (1.0 - c) / (1.0 + c).max(MIN_ONE_PLUS_COS);
+    }
+    e
+}
+
+/// Axial energy Σ ½ EA (l − l0)²/l0 (J).
+pub fn axial_energy_of(rod: &Rod, ws: &Workspace) -> f64 {
+    rod.rest.iter().zip(&ws.seg_len).map(|(l0, l)| 0.5 * rod.axial_stiffness * (l - l0) * (l - l0) / l0).sum()
+}
+
+/// Drag, linearised implicitly: on each element in the zone, with V the relative
+/// velocity of its midpoint, F = −l [γ_t t tᵀ + γ_n (I − t tᵀ)] (v − v_air) with
+/// γ_t = f_t/|V_t| = k_t |V_t|^0.39 and γ_n = k_n |V_n|^0.56 (eqs 1-4), split half to each node.
+fn drag_implicit(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
+    let va = d.air_velocity;
+    for g in ws.drag_g.iter_mut() {
+        *g = [0.0; 6];
+    }
+    for k in 0..rod.rest.len() {
+        let (p, q) = (rod.x[k], rod.x[k + 1]);
+        let zm = 0.5 * (p[2] + q[2]);
+        if !(0.0..=d.zone_top).contains(&zm) {
+            continue;
+        }
+        let t = ws.tangent[k];
+        let (a, b) = (rod.v[k], rod.v[k + 1]);
+        let w = [0.5 * (a[0] + b[0]) - va[0], 0.5 * (a[1] + b[1]) - va[1], 0.5 * (a[2] + b[2]) - va[2]];
+        let vt = w[0] * t[0] + w[1] * t[1] + w[2] * t[2];
+        let wn = [w[0] - vt * t[0], w[1] - vt * t[1], w[2] - vt * t[2]];
+        let vn = (wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]).sqrt();
+        let gt = d.law.k_tangential * pow_pos(vt.abs(), 1.0 - TANGENTIAL_RE_EXPONENT);
+        let gn = d.law.k_normal * pow_pos(vn, 1.0 - NORMAL_DRAG_B);
+        let h = 0.5 * ws.seg_len[k];
+        let dg = (gt - gn) * h;
+        let gnh = gn * h;
+        let s = [
+            gnh + dg * t[0] * t[0],
+            gnh + dg * t[1] * t[1],
+            gnh + dg * t[2] * t[2],
+            dg * t[0] * t[1],
+            dg * t[0] * t[2],
+            dg * t[1] * t[2],
+        ];
+        for node in [k, k + 1] {
+            let g = &mut ws.drag_g[node];
+            for j in 0..6 {
+                g[j] += s[j];
+            }
+        }
+    }
+    for i in 0..rod.x.len() {
+        let g = ws.drag_g[i];
+        if g[0] == 0.0 && g[1] == 0.0 && g[2] == 0.0 {
+            continue;
+        }
+        let a = &mut ws.amat[i];
+        for j in 0..6 {
+            a[j] += dt * g[j];
+        }
+        let gv = sym_mul(&g, &va);
+        let r = &mut ws.rhs[i];
+        r[0] += dt * gv[0];
+        r[1] += dt * gv[1];
+        r[2] += dt * gv[2];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn drag_law_matches_equations() {
+        let (d, rho, nu, beta) = (50e-6, 1.2, 1.51e-5, 0.37);
+        let law = DragLaw::new(d, rho, nu, beta);
+        for v in [0.1, 1.0, 7.0] {
+            let re = v * d / nu;
+            let ft = 0.5 * std::f64::consts::PI * d * rho * tangential_drag_coefficient(re, beta) * v * v;
+            let fnn = 0.5 * d * rho * normal_drag_coefficient(re, d) * v * v;
+            assert!((law.tangential(v) - ft).abs() < 1e-12 * ft.max(1e-30));
+            assert!((law.normal(v) - fnn).abs() < 1e-12 * fnn.max(1e-30));
+        }
+        assert_eq!(law.tangential(0.0), 0.0);
+        assert_eq!(law.normal(0.0), 0.0);
+    }
+}

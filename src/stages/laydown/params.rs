@@ -1,0 +1,459 @@
+//! Scene parameters of one laydown replicate (SI units throughout) and their table.
+//!
+//! `LaydownParams::default()` is the paper's Table 1 baseline with the full model
+//! (all effects on). Every numeric field is described once in [`PARAMETERS`]
+//! (name, unit, default, allowed range, one-line doc); [`LaydownParams::validate`]
+//! checks against that table so the pipeline can reuse it for YAML validation,
+//! `--help` and a JSON schema.
+
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Time integration scheme of the rod.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Integrator {
+    /// Reference: extensible rod (axial springs EA plus bending EI), symplectic
+    /// (semi-implicit) Euler. Step limited by the axial wave, Δs/√(E/ρ) (0.69 µs at 1 mm).
+    Explicit,
+    /// Fast: the axial springs EA are integrated implicitly (backward Euler) by a
+    /// compliant projection of the segment lengths (XPBD form, one tridiagonal solve
+    /// per Newton iteration, O(N)); bending and the rest as in `Explicit`. Step limited
+    /// by bending, Δs²/2·√(ρA/EI) (28 µs at 1 mm, d = 50 µm).
+    #[default]
+    ImplicitAxial,
+    /// As `ImplicitAxial` with zero compliance: exactly inextensible rod. Fails (clearly)
+    /// when a straight column is pushed against the belt, which cannot shorten without
+    /// axial compliance; kept for scenes without impact.
+    Inextensible,
+}
+
+impl Integrator {
+    pub const NAMES: [&'static str; 3] = ["explicit", "implicit_axial", "inextensible"];
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Explicit => "explicit",
+            Integrator::ImplicitAxial => "implicit_axial",
+            Integrator::Inextensible => "inextensible",
+        }
+    }
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "explicit" => Some(Integrator::Explicit),
+            "implicit_axial" => Some(Integrator::ImplicitAxial),
+            "inextensible" => Some(Integrator::Inextensible),
+            _ => None,
+        }
+    }
+}
+
+/// Opt-in physical effects. A disabled effect is not built at all (no cost).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Effects {
+    /// Axial stretching (explicit integrator only) and bending of the rod.
+    pub elasticity: bool,
+    /// Weight, −g ẑ.
+    pub gravity: bool,
+    /// Air drag (eqs 1-4) in the laydown zone 0 ≤ z ≤ z0.
+    pub drag: bool,
+    /// Spring-damper to the oscillating dummy point for nodes above z0 (eq 7).
+    pub oscillation: bool,
+    /// Unilateral contact with the belt plane z = 0.
+    pub contact: bool,
+    /// Coulomb friction against the moving belt (needs `contact`).
+    pub friction: bool,
+    /// Rayleigh mass damping α_R.
+    pub damping: bool,
+    /// Random initial x/y node offsets N(0, imperfection_std).
+    pub imperfections: bool,
+}
+
+impl Default for Effects {
+    fn default() -> Self {
+        Effects {
+            elasticity: true,
+            gravity: true,
+            drag: true,
+            oscillation: true,
+            contact: true,
+            friction: true,
+            damping: true,
+            imperfections: true,
+        }
+    }
+}
+
+impl Effects {
+    /// (name, doc) of every flag, for --help and schemas.
+    pub const FLAGS: [(&'static str, &'static str); 8] = [
+        ("elasticity", "axial stretching (explicit integrator) and bending EI of the rod"),
+        ("gravity", "weight of the fibre, -g along z"),
+        ("drag", "air drag of eqs 1-4 in the laydown zone 0 <= z <= laydown_height"),
+        ("oscillation", "spring-damper (eq 7) pulling nodes above laydown_height to (0, u0 sin wt)"),
+        ("contact", "no penetration of the belt plane z = 0"),
+        ("friction", "Coulomb stick/slip friction against the belt moving at belt_speed along +x"),
+        ("damping", "Rayleigh mass damping rayleigh_damping"),
+        ("imperfections", "initial x/y node offsets N(0, imperfection_std)"),
+    ];
+}
+
+/// Parameters of one laydown replicate. Coordinates: x = machine direction (belt moves
+/// along +x), y = cross direction (oscillation along y), z up, belt plane z = 0.
+/// (The paper's belt moves along its y axis.)
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LaydownParams {
+    /// Fibre length L (m).
+    pub length: f64,
+    /// Number of rod segments N (N + 1 nodes); may be raised by `coil_resolution`.
+    pub elements: usize,
+    /// Feed speed v_f of the fibre (m/s), downward.
+    pub fibre_speed: f64,
+    /// Belt speed v_belt along +x (m/s).
+    pub belt_speed: f64,
+    /// Coulomb friction coefficient μ fibre/belt.
+    pub friction_coefficient: f64,
+    /// Fibre diameter d (m).
+    pub diameter: f64,
+    /// Downward air speed V_air in the laydown zone (m/s).
+    pub air_speed: f64,
+    /// Oscillation amplitude u0 (m).
+    pub oscillation_amplitude: f64,
+    /// Oscillation frequency f (Hz), ω = 2πf (Table 1: ω = 62.8 rad/s → 10 Hz).
+    pub oscillation_frequency: f64,
+    /// Height z0 of the laydown zone (m).
+    pub laydown_height: f64,
+    /// Young's modulus E (Pa).
+    pub youngs_modulus: f64,
+    /// Fibre density ρ (kg/m³).
+    pub density: f64,
+    /// Poisson's ratio ν (only enters twist, which decouples; kept for provenance).
+    pub poisson_ratio: f64,
+    /// Air density ρ_a (kg/m³).
+    pub air_density: f64,
+    /// Air kinematic viscosity ν_a (m²/s).
+    pub air_kinematic_viscosity: f64,
+    /// β of the tangential skin-friction law C_t = β Re^-0.61 (eq 2).
+    pub tangential_drag_beta: f64,
+    /// Spring k of the oscillator (N/m per node, eq 7).
+    pub oscillation_stiffness: f64,
+    /// Damper c of the oscillator (N·s/m per node, eq 7).
+    pub oscillation_damping: f64,
+    /// Rayleigh mass damping α_R (1/s).
+    pub rayleigh_damping: f64,
+    /// Standard deviation of the initial x/y node imperfections (m).
+    pub imperfection_std: f64,
+    /// Gravitational acceleration g (m/s²).
+    pub gravity: f64,
+    /// Safety factor on the automatically chosen stable time step (≤ 1).
+    pub time_step_factor: f64,
+    /// Record energy diagnostics every this many steps.
+    pub diagnostic_stride: usize,
+    /// A landed node rising above this height later makes the replicate invalid (m).
+    pub bounce_tolerance: f64,
+    /// Penetration of the belt beyond this depth is a numerical failure (m).
+    pub penetration_tolerance: f64,
+    /// Minimum number of elements per inertial coil scale √(EI/ρAv_f²); 0 = use `elements` as given.
+    pub coil_resolution: f64,
+    /// Simulated time (s); 0 = until the top node reaches z0, (L − z0)/v_f.
+    pub duration: f64,
+    /// Time integration scheme.
+    pub integrator: Integrator,
+    /// Physical effects switched on.
+    pub effects: Effects,
+}
+
+impl Default for LaydownParams {
+    fn default() -> Self {
+        LaydownParams {
+            length: 1.0,
+            elements: 1000,
+            fibre_speed: 5.0,
+            belt_speed: 0.2,
+            friction_coefficient: 1.0,
+            diameter: 50e-6,
+            air_speed: 10.0,
+            oscillation_amplitude: 0.010,
+            oscillation_frequency: 10.0,
+            laydown_height: 0.05,
+            youngs_modulus: 2e9,
+            density: 950.0,
+            poisson_ratio: 0.3,
+            air_density: 1.2,
+            air_kinematic_viscosity: 1.51e-5,
+            tangential_drag_beta: 0.37,
+            oscillation_stiffness: 1.0,
+            oscillation_damping: 0.001,
+            rayleigh_damping: 0.01,
+            imperfection_std: 1e-6,
+            gravity: 9.81,
+            time_step_factor: 0.8,
+            diagnostic_stride: 1000,
+            bounce_tolerance: 1e-3,
+            penetration_tolerance: 1e-5,
+            coil_resolution: 2.0,
+            duration: 0.0,
+            integrator: Integrator::default(),
+            effects: Effects::default(),
+        }
+    }
+}
+
+/// Kind of a numeric parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    Real,
+    Integer,
+}
+
+/// One row of the parameter table.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub default: f64,
+    pub min: f64,
+    pub max: f64,
+    pub kind: ParamKind,
+    pub doc: &'static str,
+}
+
+const fn real(name: &'static str, unit: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
+    ParamSpec { name, unit, default, min, max, kind: ParamKind::Real, doc }
+}
+const fn int(name: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
+    ParamSpec { name, unit: "1", default, min, max, kind: ParamKind::Integer, doc }
+}
+
+/// Every numeric parameter with unit, default (Table 1 baseline), inclusive range and doc.
+/// The effect flags are in [`Effects::FLAGS`], the integrator names in [`Integrator::NAMES`].
+pub const PARAMETERS: &[ParamSpec] = &[
+    real("length", "m", 1.0, 1e-3, 100.0, "fibre length L"),
+    int("elements", 1000.0, 2.0, 1e6, "rod segments N (N+1 nodes), raised if coil_resolution asks for more"),
+    real("fibre_speed", "m/s", 5.0, 1e-3, 200.0, "feed speed v_f of the fibre, downward (Table 1: 5)"),
+    real("belt_speed", "m/s", 0.2, 0.0, 200.0, "belt speed along +x, machine direction (Table 1: 0.2)"),
+    real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1)"),
+    real("diameter", "m", 50e-6, 1e-7, 1e-2, "fibre diameter d (Table 1: 50 um)"),
+    real("air_speed", "m/s", 10.0, 0.0, 500.0, "downward air speed in the laydown zone (Table 1: 10)"),
+    real("oscillation_amplitude", "m", 0.010, 0.0, 1.0, "amplitude u0 of the imposed cross-direction oscillation (Table 1: 10 mm)"),
+    real("oscillation_frequency", "Hz", 10.0, 0.0, 1e4, "frequency f of the oscillation, omega = 2 pi f (Table 1: 62.8 rad/s)"),
+    real("laydown_height", "m", 0.05, 1e-4, 100.0, "height z0 of the laydown zone, below length"),
+    real("youngs_modulus", "Pa", 2e9, 1e3, 1e13, "Young's modulus E"),
+    real("density", "kg/m^3", 950.0, 1.0, 1e5, "fibre density rho"),
+    real("poisson_ratio", "1", 0.3, 0.0, 0.5, "Poisson's ratio (enters only twist, which decouples)"),
+    real("air_density", "kg/m^3", 1.2, 0.0, 100.0, "air density rho_a"),
+    real("air_kinematic_viscosity", "m^2/s", 1.51e-5, 1e-8, 1.0, "air kinematic viscosity nu_a in Re = V d / nu_a"),
+    real("tangential_drag_beta", "1", 0.37, 0.0, 10.0, "beta in C_t = beta Re^-0.61 (eq 2); 0.37 after Matsui (1976)"),
+    real("oscillation_stiffness", "N/m", 1.0, 0.0, 1e6, "spring k per node to the dummy point (eq 7)"),
+    real("oscillation_damping", "N s/m", 0.001, 0.0, 1e3, "damper c per node to the dummy point (eq 7)"),
+    real("rayleigh_damping", "1/s", 0.01, 0.0, 1e6, "Rayleigh mass damping alpha_R"),
+    real("imperfection_std", "m", 1e-6, 0.0, 1e-2, "std of the initial x/y node imperfections"),
+    real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
+    real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step"),
+    int("diagnostic_stride", 1000.0, 1.0, 1e9, "record energy diagnostics every this many steps"),
+    real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node later higher than this invalidates the replicate"),
+    real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
+    real("coil_resolution", "1", 2.0, 0.0, 100.0, "minimum elements per inertial coil scale sqrt(EI/(rho A v_f^2)); 0 = off"),
+    real("duration", "s", 0.0, 0.0, 1e3, "simulated time; 0 = until the top node reaches laydown_height"),
+];
+
+/// A parameter outside its allowed range, or an inconsistent combination.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("parameter `{name}` = {value} is outside its allowed range [{min}, {max}] {unit}")]
+    OutOfRange { name: &'static str, value: f64, min: f64, max: f64, unit: &'static str },
+    #[error("parameter `{name}` = {value} is not finite")]
+    NotFinite { name: &'static str, value: f64 },
+    #[error("unknown parameter `{0}`")]
+    Unknown(String),
+    #[error("{0}")]
+    Inconsistent(String),
+}
+
+impl LaydownParams {
+    /// Value of a numeric parameter by its table name.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        Some(match name {
+            "length" => self.length,
+            "elements" => self.elements as f64,
+            "fibre_speed" => self.fibre_speed,
+            "belt_speed" => self.belt_speed,
+            "friction_coefficient" => self.friction_coefficient,
+            "diameter" => self.diameter,
+            "air_speed" => self.air_speed,
+            "oscillation_amplitude" => self.oscillation_amplitude,
+            "oscillation_frequency" => self.oscillation_frequency,
+            "laydown_height" => self.laydown_height,
+            "youngs_modulus" => self.youngs_modulus,
+            "density" => self.density,
+            "poisson_ratio" => self.poisson_ratio,
+            "air_density" => self.air_density,
+            "air_kinematic_viscosity" => self.air_kinematic_viscosity,
+            "tangential_drag_beta" => self.tangential_drag_beta,
+            "oscillation_stiffness" => self.oscillation_stiffness,
+            "oscillation_damping" => self.oscillation_damping,
+            "rayleigh_damping" => self.rayleigh_damping,
+            "imperfection_std" => self.imperfection_std,
+            "gravity" => self.gravity,
+            "time_step_factor" => self.time_step_factor,
+            "diagnostic_stride" => self.diagnostic_stride as f64,
+            "bounce_tolerance" => self.bounce_tolerance,
+            "penetration_tolerance" => self.penetration_tolerance,
+            "coil_resolution" => self.coil_resolution,
+            "duration" => self.duration,
+            _ => return None,
+        })
+    }
+
+    /// Set a numeric parameter by its table name (range-checked).
+    pub fn set(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
+        let spec = PARAMETERS
+            .iter()
+            .find(|p| p.name == name)
+            .ok_or_else(|| ParamError::Unknown(name.to_string()))?;
+        check(spec, value)?;
+        let slot: &mut f64 = match name {
+            "elements" => {
+                self.elements = value as usize;
+                return Ok(());
+            }
+            "diagnostic_stride" => {
+                self.diagnostic_stride = value as usize;
+                return Ok(());
+            }
+            "length" => &mut self.length,
+            "fibre_speed" => &mut self.fibre_speed,
+            "belt_speed" => &mut self.belt_speed,
+            "friction_coefficient" => &mut self.friction_coefficient,
+            "diameter" => &mut self.diameter,
+            "air_speed" => &mut self.air_speed,
+            "oscillation_amplitude" => &mut self.oscillation_amplitude,
+            "oscillation_frequency" => &mut self.oscillation_frequency,
+            "laydown_height" => &mut self.laydown_height,
+            "youngs_modulus" => &mut self.youngs_modulus,
+            "density" => &mut self.density,
+            "poisson_ratio" => &mut self.poisson_ratio,
+            "air_density" => &mut self.air_density,
+            "air_kinematic_viscosity" => &mut self.air_kinematic_viscosity,
+            "tangential_drag_beta" => &mut self.tangential_drag_beta,
+            "oscillation_stiffness" => &mut self.oscillation_stiffness,
+            "oscillation_damping" => &mut self.oscillation_damping,
+            "rayleigh_damping" => &mut self.rayleigh_damping,
+            "imperfection_std" => &mut self.imperfection_std,
+            "gravity" => &mut self.gravity,
+            "time_step_factor" => &mut self.time_step_factor,
+            "bounce_tolerance" => &mut self.bounce_tolerance,
+            "penetration_tolerance" => &mut self.penetration_tolerance,
+            "coil_resolution" => &mut self.coil_resolution,
+            "duration" => &mut self.duration,
+            _ => return Err(ParamError::Unknown(name.to_string())),
+        };
+        *slot = value;
+        Ok(())
+    }
+
+    /// Check every parameter against [`PARAMETERS`] and the cross-constraints.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        for spec in PARAMETERS {
+            let value = self.get(spec.name).expect("table and get() agree");
+            check(spec, value)?;
+        }
+        if self.laydown_height >= self.length {
+            return Err(ParamError::Inconsistent(format!(
+                "laydown_height ({} m) must be below the fibre length ({} m)",
+                self.laydown_height, self.length
+            )));
+        }
+        Ok(())
+    }
+
+    /// Cross-section area A = πd²/4 (m²).
+    pub fn area(&self) -> f64 {
+        PI * self.diameter * self.diameter / 4.0
+    }
+    /// Axial stiffness EA (N).
+    pub fn axial_stiffness(&self) -> f64 {
+        self.youngs_modulus * self.area()
+    }
+    /// Bending stiffness EI, I = πd⁴/64 (N·m²).
+    pub fn bending_stiffness(&self) -> f64 {
+        self.youngs_modulus * PI * self.diameter.powi(4) / 64.0
+    }
+    /// Mass per unit length ρA (kg/m).
+    pub fn mass_per_length(&self) -> f64 {
+        self.density * self.area()
+    }
+    /// Angular frequency ω = 2πf of the oscillation (rad/s).
+    pub fn angular_frequency(&self) -> f64 {
+        2.0 * PI * self.oscillation_frequency
+    }
+    /// Inertial coil scale √(EI/(ρA v_f²)) (m): 3.6 mm at the baseline.
+    pub fn coil_scale(&self) -> f64 {
+        (self.bending_stiffness() / self.mass_per_length()).sqrt() / self.fibre_speed
+    }
+    /// Elements actually used: `elements`, raised so that the element length is at most
+    /// coil_scale / coil_resolution (when coil_resolution > 0).
+    pub fn resolved_elements(&self) -> usize {
+        if self.coil_resolution > 0.0 {
+            let needed = (self.length * self.coil_resolution / self.coil_scale()).ceil();
+            if needed.is_finite() && needed > self.elements as f64 {
+                return needed.min(1e7) as usize;
+            }
+        }
+        self.elements
+    }
+    /// Simulated time: `duration`, or (L − z0)/v_f when the top node reaches z0 (0.19 s baseline).
+    pub fn end_time(&self) -> f64 {
+        if self.duration > 0.0 {
+            self.duration
+        } else {
+            (self.length - self.laydown_height) / self.fibre_speed
+        }
+    }
+}
+
+fn check(spec: &ParamSpec, value: f64) -> Result<(), ParamError> {
+    if !value.is_finite() {
+        return Err(ParamError::NotFinite { name: spec.name, value });
+    }
+    if value < spec.min || value > spec.max {
+        return Err(ParamError::OutOfRange { name: spec.name, value, min: spec.min, max: spec.max, unit: spec.unit });
+    }
+    if spec.kind == ParamKind::Integer && value.fract() != 0.0 {
+        return Err(ParamError::Inconsistent(format!("parameter `{}` = {} must be an integer", spec.name, value)));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_matches_default_and_validates() {
+        let p = LaydownParams::default();
+        for spec in PARAMETERS {
+            assert_eq!(p.get(spec.name), Some(spec.default), "{}", spec.name);
+            assert!(spec.min <= spec.default && spec.default <= spec.max, "{}", spec.name);
+            let mut q = p.clone();
+            q.set(spec.name, spec.default).unwrap();
+            assert_eq!(q, p);
+        }
+        p.validate().unwrap();
+        assert!((p.end_time() - 0.19).abs() < 1e-12);
+        assert_eq!(p.resolved_elements(), 1000);
+    }
+
+    #[test]
+    fn validate_names_the_parameter() {
+        let mut p = LaydownParams::default();
+        p.diameter = -1.0;
+        let err = p.validate().unwrap_err().to_string();
+        assert!(err.contains("diameter") && err.contains("allowed range"), "{err}");
+        let mut p = LaydownParams::default();
+        p.laydown_height = 2.0;
+        assert!(p.validate().unwrap_err().to_string().contains("laydown_height"));
+        assert!(LaydownParams::default().set("nonsense", 1.0).is_err());
+    }
+}

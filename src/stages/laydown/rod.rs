@@ -1,0 +1,170 @@
+//! Discrete rod: node positions and velocities, lumped masses, rest lengths, and the
+//! per-step workspace (segment geometry, nodal forces, implicit matrices).
+
+/// State and constant properties of the discretised fibre.
+#[derive(Clone, Debug)]
+pub struct Rod {
+    /// Node positions (m), N + 1 nodes.
+    pub x: Vec<[f64; 3]>,
+    /// Node velocities (m/s).
+    pub v: Vec<[f64; 3]>,
+    /// Lumped node masses ρA·(Voronoi length) (kg): ends carry half an element.
+    pub mass: Vec<f64>,
+    /// Rest lengths of the N segments (m).
+    pub rest: Vec<f64>,
+    /// 1 / Voronoi rest length of each node (interior nodes; ends unused).
+    pub inv_voronoi: Vec<f64>,
+    /// EA (N).
+    pub axial_stiffness: f64,
+    /// EI (N·m²).
+    pub bending_stiffness: f64,
+}
+
+impl Rod {
+    /// Rod through `x` with rest lengths equal to `rest`.
+    pub fn new(x: Vec<[f64; 3]>, v: Vec<[f64; 3]>, rest: Vec<f64>, mass_per_length: f64, ea: f64, ei: f64) -> Self {
+        let n = x.len();
+        assert!(n >= 2 && v.len() == n && rest.len() == n - 1);
+        let mut mass = vec![0.0; n];
+        let mut inv_voronoi = vec![0.0; n];
+        for (k, l0) in rest.iter().enumerate() {
+            mass[k] += 0.5 * mass_per_length * l0;
+            mass[k + 1] += 0.5 * mass_per_length * l0;
+        }
+        for i in 1..n - 1 {
+            inv_voronoi[i] = 2.0 / (rest[i - 1] + rest[i]);
+        }
+        Rod { x, v, mass, rest, inv_voronoi, axial_stiffness: ea, bending_stiffness: ei }
+    }
+
+    pub fn nodes(&self) -> usize {
+        self.x.len()
+    }
+
+    pub fn kinetic_energy(&self) -> f64 {
+        self.v.iter().zip(&self.mass).map(|(v, m)| 0.5 * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])).sum()
+    }
+}
+
+/// Contact state of a node during one step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeContact {
+    Free,
+    /// On the belt, sliding (friction at its Coulomb limit) or frictionless.
+    Slide,
+    /// On the belt, moving with it.
+    Stick,
+}
+
+/// Scratch arrays reused every step (no allocation in the time loop).
+#[derive(Clone, Debug)]
+pub struct Workspace {
+    pub force: Vec<[f64; 3]>,
+    /// Symmetric nodal matrix m I + implicit terms, [xx, yy, zz, xy, xz, yz].
+    pub amat: Vec<[f64; 6]>,
+    pub rhs: Vec<[f64; 3]>,
+    /// Drag matrix G per node (for the drag work), zero when drag is off.
+    pub drag_g: Vec<[f64; 6]>,
+    /// Unit tangents and lengths of the segments at the current positions.
+    pub tangent: Vec<[f64; 3]>,
+    pub seg_len: Vec<f64>,
+    /// Effective inverse mass of each node for the constraint projection.
+    pub winv: Vec<[f64; 6]>,
+    pub x_old: Vec<[f64; 3]>,
+    pub contact: Vec<NodeContact>,
+    // tridiagonal solver buffers (one entry per segment)
+    pub seg_e: Vec<[f64; 3]>,
+    pub cons: Vec<f64>,
+    pub diag: Vec<f64>,
+    pub off: Vec<f64>,
+    pub cprime: Vec<f64>,
+    pub lambda: Vec<f64>,
+    pub lambda_acc: Vec<f64>,
+    pub we_prev: Vec<[f64; 3]>,
+    pub we_next: Vec<[f64; 3]>,
+}
+
+impl Workspace {
+    pub fn new(nodes: usize) -> Self {
+        let s = nodes - 1;
+        Workspace {
+            force: vec![[0.0; 3]; nodes],
+            amat: vec![[0.0; 6]; nodes],
+            rhs: vec![[0.0; 3]; nodes],
+            drag_g: vec![[0.0; 6]; nodes],
+            tangent: vec![[0.0; 3]; s],
+            seg_len: vec![0.0; s],
+            winv: vec![[0.0; 6]; nodes],
+            x_old: vec![[0.0; 3]; nodes],
+            contact: vec![NodeContact::Free; nodes],
+            seg_e: vec![[0.0; 3]; s],
+            cons: vec![0.0; s],
+            diag: vec![0.0; s],
+            off: vec![0.0; s],
+            cprime: vec![0.0; s],
+            lambda: vec![0.0; s],
+            lambda_acc: vec![0.0; s],
+            we_prev: vec![[0.0; 3]; nodes],
+            we_next: vec![[0.0; 3]; nodes],
+        }
+    }
+
+    /// Segment lengths and unit tangents of the rod's current positions.
+    pub fn update_geometry(&mut self, rod: &Rod) {
+        for k in 0..rod.rest.len() {
+            let (p, q) = (rod.x[k], rod.x[k + 1]);
+            let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+            let il = if l > 0.0 { 1.0 / l } else { 0.0 };
+            self.seg_len[k] = l;
+            self.tangent[k] = [e[0] * il, e[1] * il, e[2] * il];
+        }
+    }
+}
+
+/// Inverse of a symmetric 3×3 [xx, yy, zz, xy, xz, yz]; None if singular.
+#[inline]
+pub fn sym_inverse(a: &[f64; 6]) -> Option<[f64; 6]> {
+    let [xx, yy, zz, xy, xz, yz] = *a;
+    let c00 = yy * zz - yz * yz;
+    let c11 = xx * zz - xz * xz;
+    let c22 = xx * yy - xy * xy;
+    let c01 = xz * yz - xy * zz;
+    let c02 = xy * yz - xz * yy;
+    let c12 = xy * xz - xx * yz;
+    let det = xx * c00 + xy * c01 + xz * c02;
+    if !(det.abs() > 0.0) || !det.is_finite() {
+        return None;
+    }
+    let id = 1.0 / det;
+    Some([c00 * id, c11 * id, c22 * id, c01 * id, c02 * id, c12 * id])
+}
+
+/// Inverse of the x-y block of a symmetric 3×3, embedded with zero z row/column.
+#[inline]
+pub fn sym_inverse_xy(a: &[f64; 6]) -> Option<[f64; 6]> {
+    let det = a[0] * a[1] - a[3] * a[3];
+    if !(det.abs() > 0.0) || !det.is_finite() {
+        return None;
+    }
+    let id = 1.0 / det;
+    Some([a[1] * id, a[0] * id, 0.0, -a[3] * id, 0.0, 0.0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::laydown::effects::sym_mul;
+
+    #[test]
+    fn inverse_of_symmetric() {
+        let a = [3.0, 2.0, 4.0, 0.5, -0.3, 0.7];
+        let ai = sym_inverse(&a).unwrap();
+        for e in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
+            let r = sym_mul(&a, &sym_mul(&ai, &e));
+            for k in 0..3 {
+                assert!((r[k] - e[k]).abs() < 1e-14);
+            }
+        }
+    }
+}

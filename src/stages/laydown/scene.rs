@@ -1,0 +1,308 @@
+//! Building a replicate from the parameters, running it, and batches of replicates.
+
+use super::contact::BeltContact;
+use super::effects::{Drag, DragLaw, Oscillation, Term};
+use super::integrator::{stable_time_step, Simulator, Snapshot, Work};
+use super::metrics::{laid_polyline, shape_measures, LaydownResult};
+use super::params::{Integrator, LaydownParams};
+use super::rod::{Rod, Workspace};
+use crate::geometry::arc_length;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Initial configuration other than the paper's falling vertical fibre (used by the
+/// verification tests: cantilever, falling fibres).
+#[derive(Clone, Debug)]
+pub(crate) struct CustomStart {
+    pub positions: Vec<[f64; 3]>,
+    pub velocities: Vec<[f64; 3]>,
+    /// Drive the top (last) node at v_z = −fibre_speed.
+    pub driven_top: bool,
+    /// Number of leading nodes held fixed (2 = clamped end).
+    pub clamped: usize,
+}
+
+/// The paper's start: vertical fibre, bottom node on the belt, top at z = L, every node
+/// moving down at v_f, x/y imperfections drawn node by node (x then y) from `rng`.
+pub(crate) fn paper_start<R: Rng + ?Sized>(p: &LaydownParams, elements: usize, rng: &mut R) -> CustomStart {
+    let ds = p.length / elements as f64;
+    let mut positions: Vec<[f64; 3]> = (0..=elements).map(|i| [0.0, 0.0, i as f64 * ds]).collect();
+    if p.effects.imperfections && p.imperfection_std > 0.0 {
+        let normal = Normal::new(0.0, p.imperfection_std).expect("validated std");
+        for x in positions.iter_mut() {
+            x[0] = normal.sample(rng);
+            x[1] = normal.sample(rng);
+        }
+    }
+    positions[elements][2] = p.length;
+    CustomStart { velocities: vec![[0.0, 0.0, -p.fibre_speed]; elements + 1], positions, driven_top: true, clamped: 0 }
+}
+
+/// Assemble the simulator: only the enabled effects become terms.
+pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
+    let n = start.positions.len();
+    let rest: Vec<f64> = start.positions.windows(2).map(|w| crate::geometry::distance(&w[0], &w[1])).collect();
+    // The paper's rest length is L/N; the 1 µm imperfections change it by ~1e-9 relative.
+    let rest = if start.driven_top {
+        vec![p.length / (n - 1) as f64; n - 1]
+    } else {
+        rest
+    };
+    let ds = rest.iter().cloned().fold(f64::INFINITY, f64::min);
+    let e = &p.effects;
+    let mut terms = Vec::new();
+    if e.elasticity {
+        if p.integrator == Integrator::Explicit {
+            terms.push(Term::Axial);
+        }
+        terms.push(Term::Bending);
+    }
+    if e.gravity && p.gravity > 0.0 {
+        terms.push(Term::Gravity { g: p.gravity });
+    }
+    if e.drag {
+        terms.push(Term::Drag(Drag {
+            law: DragLaw::new(p.diameter, p.air_density, p.air_kinematic_viscosity, p.tangential_drag_beta),
+            air_velocity: [0.0, 0.0, -p.air_speed],
+            zone_top: p.laydown_height,
+        }));
+    }
+    if e.oscillation {
+        terms.push(Term::Oscillation(Oscillation {
+            amplitude: p.oscillation_amplitude,
+            angular_frequency: p.angular_frequency(),
+            stiffness: p.oscillation_stiffness,
+            damping: p.oscillation_damping,
+            zone_top: p.laydown_height,
+        }));
+    }
+    if e.damping && p.rayleigh_damping > 0.0 {
+        terms.push(Term::Damping { alpha: p.rayleigh_damping });
+    }
+    let contact = e.contact.then(|| BeltContact {
+        belt_speed: p.belt_speed,
+        friction: e.friction.then_some(p.friction_coefficient),
+    });
+    let osc_speed = if e.oscillation { p.angular_frequency() * p.oscillation_amplitude } else { 0.0 };
+    let feed = if start.driven_top { p.fibre_speed } else { 0.0 };
+    let belt = if e.contact { p.belt_speed } else { 0.0 };
+    let max_speed = feed.max(belt).max(osc_speed);
+    let limits = stable_time_step(
+        p.integrator,
+        ds,
+        p.youngs_modulus,
+        p.density,
+        p.mass_per_length(),
+        p.bending_stiffness(),
+        max_speed,
+        p.time_step_factor,
+        e.elasticity,
+    );
+    let v_ref = p.fibre_speed.max(p.air_speed).max(p.belt_speed).max(osc_speed).max(1.0);
+    let top_start_z = start.positions[n - 1][2];
+    let clamp_positions = start.positions[..start.clamped].to_vec();
+    let rod = Rod::new(start.positions, start.velocities, rest, p.mass_per_length(), p.axial_stiffness(), p.bending_stiffness());
+    Simulator {
+        ws: Workspace::new(n),
+        rod,
+        terms,
+        contact,
+        integrator: p.integrator,
+        dt: limits.chosen,
+        limits,
+        t: 0.0,
+        driven_top: start.driven_top.then_some(p.fibre_speed),
+        top_start_z,
+        clamped: (0..start.clamped).collect(),
+        clamp_positions,
+        work: Work::default(),
+        landing_time: vec![f64::NAN; n],
+        max_lift: vec![0.0; n],
+        max_penetration: 0.0,
+        penetration_tolerance: p.penetration_tolerance,
+        speed_limit: 50.0 * v_ref + 10.0,
+        steps: 0,
+        projection_residual: 0.0,
+        max_compression: 0.0,
+        segment_force: vec![0.0; n - 1],
+        projection_iterations: 0,
+        projection_calls: 0,
+        compliance: if p.integrator == Integrator::ImplicitAxial { 1.0 / p.axial_stiffness() } else { 0.0 },
+    }
+}
+
+/// Run one replicate of the laydown scene. Imperfections are drawn from `rng`
+/// (in practice a `ChaCha8Rng` per replicate, see [`replicate_rng`]).
+/// Never panics on bad input: errors are reported in [`LaydownResult::error`].
+pub fn simulate<R: Rng + ?Sized>(params: &LaydownParams, rng: &mut R) -> LaydownResult {
+    if let Err(e) = params.validate() {
+        return LaydownResult::failed(e.to_string());
+    }
+    let elements = params.resolved_elements();
+    let start = paper_start(params, elements, rng);
+    let mut sim = build(params, start);
+    let mut result = run(&mut sim, params, params.end_time());
+    if elements != params.elements {
+        result.warnings.push(format!(
+            "elements raised from {} to {} so that the element length is at most coil_scale/coil_resolution = {:.3e} m",
+            params.elements,
+            elements,
+            params.coil_scale() / params.coil_resolution
+        ));
+    }
+    result
+}
+
+/// Integrate `sim` up to `end_time` and assemble the result.
+pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> LaydownResult {
+    let clock = Instant::now();
+    let limits = sim.limits;
+    let stride = p.diagnostic_stride.max(1) as u64;
+    let mut diagnostics = vec![sim.energy_sample()];
+    let mut last_good = sim.rod.x.clone();
+    let mut error = None;
+    let mut rejected = 0u64;
+    let mut min_dt = f64::INFINITY;
+    if p.integrator == Integrator::Explicit {
+        // fixed step, rounded so that the run ends exactly at end_time
+        let steps = (end_time / sim.dt).ceil().max(1.0) as u64;
+        sim.dt = end_time / steps as f64;
+        min_dt = sim.dt;
+        for s in 1..=steps {
+            if let Err(f) = sim.step() {
+                error = Some(f.0);
+                break;
+            }
+            if s % stride == 0 || s == steps {
+                let sample = sim.energy_sample();
+                let worst = sim
+                    .rod
+                    .rest
+                    .iter()
+                    .zip(&sim.ws.seg_len)
+                    .map(|(l0, l)| ((l - l0) / l0).abs())
+                    .fold(0.0, f64::max);
+                if !(worst < 0.5) {
+                    error = Some(format!("axial strain {worst:.3e} at t = {:.6e} s: the explicit step blew up", sim.t));
+                    break;
+                }
+                diagnostics.push(sample);
+                last_good.copy_from_slice(&sim.rod.x);
+            }
+        }
+    } else {
+        // adaptive step: dt <= dt_stable, growth <= 25 % per step, dt <= 0.5/sigma with sigma
+        // the compressive-buckling growth rate of the last step; a failed step is retaken at dt/4.
+        let dt_max = limits.chosen;
+        let dt_min = dt_max * 1e-4;
+        let mut dt = dt_max * 0.01;
+        let mut snap = Snapshot::default();
+        let tol = end_time * 1e-12;
+        while sim.t < end_time - tol {
+            let this = dt.min(end_time - sim.t);
+            sim.dt = this;
+            sim.save(&mut snap);
+            match sim.step() {
+                Ok(()) => {
+                    min_dt = min_dt.min(this);
+                    let sigma = sim.buckling_rate(p.mass_per_length());
+                    let limit = if sigma > 0.0 { 0.5 / sigma } else { f64::INFINITY };
+                    dt = (1.25 * this.max(dt)).min(dt_max).min(limit).max(dt_min);
+                    if sim.steps % stride == 0 || sim.t >= end_time - tol {
+                        diagnostics.push(sim.energy_sample());
+                        last_good.copy_from_slice(&sim.rod.x);
+                    }
+                }
+                Err(f) => {
+                    sim.restore(&snap);
+                    rejected += 1;
+                    if this <= dt_min {
+                        error = Some(f.0);
+                        break;
+                    }
+                    dt = (this * 0.25).max(dt_min);
+                }
+            }
+        }
+        sim.dt = dt_max;
+    }
+    if std::env::var_os("LAYDOWN_DEBUG").is_some() {
+        eprintln!("projection calls {} iterations {} steps {}", sim.projection_calls, sim.projection_iterations, sim.steps);
+    }
+    if error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
+        sim.rod.x.copy_from_slice(&last_good);
+    }
+    let t_end = sim.t;
+    let laid = laid_polyline(&sim.rod.x, &sim.landing_time, None);
+    let laid_removed = laid_polyline(&sim.rod.x, &sim.landing_time, Some((p.belt_speed, t_end)));
+    let (s, e) = shape_measures(&laid);
+    let (sr, er) = shape_measures(&laid_removed);
+    let mut invalid_reason = error.clone();
+    let worst = sim
+            .max_lift
+            .iter()
+            .zip(&sim.landing_time)
+            .enumerate()
+            .filter(|(_, (_, t))| t.is_finite())
+            .map(|(i, (h, _))| (i, *h))
+            .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+    if invalid_reason.is_none() && worst.1 > p.bounce_tolerance {
+        invalid_reason = Some(format!(
+            "bounced: node {} rose {:.3e} m above the belt after landing (bounce_tolerance {:.3e} m)",
+            worst.0, worst.1, p.bounce_tolerance
+        ));
+    }
+    LaydownResult {
+        max_lift_after_landing: worst.1,
+        landed_nodes: laid.len(),
+        laid_length: arc_length(&laid),
+        positions: sim.rod.x.clone(),
+        landing_time: sim.landing_time.clone(),
+        valid: invalid_reason.is_none(),
+        invalid_reason,
+        radius_of_gyration: s,
+        bending_energy: e,
+        radius_of_gyration_belt_removed: sr,
+        bending_energy_belt_removed: er,
+        diagnostics,
+        steps: sim.steps,
+        time_step: sim.dt,
+        min_time_step: min_dt,
+        rejected_steps: rejected,
+        time_step_limits: Some(super::integrator::TimeStepLimits { chosen: sim.dt, ..limits }),
+        end_time: t_end,
+        elements: sim.rod.rest.len(),
+        max_penetration: sim.max_penetration,
+        max_constraint_error: sim.projection_residual,
+        wall_seconds: clock.elapsed().as_secs_f64(),
+        error,
+        warnings: Vec::new(),
+    }
+}
+
+/// The random stream of one replicate: ChaCha8 seeded with `seed`, stream `replicate`.
+/// Independent of thread count and order of execution.
+pub fn replicate_rng(seed: u64, replicate: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(replicate);
+    rng
+}
+
+/// One (parameter point, replicate) job.
+#[derive(Clone, Debug)]
+pub struct LaydownJob {
+    pub params: LaydownParams,
+    pub seed: u64,
+    pub replicate: u64,
+}
+
+/// Run jobs in parallel on the current rayon pool; results come back in job order and
+/// are identical for any number of threads (each job owns its RNG).
+pub fn run_jobs(jobs: &[LaydownJob]) -> Vec<LaydownResult> {
+    jobs.par_iter()
+        .map(|j| simulate(&j.params, &mut replicate_rng(j.seed, j.replicate)))
+        .collect()
+}

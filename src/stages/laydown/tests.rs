@@ -1,0 +1,540 @@
+//! Physics verification tests (run with `cargo test --release --lib stages::laydown`).
+use super::*;
+
+fn summary(r: &LaydownResult) -> String {
+    format!(
+        "err={:?} valid={} lift={:.2e} reason={:?} landed={} laid={:.4} S={:.5} e={:.1} S_rm={:.5} e_rm={:.1} steps={} rej={} dt={:.3e} mindt={:.2e} wall={:.2}s pen={:.2e} cons={:.1e}",
+        r.error, r.valid, r.max_lift_after_landing, r.invalid_reason, r.landed_nodes, r.laid_length, r.radius_of_gyration, r.bending_energy,
+        r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed, r.steps, r.rejected_steps, r.time_step, r.min_time_step, r.wall_seconds,
+        r.max_penetration, r.max_constraint_error
+    )
+}
+
+/// Manual: `cargo test --release --lib stages::laydown::tests::smoke -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn smoke() {
+    let integ = std::env::var("INTEG").unwrap_or("inextensible".into());
+    let n: usize = std::env::var("N").ok().and_then(|s| s.parse().ok()).unwrap_or(1000);
+    let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
+    let mut p = LaydownParams::default();
+    p.integrator = Integrator::from_name(&integ).unwrap();
+    p.elements = n;
+    p.coil_resolution = 0.0;
+    let r = simulate(&p, &mut replicate_rng(seed, 0));
+    println!("{}", summary(&r));
+    for d in r.diagnostics.iter().step_by((r.diagnostics.len() / 10).max(1)) {
+        println!("{:?}", d);
+    }
+}
+
+#[test]
+#[ignore]
+fn debug_start() {
+    let integ = std::env::var("INTEG").unwrap_or("implicit_axial".into());
+    let mut p = LaydownParams::default();
+    p.integrator = Integrator::from_name(&integ).unwrap();
+    p.coil_resolution = 0.0;
+    let mut rng = replicate_rng(1, 0);
+    let start = scene::paper_start(&p, 1000, &mut rng);
+    let mut sim = scene::build(&p, start);
+    let steps: usize = std::env::var("STEPS").ok().and_then(|s| s.parse().ok()).unwrap_or(150);
+    let every: usize = std::env::var("EVERY").ok().and_then(|s| s.parse().ok()).unwrap_or(30);
+    for s in 0..steps {
+        if let Err(e) = sim.step() {
+            println!("fail {:?}", e);
+            break;
+        }
+        if s % every == 0 {
+            println!("t={:.3e} contact={:?}", sim.t, &sim.ws.contact[..12].iter().map(|c| *c as u8).collect::<Vec<_>>());
+            for i in (0..60).step_by(4) {
+                let x = sim.rod.x[i];
+                let v = sim.rod.v[i];
+                println!("  {i:3} x=({:+.3e},{:+.3e},{:.5e}) v=({:+.2e},{:+.2e},{:+.2e})", x[0], x[1], x[2], v[0], v[1], v[2]);
+            }
+        }
+    }
+}
+
+/// Manual ensemble runner: INTEG, SEEDS (count), SET="name=value,..." overrides, THREADS.
+/// `cargo test --release --lib stages::laydown::tests::ensemble -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn ensemble() {
+    let mut p = LaydownParams::default();
+    if let Ok(i) = std::env::var("INTEG") {
+        p.integrator = Integrator::from_name(&i).unwrap();
+    }
+    if let Ok(set) = std::env::var("SET") {
+        for kv in set.split(',').filter(|s| !s.is_empty()) {
+            let (k, v) = kv.split_once('=').unwrap();
+            p.set(k, v.parse().unwrap()).unwrap();
+        }
+    }
+    let seeds: u64 = std::env::var("SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(4);
+    let threads: usize = std::env::var("THREADS").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
+    let jobs: Vec<LaydownJob> = (0..seeds).map(|r| LaydownJob { params: p.clone(), seed: 2024, replicate: r }).collect();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let t0 = std::time::Instant::now();
+    let res = pool.install(|| run_jobs(&jobs));
+    let wall = t0.elapsed().as_secs_f64();
+    let mut acc = [Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+    for r in &res {
+        println!("{}", summary(r));
+        if r.error.is_none() {
+            acc[0].push(r.radius_of_gyration);
+            acc[1].push(r.bending_energy);
+            acc[2].push(r.radius_of_gyration_belt_removed);
+            acc[3].push(r.bending_energy_belt_removed);
+        }
+    }
+    let ms = |v: &Vec<f64>| {
+        let n = v.len() as f64;
+        let m = v.iter().sum::<f64>() / n;
+        let sd = (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+        (m, sd / n.sqrt())
+    };
+    let (s, se) = ms(&acc[0]);
+    let (e, ee) = ms(&acc[1]);
+    let (sr, sre) = ms(&acc[2]);
+    let (er, ere) = ms(&acc[3]);
+    let valid = res.iter().filter(|r| r.valid).count();
+    println!(
+        "ENSEMBLE {} n={} valid={} S={:.5}±{:.5} e={:.0}±{:.0} S_rm={:.5}±{:.5} e_rm={:.0}±{:.0} wall={:.1}s",
+        p.integrator.name(), acc[0].len(), valid, s, se, e, ee, sr, sre, er, ere, wall
+    );
+}
+
+// ---------------------------------------------------------------- helpers
+
+use super::integrator::Simulator;
+use super::scene::{build, CustomStart};
+use crate::geometry::{bending_energy, radius_of_gyration};
+use std::f64::consts::PI;
+
+/// Parameters with every effect off except those listed.
+fn only(effects: &[&str]) -> LaydownParams {
+    let mut p = LaydownParams::default();
+    p.effects = Effects {
+        elasticity: false,
+        gravity: false,
+        drag: false,
+        oscillation: false,
+        contact: false,
+        friction: false,
+        damping: false,
+        imperfections: false,
+    };
+    for e in effects {
+        match *e {
+            "elasticity" => p.effects.elasticity = true,
+            "gravity" => p.effects.gravity = true,
+            "drag" => p.effects.drag = true,
+            "oscillation" => p.effects.oscillation = true,
+            "contact" => p.effects.contact = true,
+            "friction" => p.effects.friction = true,
+            "damping" => p.effects.damping = true,
+            "imperfections" => p.effects.imperfections = true,
+            _ => panic!("unknown effect {e}"),
+        }
+    }
+    p
+}
+
+/// A straight fibre of `n` segments of length `ds` from `origin` along `dir`, at rest.
+fn straight(origin: [f64; 3], dir: [f64; 3], n: usize, ds: f64) -> CustomStart {
+    let positions = (0..=n).map(|i| {
+        let s = i as f64 * ds;
+        [origin[0] + s * dir[0], origin[1] + s * dir[1], origin[2] + s * dir[2]]
+    });
+    CustomStart { positions: positions.collect(), velocities: vec![[0.0; 3]; n + 1], driven_top: false, clamped: 0 }
+}
+
+/// Step `sim` with its stable step for `duration`, calling `f` after each step.
+fn advance(sim: &mut Simulator, duration: f64, mut f: impl FnMut(&Simulator)) {
+    let steps = (duration / sim.limits.chosen).ceil() as usize;
+    sim.dt = duration / steps as f64;
+    for _ in 0..steps {
+        sim.step().expect("stable step");
+        f(sim);
+    }
+}
+
+// ---------------------------------------------------------------- metrics
+
+#[test]
+fn metrics_straight_circle_arc() {
+    let n = 1000;
+    let line: Vec<[f64; 3]> = (0..=n).map(|i| [i as f64 / n as f64, 0.0, 0.0]).collect();
+    assert!((radius_of_gyration(&line) - 1.0 / 12f64.sqrt()).abs() < 1e-3);
+    assert_eq!(bending_energy(&line), 0.0);
+    let circle = |turn: f64| -> Vec<[f64; 3]> {
+        let r = 1.0 / turn;
+        (0..=n).map(|i| {
+            let a = turn * i as f64 / n as f64;
+            [r * a.sin(), r * (1.0 - a.cos()), 0.0]
+        })
+        .collect()
+    };
+    let c = circle(2.0 * PI);
+    assert!((bending_energy(&c) - 2.0 * PI * PI).abs() / (2.0 * PI * PI) < 2e-3);
+    assert!((radius_of_gyration(&c[..n]) - 1.0 / (2.0 * PI)).abs() < 1e-9);
+    for theta in [0.5, 2.0] {
+        assert!((bending_energy(&circle(theta)) - theta * theta / 2.0).abs() < 2e-3 * theta * theta);
+    }
+    // laid_polyline keeps only landed nodes and removes the belt motion
+    let pos = vec![[1.0, 2.0, 0.0], [3.0, 4.0, 0.5], [5.0, 6.0, 0.0]];
+    let lt = vec![0.1, f64::NAN, 0.3];
+    let laid = laid_polyline(&pos, &lt, Some((2.0, 0.5)));
+    assert_eq!(laid, vec![[1.0 - 0.8, 2.0, 0.0], [5.0 - 0.4, 6.0, 0.0]]);
+}
+
+// ---------------------------------------------------------------- cantilever
+
+/// Clamped horizontal cantilever of length L: nodes 0 (ghost, x = −Δs) and 1 (x = 0)
+/// held; the clamp node's Voronoi cell is halved so the flexible beam starts at x = 0.
+fn cantilever(d: f64, n: usize, integrator: Integrator) -> (LaydownParams, Simulator) {
+    let l = 0.010;
+    let ds = l / n as f64;
+    let mut p = only(&["elasticity", "gravity"]);
+    p.diameter = d;
+    p.integrator = integrator;
+    let mut start = straight([-ds, 0.0, 1.0], [1.0, 0.0, 0.0], n + 1, ds);
+    start.clamped = 2;
+    let mut sim = build(&p, start);
+    sim.rod.inv_voronoi[1] *= 2.0;
+    (p, sim)
+}
+
+fn cantilever_check(d: f64, sag_ref: f64, f1_ref: f64, integrator: Integrator) {
+    let (p, mut sim) = cantilever(d, 40, integrator);
+    let l: f64 = 0.010;
+    let q = p.mass_per_length() * p.gravity;
+    let sag = q * l.powi(4) / (8.0 * p.bending_stiffness());
+    let f1 = 1.8751f64.powi(2) / (2.0 * PI) * (p.bending_stiffness() / p.mass_per_length()).sqrt() / (l * l);
+    assert!((sag - sag_ref).abs() / sag_ref < 0.01, "analytic sag {sag}");
+    assert!((f1 - f1_ref).abs() / f1_ref < 0.01, "analytic f1 {f1}");
+    // Released straight at rest: the tip oscillates about the static sag at f1.
+    let tip = sim.rod.nodes() - 1;
+    let z0 = sim.rod.x[tip][2];
+    let mut hist: Vec<(f64, f64)> = Vec::new();
+    advance(&mut sim, 4.2 / f1, |s| hist.push((s.t, z0 - s.rod.x[tip][2])));
+    let mean_of = |h: &[(f64, f64)]| h.iter().map(|x| x.1).sum::<f64>() / h.len() as f64;
+    let crossings = |h: &[(f64, f64)], m: f64| -> Vec<f64> {
+        h.windows(2)
+            .filter(|w| w[0].1 < m && w[1].1 >= m)
+            .map(|w| w[0].0 + (m - w[0].1) / (w[1].1 - w[0].1) * (w[1].0 - w[0].0))
+            .collect()
+    };
+    let mut mean = mean_of(&hist);
+    let mut c = crossings(&hist, mean);
+    for _ in 0..3 {
+        let (a, b) = (c[0], *c.last().unwrap());
+        let window: Vec<_> = hist.iter().cloned().filter(|x| x.0 >= a && x.0 < b).collect();
+        mean = mean_of(&window);
+        c = crossings(&hist, mean);
+    }
+    let period = (c.last().unwrap() - c[0]) / (c.len() - 1) as f64;
+    let f_sim = 1.0 / period;
+    println!("d={d:e} {integrator:?}: sag {mean:.5e} (beam {sag:.5e}), f1 {f_sim:.3} Hz (beam {f1:.3})");
+    assert!((mean - sag).abs() / sag < 0.01, "sag {mean} vs {sag}");
+    assert!((f_sim - f1).abs() / f1 < 0.01, "f1 {f_sim} vs {f1}");
+}
+
+#[test]
+fn cantilever_20um() {
+    cantilever_check(20e-6, 0.233e-3, 40.6, Integrator::ImplicitAxial);
+    cantilever_check(20e-6, 0.233e-3, 40.6, Integrator::Explicit);
+}
+
+#[test]
+fn cantilever_50um() {
+    cantilever_check(50e-6, 0.037e-3, 101.5, Integrator::ImplicitAxial);
+    cantilever_check(50e-6, 0.037e-3, 101.5, Integrator::Explicit);
+}
+
+// ---------------------------------------------------------------- drag
+
+fn falling(d: f64, dir: [f64; 3], integrator: Integrator, duration: f64) -> (LaydownParams, f64) {
+    let mut p = only(&["elasticity", "gravity", "drag"]);
+    p.diameter = d;
+    p.air_speed = 0.0;
+    p.laydown_height = 50.0;
+    p.length = 100.0;
+    p.integrator = integrator;
+    let start = straight([0.0, 0.0, 20.0], dir, 20, 1e-3);
+    let mut sim = build(&p, start);
+    advance(&mut sim, duration, |_| {});
+    let vz = sim.rod.v.iter().map(|v| v[2]).sum::<f64>() / sim.rod.nodes() as f64;
+    for v in &sim.rod.v {
+        assert!((v[2] - vz).abs() < 1e-6 * vz.abs(), "the fibre should fall rigidly");
+    }
+    (p, -vz)
+}
+
+#[test]
+fn drag_terminal_velocity_normal() {
+    for (d, reference) in [(20e-6, 0.180), (50e-6, 0.330)] {
+        let (p, v) = falling(d, [1.0, 0.0, 0.0], Integrator::ImplicitAxial, 0.4);
+        let law = effects::DragLaw::new(d, p.air_density, p.air_kinematic_viscosity, p.tangential_drag_beta);
+        let analytic = law.normal_terminal_speed(p.mass_per_length() * p.gravity);
+        println!("horizontal d={d:e}: {v:.5} m/s, analytic {analytic:.5}, reference {reference}");
+        assert!((v - analytic).abs() / analytic < 1e-3, "{v} vs {analytic}");
+        assert!((v - reference).abs() / reference < 0.02, "{v} vs {reference}");
+    }
+}
+
+#[test]
+fn drag_terminal_velocity_tangential() {
+    for d in [20e-6, 50e-6] {
+        let (p, v) = falling(d, [0.0, 0.0, 1.0], Integrator::ImplicitAxial, 2.0);
+        // eqs 1-2: ½ π d ρ_a β (V d/ν)^-0.61 V² = ρ A g  ⇒  V = (ρAg / (½ π d ρ_a β (d/ν)^-0.61))^(1/1.39)
+        let k = 0.5 * PI * d * p.air_density * p.tangential_drag_beta * (d / p.air_kinematic_viscosity).powf(-0.61);
+        let analytic = (p.mass_per_length() * p.gravity / k).powf(1.0 / 1.39);
+        println!("vertical d={d:e}: {v:.5} m/s, analytic {analytic:.5}");
+        assert!((v - analytic).abs() / analytic < 2e-3, "{v} vs {analytic}");
+    }
+}
+
+// ---------------------------------------------------------------- friction
+
+/// A short fibre (along y) lying on the belt, pressed down by gravity (and by the
+/// air when `air`), thrown along +x at 1 m/s; returns the velocities after 20 ms.
+fn sliding(mu: f64, air: bool, integrator: Integrator) -> (LaydownParams, Vec<[f64; 3]>) {
+    let mut p = only(&["elasticity", "gravity", "contact", "friction"]);
+    p.effects.drag = air;
+    p.friction_coefficient = mu;
+    p.belt_speed = 0.2;
+    p.integrator = integrator;
+    let mut start = straight([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 20, 1e-3);
+    start.velocities = vec![[1.0, 0.0, 0.0]; 21];
+    let mut sim = build(&p, start);
+    advance(&mut sim, 0.02, |s| {
+        for x in &s.rod.x {
+            assert!(x[2] >= 0.0 && x[2] < 1e-9, "node left the belt: z = {}", x[2]);
+        }
+    });
+    (p, sim.rod.v.clone())
+}
+
+#[test]
+fn friction_stick_and_slip() {
+    for integ in [Integrator::Explicit, Integrator::ImplicitAxial] {
+        // high mu, pressed by the air: every node moves exactly with the belt
+        let (p, v) = sliding(5.0, true, integ);
+        for v in &v {
+            assert_eq!(v[0], p.belt_speed, "high mu: a landed node moves exactly with the belt");
+            assert_eq!(v[1], 0.0);
+        }
+        // mu = 0: the fibre keeps sliding at 1 m/s
+        let (_, v) = sliding(0.0, false, integ);
+        for v in &v {
+            assert!((v[0] - 1.0).abs() < 1e-9, "mu = 0: the node keeps sliding, v_x = {}", v[0]);
+        }
+        // moderate mu under its weight: Coulomb slip decelerates at mu g
+        let (p, v) = sliding(0.05, false, integ);
+        let expected = 1.0 - 0.05 * p.gravity * 0.02;
+        for v in &v {
+            assert!((v[0] - expected).abs() < 1e-3 * (1.0 - expected), "v_x = {} vs {expected}", v[0]);
+        }
+    }
+}
+#[test]
+#[ignore]
+fn debug_friction() {
+    let mut p = only(&["elasticity", "gravity", "contact", "friction", "drag"]);
+    p.friction_coefficient = 5.0;
+    p.integrator = Integrator::Explicit;
+    let mut start = straight([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 20, 1e-3);
+    start.velocities = vec![[1.0, 0.0, 0.0]; 21];
+    let mut sim = build(&p, start);
+    advance(&mut sim, 0.02, |_| {});
+    for i in 0..21 {
+        println!("{i} {:?} {:?} {:?}", sim.ws.contact[i], sim.rod.x[i], sim.rod.v[i]);
+    }
+}
+
+// ---------------------------------------------------------------- whole replicates
+
+/// Reduced Table 1 scene: 0.3 m of fibre, 300 elements, 0.05 s, 0.25 m laid.
+fn reduced() -> LaydownParams {
+    let mut p = LaydownParams::default();
+    p.length = 0.3;
+    p.elements = 300;
+    p
+}
+
+fn bits(r: &LaydownResult) -> String {
+    format!("{:?}", r.clone().without_wall_time())
+}
+
+#[test]
+fn determinism_seed_and_threads() {
+    let mut p = reduced();
+    p.length = 0.15;
+    p.elements = 150;
+    let jobs: Vec<LaydownJob> = (0..4).map(|r| LaydownJob { params: p.clone(), seed: 7, replicate: r }).collect();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| run_jobs(&jobs));
+    let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| run_jobs(&jobs));
+    for (a, b) in one.iter().zip(&two) {
+        assert!(a.error.is_none(), "{:?}", a.error);
+        assert_eq!(bits(a), bits(b), "1 vs 2 threads");
+    }
+    // same seed and stream, sequential call: bit-identical; another stream differs
+    let again = simulate(&p, &mut replicate_rng(7, 2));
+    assert_eq!(bits(&again), bits(&one[2]));
+    assert_ne!(one[0].positions, one[1].positions);
+}
+
+#[test]
+fn disabled_imperfections_leave_the_rng_alone_and_the_fibre_straight_in_x() {
+    let mut p = reduced();
+    p.length = 0.1;
+    p.elements = 100;
+    p.effects.imperfections = false;
+    p.oscillation_amplitude = 0.0;
+    let r = simulate(&p, &mut replicate_rng(1, 0));
+    assert!(r.error.is_none());
+    // with no perturbation in x and the oscillation along y only, nothing breaks the x symmetry
+    assert!(r.positions.iter().all(|x| x[0].is_finite()));
+}
+
+fn check_replicate(name: &str, r: &LaydownResult, p: &LaydownParams) {
+    println!("{name}: {}", summary(r));
+    assert!(!r.positions.is_empty());
+    for x in &r.positions {
+        assert!(x.iter().all(|c| c.is_finite()), "{name}: non-finite position");
+        assert!(x[2] >= -p.penetration_tolerance, "{name}: penetration {}", x[2]);
+        assert!(x[0].abs() < 10.0 && x[1].abs() < 10.0 && x[2] < 2.0 * p.length, "{name}: unbounded {x:?}");
+    }
+    for v in [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed] {
+        assert!(v.is_finite() && v >= 0.0, "{name}: metric {v}");
+    }
+    assert!(r.diagnostics.iter().all(|d| d.kinetic.is_finite() && d.elastic.is_finite()));
+    match &r.error {
+        None => assert!(r.landed_nodes > 10, "{name}: only {} nodes landed", r.landed_nodes),
+        Some(e) => assert!(!e.is_empty()),
+    }
+}
+
+#[test]
+fn hard_cases_stay_stable() {
+    let cases: Vec<(&str, Box<dyn Fn(&mut LaydownParams)>)> = vec![
+        ("fibre_speed 50", Box::new(|p| p.fibre_speed = 50.0)),
+        ("mu 0", Box::new(|p| p.friction_coefficient = 0.0)),
+        ("mu 5", Box::new(|p| p.friction_coefficient = 5.0)),
+        ("d 5 um", Box::new(|p| p.diameter = 5e-6)),
+        ("d 200 um", Box::new(|p| p.diameter = 200e-6)),
+        ("air 0", Box::new(|p| p.air_speed = 0.0)),
+        ("air 50", Box::new(|p| p.air_speed = 50.0)),
+        ("u0 100 mm", Box::new(|p| p.oscillation_amplitude = 0.1)),
+        ("f 200 Hz", Box::new(|p| p.oscillation_frequency = 200.0)),
+        ("belt 0", Box::new(|p| p.belt_speed = 0.0)),
+        ("belt 2 v_f", Box::new(|p| p.belt_speed = 2.0 * p.fibre_speed)),
+    ];
+    for (name, set) in cases {
+        let mut p = reduced();
+        p.length = 0.15;
+        p.elements = 150;
+        set(&mut p);
+        let r = simulate(&p, &mut replicate_rng(3, 0));
+        check_replicate(name, &r, &p);
+        assert!(r.error.is_none(), "{name}: {:?}", r.error);
+    }
+}
+
+#[test]
+fn explicit_reference_hard_case_fails_clearly_or_runs() {
+    // An explicit step far above its limit must end with a clear error, not NaN or a panic.
+    let mut p = reduced();
+    p.length = 0.1;
+    p.elements = 100;
+    p.integrator = Integrator::Explicit;
+    p.time_step_factor = 1.0;
+    let mut sim = build(&p, scene::paper_start(&p, 100, &mut replicate_rng(1, 0)));
+    sim.dt *= 20.0;
+    sim.limits.chosen = sim.dt;
+    let r = scene::run(&mut sim, &p, 0.01);
+    assert!(r.error.is_some(), "expected a blow-up");
+    println!("{:?}", r.error);
+    assert!(r.positions.iter().all(|x| x.iter().all(|c| c.is_finite())));
+    assert!(!r.valid);
+    // bad parameters: clear error naming the parameter
+    let mut q = LaydownParams::default();
+    q.friction_coefficient = -1.0;
+    let r = simulate(&q, &mut replicate_rng(1, 0));
+    assert!(r.error.as_deref().unwrap().contains("friction_coefficient"));
+}
+
+fn mean_metrics(p: &LaydownParams, n: u64) -> [f64; 4] {
+    let jobs: Vec<LaydownJob> = (0..n).map(|r| LaydownJob { params: p.clone(), seed: 11, replicate: r }).collect();
+    let res = run_jobs(&jobs);
+    let mut m = [0.0; 4];
+    let mut k = 0.0;
+    for r in res.iter().filter(|r| r.error.is_none()) {
+        m[0] += r.radius_of_gyration;
+        m[1] += r.bending_energy;
+        m[2] += r.radius_of_gyration_belt_removed;
+        m[3] += r.bending_energy_belt_removed;
+        k += 1.0;
+    }
+    assert!(k >= n as f64 - 1.0, "too many failed replicates");
+    m.map(|x| x / k)
+}
+
+#[test]
+fn paper_trends() {
+    let n = 4;
+    let with = |f: &dyn Fn(&mut LaydownParams)| {
+        let mut p = reduced();
+        f(&mut p);
+        mean_metrics(&p, n)
+    };
+    // friction: S falls, e rises with mu (Figs 5a, 6a)
+    let lo = with(&|p| p.friction_coefficient = 0.1);
+    let hi = with(&|p| p.friction_coefficient = 3.0);
+    println!("mu 0.1 {lo:?}\nmu 3 {hi:?}");
+    assert!(lo[0] > hi[0] * 1.05, "S(mu): {} vs {}", lo[0], hi[0]);
+    assert!(lo[1] < hi[1] * 0.8, "e(mu): {} vs {}", lo[1], hi[1]);
+    // diameter: S grows with d (Fig 5b), e falls (Fig 6b)
+    let thin = with(&|p| p.diameter = 30e-6);
+    let thick = with(&|p| p.diameter = 80e-6);
+    println!("d 30 {thin:?}\nd 80 {thick:?}");
+    assert!(thick[0] > 1.3 * thin[0], "S(d): {} vs {}", thin[0], thick[0]);
+    assert!(thick[1] < thin[1], "e(d): {} vs {}", thin[1], thick[1]);
+    // belt speed: raw S grows, with the belt motion removed S and e hardly change (Figs 5d, 6d)
+    let slow = with(&|p| p.belt_speed = 0.05);
+    let fast = with(&|p| p.belt_speed = 0.5);
+    println!("belt 0.05 {slow:?}\nbelt 0.5 {fast:?}");
+    assert!(fast[0] > slow[0] * 1.08, "raw S grows with belt speed");
+    assert!((fast[2] - slow[2]).abs() < 0.1 * slow[2], "S_removed: {} vs {}", slow[2], fast[2]);
+    // e with the belt removed is noisier: nodes laid out of order during the start-up
+    // impact get kinked by the subtraction (see the module docs); only a loose check.
+    assert!(fast[3] < 2.0 * slow[3] && fast[3] > 0.5 * slow[3], "e_removed: {} vs {}", slow[3], fast[3]);
+}
+
+#[test]
+#[ignore]
+fn debug_removed() {
+    let mut p = reduced();
+    p.belt_speed = 0.5;
+    for rep in 0..3 {
+        let r = simulate(&p, &mut replicate_rng(2024, rep));
+        let laid = laid_polyline(&r.positions, &r.landing_time, Some((p.belt_speed, r.end_time)));
+        let idx: Vec<usize> = (0..r.positions.len()).filter(|&i| r.landing_time[i].is_finite()).collect();
+        let mut contrib: Vec<(f64, usize, f64, f64)> = Vec::new();
+        for k in 1..laid.len() - 1 {
+            let a = crate::geometry::sub(&laid[k], &laid[k - 1]);
+            let b = crate::geometry::sub(&laid[k + 1], &laid[k]);
+            let phi = crate::geometry::turning_angle(&a, &b);
+            let v = 0.5 * (crate::geometry::norm(&a) + crate::geometry::norm(&b));
+            contrib.push((phi * phi / v, idx[k], crate::geometry::norm(&a), r.landing_time[idx[k]]));
+        }
+        let total: f64 = contrib.iter().map(|c| c.0).sum();
+        contrib.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap());
+        println!("rep {rep} e_rm {} total {total}", r.bending_energy_belt_removed);
+        for c in contrib.iter().take(8) {
+            println!("   node {} share {:.3} seg {:.2e} t_land {:.4}", c.1, c.0 / total, c.2, c.3);
+        }
+    }
+}

@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use rustfft::{Fft, FftPlanner};
 
-use super::trig::sin_cos;
+use super::trig::{sin_cos, sin_cos_slices};
 use super::{SpectrumSelection, WebError, WebParams};
 use crate::stages::spectra::{check_compatible, CurvatureSpectrum};
 
@@ -82,6 +82,9 @@ pub struct FibreScratch {
     curvature: Vec<f64>,
     spectrum: Vec<Complex64>,
     fft: Vec<Complex64>,
+    theta: Vec<f64>,
+    sin: Vec<f64>,
+    cos: Vec<f64>,
 }
 
 /// A web definition: parameters plus the spectrum set, ready to generate any fibre
@@ -208,20 +211,28 @@ impl Web {
         let closing = kappa[total - self.points]; // last segment's κ_0 (periodic close)
         let half_ds = 0.5 * self.spacing();
         let drift_ds = self.params.belt_speed_ratio * self.spacing();
+        // Three passes so the sin/cos loop vectorises: θ (eq 13), (sin θ, cos θ), nodes.
+        let theta = &mut scratch.theta;
+        theta.resize(total + 1, 0.0);
+        let mut t = theta_start;
+        theta[0] = t;
+        for k in 0..total - 1 {
+            t += (kappa[k] + kappa[k + 1]) * half_ds; // eq 13
+            theta[k + 1] = t;
+        }
+        theta[total] = t + (kappa[total - 1] + closing) * half_ds;
+        scratch.sin.resize(total + 1, 0.0);
+        scratch.cos.resize(total + 1, 0.0);
+        sin_cos_slices(theta, &mut scratch.sin, &mut scratch.cos);
+        let (sin, cos) = (&scratch.sin[..], &scratch.cos[..]);
         nodes.clear();
-        nodes.reserve(total + 1);
+        nodes.resize(total + 1, [0.0; 2]);
         let mut p = [0.0, self.params.start_y(fibre)];
-        let mut theta = theta_start;
-        let (mut s0, mut c0) = sin_cos(theta);
-        nodes.push(p);
-        for k in 0..total {
-            let next = if k + 1 < total { kappa[k + 1] } else { closing };
-            theta += (kappa[k] + next) * half_ds; // eq 13
-            let (s1, c1) = sin_cos(theta);
-            p[0] += (c0 + c1) * half_ds + drift_ds; // eq 14
-            p[1] += (s0 + s1) * half_ds;
-            nodes.push(p);
-            (s0, c0) = (s1, c1);
+        nodes[0] = p;
+        for (((out, c), s), (c1, s1)) in nodes[1..].iter_mut().zip(cos).zip(sin).zip(cos[1..].iter().zip(&sin[1..])) {
+            p[0] += (c + c1) * half_ds + drift_ds; // eqs 13-14
+            p[1] += (s + s1) * half_ds;
+            *out = p;
         }
     }
 

@@ -1,10 +1,10 @@
 //! Timing and results of web generation + density grid (no file I/O).
 //!
-//! cargo run --release --example web_grid -- [preset] [c] [n_w] [n_l] [N] [deposit] [realisations] [threads] [margin]
-//! defaults:                                  spectrum1 0.05 1500 100 1000 point_mass 1 2 3
+//! cargo run --release --example web_grid -- [preset] [c] [n_w] [n_l] [N] [deposit] [realisations] [threads] [margin] [boundary]
+//! defaults:                                  spectrum1 0.05 1500 100 1000 point_mass 1 2 3 open
 use std::time::Instant;
 
-use laydown::stages::grid::{grid_realisation, Deposit, GridParams};
+use laydown::stages::grid::{grid_realisation, Boundary, Deposit, GridParams};
 use laydown::stages::spectra::SquareWaveParams;
 use laydown::stages::web::{Web, WebParams};
 
@@ -20,6 +20,8 @@ fn main() {
     let realisations: u32 = arg(6, "1").parse().unwrap();
     let threads: usize = arg(7, "2").parse().unwrap();
     let margin: f64 = arg(8, "3").parse().unwrap();
+    let boundary = Boundary::from_name(&arg(9, "open")).expect("boundary");
+    let window_side: f64 = arg(10, "0.5").parse().unwrap();
     rayon::ThreadPoolBuilder::new().num_threads(threads).build_global().unwrap();
 
     let spectrum = SquareWaveParams { points_per_segment: n, ..SquareWaveParams::preset(&preset).expect("preset") }
@@ -30,8 +32,8 @@ fn main() {
         vec![spectrum],
     )
     .unwrap();
-    let grid = GridParams { deposit, edge_margin_spreads: margin, ..GridParams::default() };
-    println!("{preset} c={c} n_w={n_w} n_l={n_l} N={n} deposit={} threads={threads}", deposit.name());
+    let grid = GridParams { deposit, boundary, window_side, edge_margin_spreads: margin, ..GridParams::default() };
+    println!("{preset} c={c} n_w={n_w} n_l={n_l} N={n} deposit={} boundary={} threads={threads}", deposit.name(), boundary.name());
     let (mut cvs, mut rhos) = (Vec::new(), Vec::new());
     for k in 0..realisations {
         let t = Instant::now();

@@ -39,6 +39,59 @@ impl Deposit {
     }
 }
 
+/// Whether the web is evaluated as laid or folded onto a torus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Boundary {
+    /// The web as laid (the paper): open CD edges and drift ends; the window must
+    /// keep away from them.
+    #[default]
+    Open,
+    /// Positions are folded onto the torus MD [0, c·n_l·L) × CD [−n_wΔw/2, n_wΔw/2):
+    /// every fibre's whole mass lands in the domain, so the density is statistically
+    /// uniform (interior mean ρA/(Δw·c) exactly on average) with no edges or run-in.
+    /// Not the paper's set-up; a way to get interior statistics from a smaller web.
+    Periodic,
+}
+
+impl Boundary {
+    pub const CHOICES: &'static [&'static str] = &["open", "periodic"];
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Open => "open",
+            Self::Periodic => "periodic",
+        }
+    }
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "open" => Some(Self::Open),
+            "periodic" => Some(Self::Periodic),
+            _ => None,
+        }
+    }
+}
+
+/// Folding of positions onto a periodic domain [origin, origin + period) per axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Period {
+    pub origin: [f64; 2],
+    pub period: [f64; 2],
+}
+
+impl Period {
+    /// Shift that brings `p` into the domain.
+    #[inline]
+    fn shift(&self, p: [f64; 2]) -> [f64; 2] {
+        let mut out = [0.0; 2];
+        for a in 0..2 {
+            let rel = p[a] - self.origin[a];
+            if rel < 0.0 || rel >= self.period[a] {
+                out[a] = -self.period[a] * (rel / self.period[a]).floor();
+            }
+        }
+        out
+    }
+}
+
 /// A square window of `cells × cells` cells of side `cell_size`, lower corner
 /// (`x_min`, `y_min`); cell (i, j) covers x ∈ [x_min + iΔh, x_min + (i+1)Δh) (MD,
 /// rows) and y ∈ [y_min + jΔh, …) (CD, columns). Accumulates mass in quanta.
@@ -48,12 +101,20 @@ pub struct DensityGrid {
     pub cell_size: f64,
     pub cells: usize,
     inverse_cell: f64,
+    period: Option<Period>,
     quanta: Vec<AtomicU64>,
 }
 
 impl DensityGrid {
     pub fn new(x_min: f64, y_min: f64, cell_size: f64, cells: usize) -> Self {
-        Self { x_min, y_min, cell_size, cells, inverse_cell: 1.0 / cell_size, quanta: (0..cells * cells).map(|_| AtomicU64::new(0)).collect() }
+        Self { x_min, y_min, cell_size, cells, inverse_cell: 1.0 / cell_size, period: None, quanta: (0..cells * cells).map(|_| AtomicU64::new(0)).collect() }
+    }
+
+    /// Folds every deposit onto a periodic domain (see [`Boundary::Periodic`]); the
+    /// window must lie inside the domain.
+    pub fn with_period(mut self, period: Period) -> Self {
+        self.period = Some(period);
+        self
     }
 
     #[inline]
@@ -79,17 +140,37 @@ impl DensityGrid {
         if nodes.len() < 2 {
             return;
         }
-        match method {
-            Deposit::PointMass => {
+        match (method, self.period) {
+            (Deposit::PointMass, None) => {
                 for &p in &nodes[..nodes.len() - 1] {
                     if let Some((i, j)) = self.cell_of(p) {
                         self.add(i, j, QUANTA_PER_POINT);
                     }
                 }
             }
-            Deposit::SegmentClipping => {
+            (Deposit::PointMass, Some(period)) => {
+                for &p in &nodes[..nodes.len() - 1] {
+                    let d = period.shift(p);
+                    if let Some((i, j)) = self.cell_of([p[0] + d[0], p[1] + d[1]]) {
+                        self.add(i, j, QUANTA_PER_POINT);
+                    }
+                }
+            }
+            (Deposit::SegmentClipping, None) => {
                 for w in nodes.windows(2) {
                     self.deposit_chord(w[0], w[1]);
+                }
+            }
+            (Deposit::SegmentClipping, Some(period)) => {
+                // Fold the chord by the shift of its start, and also by that of its end
+                // when it crosses a seam (chords are far shorter than the window).
+                for w in nodes.windows(2) {
+                    let (da, db) = (period.shift(w[0]), period.shift(w[1]));
+                    let moved = |d: [f64; 2], p: [f64; 2]| [p[0] + d[0], p[1] + d[1]];
+                    self.deposit_chord(moved(da, w[0]), moved(da, w[1]));
+                    if db != da {
+                        self.deposit_chord(moved(db, w[0]), moved(db, w[1]));
+                    }
                 }
             }
         }

@@ -78,14 +78,22 @@ pub struct Period {
 }
 
 impl Period {
-    /// Shift that brings `p` into the domain.
+    /// Shift that brings `p` into the domain (exactly: rounding never leaves the
+    /// shifted point on the far seam).
     #[inline]
     fn shift(&self, p: [f64; 2]) -> [f64; 2] {
         let mut out = [0.0; 2];
         for a in 0..2 {
             let rel = p[a] - self.origin[a];
             if rel < 0.0 || rel >= self.period[a] {
-                out[a] = -self.period[a] * (rel / self.period[a]).floor();
+                let mut d = -self.period[a] * (rel / self.period[a]).floor();
+                let folded = p[a] + d - self.origin[a];
+                if folded >= self.period[a] {
+                    d -= self.period[a];
+                } else if folded < 0.0 {
+                    d += self.period[a];
+                }
+                out[a] = d;
             }
         }
         out
@@ -162,14 +170,25 @@ impl DensityGrid {
                 }
             }
             (Deposit::SegmentClipping, Some(period)) => {
-                // Fold the chord by the shift of its start, and also by that of its end
-                // when it crosses a seam (chords are far shorter than the window).
+                // Fold the chord by the shift of its start, and also by those of its end
+                // (per axis) when it crosses a seam; chords are far shorter than the window.
                 for w in nodes.windows(2) {
                     let (da, db) = (period.shift(w[0]), period.shift(w[1]));
                     let moved = |d: [f64; 2], p: [f64; 2]| [p[0] + d[0], p[1] + d[1]];
                     self.deposit_chord(moved(da, w[0]), moved(da, w[1]));
                     if db != da {
-                        self.deposit_chord(moved(db, w[0]), moved(db, w[1]));
+                        let mut shifts = [db, [da[0], db[1]], [db[0], da[1]]];
+                        let mut count = 1;
+                        if shifts[1] != da && shifts[1] != db {
+                            count = 2;
+                        }
+                        if shifts[2] != da && shifts[2] != db {
+                            shifts[count] = shifts[2];
+                            count += 1;
+                        }
+                        for d in &shifts[..count] {
+                            self.deposit_chord(moved(*d, w[0]), moved(*d, w[1]));
+                        }
                     }
                 }
             }

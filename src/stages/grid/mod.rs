@@ -22,13 +22,15 @@
 //! ```
 //! use laydown::stages::spectra::SquareWaveParams;
 //! use laydown::stages::web::{Web, WebParams};
-//! use laydown::stages::grid::{grid_realisation, GridParams};
+//! use laydown::stages::grid::{grid_realisation, Boundary, GridParams};
 //! let spectrum = SquareWaveParams::preset("spectrum3").unwrap().spectrum().unwrap();
 //! let web = Web::new(
-//!     WebParams { fibres_across: 120, segments_per_fibre: 12, belt_speed_ratio: 0.05, ..WebParams::default() },
+//!     WebParams { fibres_across: 80, segments_per_fibre: 8, belt_speed_ratio: 0.05, ..WebParams::default() },
 //!     vec![spectrum],
 //! ).unwrap();
-//! let grid = GridParams { window_side: 0.1, edge_margin_spreads: 2.0, ..GridParams::default() };
+//! // A small web folded onto a 0.4 m × 0.2 m torus; an open web this small would be
+//! // rejected (the window would be within a few fibre spreads of its edges).
+//! let grid = GridParams { window_side: 0.1, boundary: Boundary::Periodic, ..GridParams::default() };
 //! let r = grid_realisation(&web, &grid, 0).unwrap();
 //! assert_eq!(r.density.dim(), (100, 100));
 //! // Interior areal density ρA/(Δw·c) = 2.39 g/m² (eq 16 in g/m²):

@@ -133,3 +133,15 @@ fn zone_curve_and_formation_number() {
         assert!(z.formation_number > 0.5 && z.formation_number < 20.0, "{z:?}");
     }
 }
+
+#[test]
+fn first_preset_cv_is_in_the_plausible_range() {
+    // spectrum1, c = 0.05, N = 1000 on a reduced (periodic) web: REFERENCE.md quotes
+    // CV ≈ 0.38 for the interior of a paper-size web at N = 1000 (0.50 at N = 500).
+    let w = web("spectrum1", 1000, 400, 40, 0.05);
+    let g = GridParams { window_side: 0.3, boundary: Boundary::Periodic, ..GridParams::default() };
+    let r = grid_realisation(&w, &g, 0).unwrap();
+    assert!(r.cv > 0.33 && r.cv < 0.47, "CV {}", r.cv);
+    let rel = r.mean_areal_density / w.params().interior_areal_density();
+    assert!(rel > 0.85 && rel < 1.15, "ρ_av / interior = {rel}");
+}

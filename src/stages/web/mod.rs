@@ -1,1 +1,171 @@
-//! Web stage numerics.
+//! Web stage numerics (§3.1 eqs 11-15, §3.2, §3.3): stochastic fibres from a
+//! curvature spectrum, n_w of them started Δw apart across the belt, each n_l
+//! random segments long, drifting in the machine direction with the belt.
+//!
+//! Conventions (x = machine direction MD, y = cross direction CD, metres):
+//! - **Random segments** (eqs 11-12): K'_r = |K_r|e^{iθ_r}, θ_r uniform in [0, 2π)
+//!   for 0 < r < N/2, K'_{N−r} = K'_r*; K'_0 = K_0 and K'_{N/2} = K_{N/2} keep their
+//!   (real) values including sign, i.e. θ_0 = θ_{N/2} = 0 adds no phase. Only bins
+//!   with |K_r| > 0 draw a phase. Every segment therefore has exactly the input S_r
+//!   and, by Parseval, exactly the input bending energy.
+//! - **Joining** (§3.2): a fibre's curvature is its n_l segments' κ samples
+//!   concatenated (n_l·N samples at Δs = L/N); θ and r are integrated by eq 13 along
+//!   the whole sequence, so position and tangent angle are continuous and the step
+//!   across a joint uses the last κ of one segment and the first of the next. The
+//!   final step closes the last segment periodically (its own κ_0), so a fibre has
+//!   n_l·N + 1 nodes spanning arc length exactly n_l·L. Node k sits at s = kΔs and
+//!   carries the point mass of the interval [s, s + Δs) (the last node carries none).
+//! - **Belt drift** (eqs 14-15): x_{k+1} = x_k + ((cos θ_k + cos θ_{k+1})/2 + c)Δs.
+//! - **Start**: fibre j starts at x = 0, y = (j − (n_w − 1)/2)Δw, with a tangent
+//!   angle uniform in [0, 2π) drawn first from its own stream. The web occupies
+//!   |y| ≤ n_wΔw/2 at the start and drifts to x ≈ c·n_l·L.
+//! - **Random numbers**: ChaCha8 with key (seed, domain tag) and stream number
+//!   realisation·2³² + fibre, so any fibre can be regenerated alone, bit for bit,
+//!   and results do not depend on the thread count. Per fibre the draws are: start
+//!   angle, then per segment (spectrum index if [`SpectrumSelection::PerSegment`],)
+//!   the phases of its non-zero bins in increasing r. Uniform f64 = (u64 >> 11)·2⁻⁵³.
+//!
+//! ```
+//! use laydown::stages::spectra::SquareWaveParams;
+//! use laydown::stages::web::{Web, WebParams};
+//! let spectrum = SquareWaveParams::preset("spectrum1").unwrap().spectrum().unwrap();
+//! let params = WebParams { fibres_across: 4, segments_per_fibre: 3, ..WebParams::default() };
+//! let web = Web::new(params, vec![spectrum]).unwrap();
+//! let fibre = web.generate_fibre(0, 2);
+//! assert_eq!(fibre.len(), 3 * 1000 + 1);
+//! assert_eq!(fibre[0], [0.0, 0.5 * 2.5e-3]);
+//! // Stream every fibre without holding the web (in parallel; order is not fixed):
+//! let nodes = std::sync::atomic::AtomicUsize::new(0);
+//! web.par_for_each_fibre(0, |_j, f| { nodes.fetch_add(f.len(), std::sync::atomic::Ordering::Relaxed); });
+//! assert_eq!(nodes.into_inner(), 4 * 3001);
+//! ```
+mod generate;
+pub mod trig;
+
+pub use generate::{fibre_rng, FibreScratch, Web};
+
+use crate::stages::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::stages::spectra::SpectraError;
+
+/// Which spectrum of the set each segment uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SpectrumSelection {
+    /// Every segment uses the first spectrum of the set (pass a mean spectrum, e.g.
+    /// [`crate::stages::spectra::CurvatureSpectrum::mean`], or an idealised one).
+    #[default]
+    Single,
+    /// Each segment draws one spectrum of the set uniformly (replicate spectra).
+    PerSegment,
+}
+
+impl SpectrumSelection {
+    pub const CHOICES: &'static [&'static str] = &["single", "per_segment"];
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Single => "single",
+            Self::PerSegment => "per_segment",
+        }
+    }
+    pub fn from_name(name: &str) -> Result<Self, ParamError> {
+        match name {
+            "single" => Ok(Self::Single),
+            "per_segment" => Ok(Self::PerSegment),
+            _ => Err(spec(WEB_PARAMS, "spectrum_selection").check_choice(name).unwrap_err()),
+        }
+    }
+}
+
+/// Parameters of a web. Defaults are the paper's converged webs (Tables 2-3:
+/// n_w = 1500, n_l = 100, Δw = 2.5 mm, d = 20 µm) with the baseline belt-to-fibre
+/// speed ratio of Table 1 (v_belt/v_f = 0.2/5.0 = 0.04; the tables' ρ_av ≈ 2.8 g/m²
+/// matches ρA/(Δw·c) = 2.98 g/m² for c = 0.04, not 2.39 for 0.05).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WebParams {
+    /// n_w, fibres across the machine.
+    pub fibres_across: usize,
+    /// n_l, random segments joined into one fibre (fibre length n_l·L).
+    pub segments_per_fibre: usize,
+    /// Δw (m), CD spacing of the fibres' starting points.
+    pub fibre_spacing: f64,
+    /// c = v_b/v_f (eq 15).
+    pub belt_speed_ratio: f64,
+    /// d (m).
+    pub fibre_diameter: f64,
+    /// ρ (kg/m³).
+    pub fibre_density: f64,
+    pub spectrum_selection: SpectrumSelection,
+    /// Master seed of the random streams.
+    pub seed: u64,
+}
+
+impl Default for WebParams {
+    fn default() -> Self {
+        Self {
+            fibres_across: 1500,
+            segments_per_fibre: 100,
+            fibre_spacing: 2.5e-3,
+            belt_speed_ratio: 0.04,
+            fibre_diameter: 20e-6,
+            fibre_density: 950.0,
+            spectrum_selection: SpectrumSelection::Single,
+            seed: 0,
+        }
+    }
+}
+
+impl WebParams {
+    pub fn validate(&self) -> Result<(), WebError> {
+        let t = WEB_PARAMS;
+        spec(t, "fibres_across").check(self.fibres_across as f64)?;
+        spec(t, "segments_per_fibre").check(self.segments_per_fibre as f64)?;
+        spec(t, "fibre_spacing").check(self.fibre_spacing)?;
+        spec(t, "belt_speed_ratio").check(self.belt_speed_ratio)?;
+        spec(t, "fibre_diameter").check(self.fibre_diameter)?;
+        spec(t, "fibre_density").check(self.fibre_density)?;
+        Ok(())
+    }
+    /// Fibre mass per unit length ρπd²/4 (kg/m).
+    pub fn mass_per_length(&self) -> f64 {
+        self.fibre_density * std::f64::consts::PI * self.fibre_diameter.powi(2) / 4.0
+    }
+    /// Interior mean areal density (kg/m²): each fibre lays its mass per length
+    /// over a strip Δw wide and advances c in x per unit of its length, so
+    /// ρ_int = (ρπd²/4)/(Δw·c). Infinite for c = 0 (stationary belt: no interior).
+    pub fn interior_areal_density(&self) -> f64 {
+        self.mass_per_length() / (self.fibre_spacing * self.belt_speed_ratio)
+    }
+    /// CD coordinate of fibre j's starting point.
+    pub fn start_y(&self, fibre: usize) -> f64 {
+        (fibre as f64 - 0.5 * (self.fibres_across as f64 - 1.0)) * self.fibre_spacing
+    }
+    /// Half-width of the row of starting points, n_wΔw/2 (m).
+    pub fn half_width(&self) -> f64 {
+        0.5 * self.fibres_across as f64 * self.fibre_spacing
+    }
+}
+
+/// Parameter table of [`WebParams`].
+pub const WEB_PARAMS: &[ParamSpec] = &[
+    ParamSpec { name: "fibres_across", unit: "1", default: ParamDefault::Integer(1500), min: 1.0, max: 4294967295.0, choices: &[], doc: "n_w, fibres started across the machine (Table 3)" },
+    ParamSpec { name: "segments_per_fibre", unit: "1", default: ParamDefault::Integer(100), min: 1.0, max: 1e6, choices: &[], doc: "n_l, random segments of length L joined per fibre (Table 2)" },
+    ParamSpec { name: "fibre_spacing", unit: "m", default: ParamDefault::Real(2.5e-3), min: f64::MIN_POSITIVE, max: 10.0, choices: &[], doc: "Δw, CD spacing of the fibres' starting points (§3.3)" },
+    ParamSpec { name: "belt_speed_ratio", unit: "1", default: ParamDefault::Real(0.04), min: 0.0, max: 100.0, choices: &[], doc: "c = v_b/v_f, belt drift per unit fibre length (eqs 14-15); 0.04 = Table 1" },
+    ParamSpec { name: "fibre_diameter", unit: "m", default: ParamDefault::Real(20e-6), min: f64::MIN_POSITIVE, max: 1e-2, choices: &[], doc: "d, fibre diameter (point mass ρπd²/4·Δs)" },
+    ParamSpec { name: "fibre_density", unit: "kg/m^3", default: ParamDefault::Real(950.0), min: f64::MIN_POSITIVE, max: 1e5, choices: &[], doc: "ρ, fibre material density" },
+    ParamSpec { name: "spectrum_selection", unit: "", default: ParamDefault::Choice("single"), min: f64::NAN, max: f64::NAN, choices: SpectrumSelection::CHOICES, doc: "single: every segment uses the first spectrum; per_segment: each segment draws one of the set" },
+    ParamSpec { name: "seed", unit: "1", default: ParamDefault::Integer(0), min: 0.0, max: 18446744073709551615.0, choices: &[], doc: "master seed; fibre j of realisation k uses ChaCha8 stream k·2³²+j" },
+];
+
+/// Errors of the web stage.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum WebError {
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error("spectra: {0}")]
+    Spectra(#[from] SpectraError),
+    #[error("realisation {0} is beyond 2³²−1")]
+    Realisation(u64),
+}
+
+#[cfg(test)]
+mod tests;

@@ -9,7 +9,11 @@
 //!   |w| ≤ μ p_n the node sticks (tangential velocity set to the belt's, exactly);
 //!   otherwise it slips and the impulse is μ p_n opposite w. With μ = 0 the node slides freely.
 //!
-//! Under the inextensible scheme the contact state also restricts the node's
+//! In the projection schemes the axial force comes from the projection, after this
+//! step: the stick test then adds the previous projection's force on the node to w
+//! (one step lag), so that fibre tension can pull a laid node loose.
+//!
+//! In the projection schemes the contact state also restricts the node's
 //! effective inverse mass in the length projection: a sticking node is fixed, a
 //! sliding one keeps only its in-plane freedom.
 
@@ -43,7 +47,11 @@ impl BeltContact {
             let mut state = NodeContact::Slide;
             let mut vt = [v[0], v[1]];
             if let Some(mu) = self.friction {
-                let w = [v[0] - vb, v[1]];
+                // In the projection schemes the axial force is not in v yet: the stick
+                // test uses the last projection's force on the node (lagged).
+                let lag = if restrict_w { ws.lag_force[i] } else { [0.0; 3] };
+                let h = dt / m;
+                let w = [v[0] - vb + h * lag[0], v[1] + h * lag[1]];
                 let wn = (w[0] * w[0] + w[1] * w[1]).sqrt();
                 let limit = mu * pn;
                 if wn <= limit {

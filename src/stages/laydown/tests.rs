@@ -491,9 +491,9 @@ fn paper_trends() {
         mean_metrics(&p, n)
     };
     // friction: S falls, e rises with mu (Figs 5a, 6a)
-    let lo = with(&|p| p.friction_coefficient = 0.1);
+    let lo = with(&|p| p.friction_coefficient = 0.0);
     let hi = with(&|p| p.friction_coefficient = 3.0);
-    println!("mu 0.1 {lo:?}\nmu 3 {hi:?}");
+    println!("mu 0 {lo:?}\nmu 3 {hi:?}");
     assert!(lo[0] > hi[0] * 1.05, "S(mu): {} vs {}", lo[0], hi[0]);
     assert!(lo[1] < hi[1] * 0.8, "e(mu): {} vs {}", lo[1], hi[1]);
     // diameter: S grows with d (Fig 5b), e falls (Fig 6b)

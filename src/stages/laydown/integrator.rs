@@ -414,131 +414,40 @@ impl Simulator {
     /// C_k = |e_k| − l_k, compliance α̃_k = l_k/(EA Δt²) (`ImplicitAxial`, i.e. backward
     /// Euler on the axial springs) or 0 (`Inextensible`). Newton iterations
     /// (J W Jᵀ + α̃) Δλ = −C − α̃ λ, Δx_j = W_j (Δλ_{j−1} t_{j−1} − Δλ_j t_j), each one
-    /// symmetric tridiagonal solve (Thomas algorithm, O(N)).
+    /// symmetric tridiagonal solve (Thomas algorithm, O(N)). Segments whose both ends
+    /// are held (laid fibre stuck to the belt) cannot change and split the chain into
+    /// independent runs, solved one by one.
     fn project(&mut self) -> Result<(), StepFailure> {
-        let rod = &mut self.rod;
-        let ws = &mut self.ws;
-        let ns = rod.rest.len();
-        let n = ns + 1;
-        let wref = rod.max_inv_mass;
         self.projection_calls += 1;
-        let l0min = rod.min_rest;
-        // Leading segments whose both ends are held (laid fibre stuck to the belt) cannot
-        // change: the solve starts after them.
+        let ns = self.rod.rest.len();
         let held = |w: &[f64; 6]| w[0] == 0.0 && w[1] == 0.0 && w[2] == 0.0;
-        let mut k0 = 0;
-        while std::env::var_os("NOK0").is_none() && k0 < ns && held(&ws.winv[k0]) && held(&ws.winv[k0 + 1]) {
-            k0 += 1;
-        }
-        if k0 == ns {
-            return Ok(());
-        }
-        let compliance = self.compliance / (self.dt * self.dt);
-        for l in ws.lambda_acc.iter_mut() {
+        for l in self.ws.lambda_acc.iter_mut() {
             *l = 0.0;
         }
-        let mut residual = 0.0;
-        for iter in 0..=PROJECTION_MAX_ITERS {
-            residual = 0.0f64;
-            for k in k0..ns {
-                let (p, q) = (rod.x[k], rod.x[k + 1]);
-                let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-                let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-                let il = 1.0 / l;
-                let l0 = rod.rest[k];
-                let ak = compliance * l0;
-                ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
-                let c = l - l0 + ak * ws.lambda_acc[k];
-                ws.cons[k] = -c;
-                let (wa, wb) = (&ws.winv[k], &ws.winv[k + 1]);
-                let frozen = wa[0] == 0.0 && wa[1] == 0.0 && wa[2] == 0.0 && wb[0] == 0.0 && wb[1] == 0.0 && wb[2] == 0.0;
-                if !frozen {
-                    residual = residual.max(c.abs() / l0);
-                }
+        let mut residual = 0.0f64;
+        let mut worst = (0.0f64, 0usize);
+        let mut k = 0;
+        while k < ns {
+            if held(&self.ws.winv[k]) && held(&self.ws.winv[k + 1]) {
+                k += 1;
+                continue;
             }
-            if residual < PROJECTION_TOL || iter == PROJECTION_MAX_ITERS {
-                break;
+            let a = k;
+            while k < ns && !(held(&self.ws.winv[k]) && held(&self.ws.winv[k + 1])) {
+                k += 1;
             }
-            self.projection_iterations += 1;
-            // fused: W t products, tridiagonal entries and the Thomas forward sweep
-            let drop_tol = 1e-12 * wref;
-            ws.we_next[k0] = sym_mul(&ws.winv[k0], &ws.seg_e[k0]);
-            let mut cprev = 0.0; // c'_{k-1}
-            let mut lprev = 0.0; // d'_{k-1}
-            let mut off_prev = 0.0; // off_{k-1}
-            for k in k0..ns {
-                let e = ws.seg_e[k];
-                let wb = &ws.winv[k + 1];
-                let b = sym_mul(wb, &e);
-                ws.we_prev[k + 1] = b;
-                let a = ws.we_next[k];
-                let mut d = e[0] * (a[0] + b[0]) + e[1] * (a[1] + b[1]) + e[2] * (a[2] + b[2]);
-                let mut off = if k + 1 < ns {
-                    let c = sym_mul(wb, &ws.seg_e[k + 1]);
-                    ws.we_next[k + 1] = c;
-                    -(e[0] * c[0] + e[1] * c[1] + e[2] * c[2])
-                } else {
-                    0.0
-                };
-                let mut rhs = ws.cons[k];
-                let mut lower = off_prev;
-                if d <= drop_tol {
-                    // a segment that cannot change length (both ends fixed along it)
-                    d = 1.0;
-                    rhs = 0.0;
-                    off = 0.0;
-                    lower = 0.0;
-                } else {
-                    d += compliance * rod.rest[k];
-                }
-                let inv = 1.0 / (d - lower * cprev);
-                cprev = off * inv;
-                lprev = (rhs - lower * lprev) * inv;
-                ws.cprime[k] = cprev;
-                ws.lambda[k] = lprev;
-                off_prev = off;
-            }
-            // back substitution fused with the position update of node k + 1
-            let mut lnext = 0.0; // λ_{k+1}
-            let mut dmax2 = 0.0f64;
-            for k in (k0..ns).rev() {
-                let l = ws.lambda[k] - ws.cprime[k] * lnext;
-                ws.lambda[k] = l;
-                ws.lambda_acc[k] += l;
-                // node k+1: Δx = W (λ_k t_k − λ_{k+1} t_{k+1})
-                let wp = ws.we_prev[k + 1];
-                let d = if k + 1 < ns {
-                    let wn = ws.we_next[k + 1];
-                    [l * wp[0] - lnext * wn[0], l * wp[1] - lnext * wn[1], l * wp[2] - lnext * wn[2]]
-                } else {
-                    [l * wp[0], l * wp[1], l * wp[2]]
-                };
-                let x = &mut rod.x[k + 1];
-                x[0] += d[0];
-                x[1] += d[1];
-                x[2] += d[2];
-                dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                lnext = l;
-            }
-            let wn = ws.we_next[k0];
-            let d = [-lnext * wn[0], -lnext * wn[1], -lnext * wn[2]];
-            let x = &mut rod.x[k0];
-            x[0] += d[0];
-            x[1] += d[1];
-            x[2] += d[2];
-            dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            // The constraints are linear in λ and the solve is exact, so what is left after
-            // this update is the curvature of |e|: at most 2 max|Δx|²/l² (relative).
-            let estimate = 2.0 * dmax2 / (l0min * l0min);
-            if estimate < PROJECTION_TOL {
-                residual = estimate;
-                break;
+            let (r, iters, wk) = project_run(&mut self.rod, &mut self.ws, a, k, self.compliance / (self.dt * self.dt));
+            self.projection_iterations += iters;
+            residual = residual.max(r);
+            if r > worst.0 {
+                worst = (r, wk);
             }
         }
         self.projection_residual = self.projection_residual.max(residual);
         // multiplier λ_k > 0 pushes the segment ends apart: compression P_k = λ_k/Δt²
         let idt2 = 1.0 / (self.dt * self.dt);
         let mut pmax = 0.0f64;
+        let ws = &self.ws;
         for k in 0..ns {
             let p = ws.lambda_acc[k] * idt2;
             self.segment_force[k] = p;
@@ -549,18 +458,123 @@ impl Simulator {
         }
         self.max_compression = self.max_compression.max(pmax);
         if !(residual < 1e-4) {
-            let mut worst = k0;
-            for k in k0..ns {
-                if ws.cons[k].abs() > ws.cons[worst].abs() {
-                    worst = k;
-                }
-            }
-            let c = |i: usize| if i < n { format!("{:?} z={:.2e}", ws.contact[i], rod.x[i][2]) } else { String::new() };
+            let wk = worst.1;
+            let c = |i: usize| format!("{:?} z={:.2e}", ws.contact[i], self.rod.x[i][2]);
             return Err(StepFailure(format!(
-                "length projection did not converge at t = {:.6e} s, dt = {:.3e} s (relative residual {residual:.3e} at segment {worst}: nodes {} / {})",
-                self.t + self.dt, self.dt, c(worst), c(worst + 1)
+                "length projection did not converge at t = {:.6e} s, dt = {:.3e} s (relative residual {residual:.3e} at segment {wk}: nodes {} / {})",
+                self.t + self.dt,
+                self.dt,
+                c(wk),
+                c(wk + 1)
             )));
         }
         Ok(())
     }
+}
+
+/// Newton iterations of the length projection on segments a..b (nodes a..=b), which
+/// are coupled to no other segment. Returns (relative residual, iterations, worst segment).
+fn project_run(rod: &mut Rod, ws: &mut Workspace, a: usize, b: usize, compliance: f64) -> (f64, u64, usize) {
+    let wref = rod.max_inv_mass;
+    let l0min = rod.min_rest;
+    let drop_tol = 1e-12 * wref;
+    let mut residual = 0.0f64;
+    let mut worst = a;
+    let mut iterations = 0;
+    for iter in 0..=PROJECTION_MAX_ITERS {
+        residual = 0.0;
+        for k in a..b {
+            let (p, q) = (rod.x[k], rod.x[k + 1]);
+            let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+            let il = 1.0 / l;
+            let l0 = rod.rest[k];
+            ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
+            let c = l - l0 + compliance * l0 * ws.lambda_acc[k];
+            ws.cons[k] = -c;
+            let r = c.abs() / l0;
+            if r > residual {
+                residual = r;
+                worst = k;
+            }
+        }
+        if residual < PROJECTION_TOL || iter == PROJECTION_MAX_ITERS {
+            break;
+        }
+        iterations += 1;
+        // fused: W t products, tridiagonal entries and the Thomas forward sweep
+        ws.we_next[a] = sym_mul(&ws.winv[a], &ws.seg_e[a]);
+        let mut cprev = 0.0; // c'_{k-1}
+        let mut lprev = 0.0; // d'_{k-1}
+        let mut off_prev = 0.0; // off_{k-1}
+        for k in a..b {
+            let e = ws.seg_e[k];
+            let wb = &ws.winv[k + 1];
+            let bb = sym_mul(wb, &e);
+            ws.we_prev[k + 1] = bb;
+            let aa = ws.we_next[k];
+            let mut d = e[0] * (aa[0] + bb[0]) + e[1] * (aa[1] + bb[1]) + e[2] * (aa[2] + bb[2]);
+            let mut off = if k + 1 < b {
+                let c = sym_mul(wb, &ws.seg_e[k + 1]);
+                ws.we_next[k + 1] = c;
+                -(e[0] * c[0] + e[1] * c[1] + e[2] * c[2])
+            } else {
+                0.0
+            };
+            let mut rhs = ws.cons[k];
+            let mut lower = off_prev;
+            if d <= drop_tol {
+                // a segment that cannot change length (both ends fixed along it)
+                d = 1.0;
+                rhs = 0.0;
+                off = 0.0;
+                lower = 0.0;
+            } else {
+                d += compliance * rod.rest[k];
+            }
+            let inv = 1.0 / (d - lower * cprev);
+            cprev = off * inv;
+            lprev = (rhs - lower * lprev) * inv;
+            ws.cprime[k] = cprev;
+            ws.lambda[k] = lprev;
+            off_prev = off;
+        }
+        // back substitution fused with the position update of node k + 1
+        let mut lnext = 0.0; // λ_{k+1}
+        let mut dmax2 = 0.0f64;
+        for k in (a..b).rev() {
+            let l = ws.lambda[k] - ws.cprime[k] * lnext;
+            ws.lambda[k] = l;
+            ws.lambda_acc[k] += l;
+            // node k+1: Δx = W (λ_k t_k − λ_{k+1} t_{k+1})
+            let wp = ws.we_prev[k + 1];
+            let d = if k + 1 < b {
+                let wn = ws.we_next[k + 1];
+                [l * wp[0] - lnext * wn[0], l * wp[1] - lnext * wn[1], l * wp[2] - lnext * wn[2]]
+            } else {
+                [l * wp[0], l * wp[1], l * wp[2]]
+            };
+            let x = &mut rod.x[k + 1];
+            x[0] += d[0];
+            x[1] += d[1];
+            x[2] += d[2];
+            dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            lnext = l;
+        }
+        let wn = ws.we_next[a];
+        let d = [-lnext * wn[0], -lnext * wn[1], -lnext * wn[2]];
+        let x = &mut rod.x[a];
+        x[0] += d[0];
+        x[1] += d[1];
+        x[2] += d[2];
+        dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        // The constraints are linear in λ and the solve is exact, so what is left after
+        // this update is the curvature of |e|: at most 2 max|Δx|²/l² (relative).
+        let estimate = 2.0 * dmax2 / (l0min * l0min);
+        if estimate < PROJECTION_TOL {
+            residual = estimate;
+            break;
+        }
+    }
+    (residual, iterations, worst)
 }

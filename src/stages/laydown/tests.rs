@@ -79,8 +79,16 @@ fn ensemble() {
     let res = pool.install(|| run_jobs(&jobs));
     let wall = t0.elapsed().as_secs_f64();
     let mut acc = [Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+    let t_late: f64 = std::env::var("T_LATE").ok().and_then(|s| s.parse().ok()).unwrap_or(0.03);
+    let mut late = (Vec::new(), Vec::new());
     for r in &res {
         println!("{}", summary(r));
+        if r.error.is_none() {
+            let lt: Vec<f64> = r.landing_time.iter().map(|&t| if t > t_late { t } else { f64::NAN }).collect();
+            let (s, e) = shape_measures(&laid_polyline(&r.positions, &lt, None));
+            late.0.push(s);
+            late.1.push(e);
+        }
         if r.error.is_none() {
             acc[0].push(r.radius_of_gyration);
             acc[1].push(r.bending_energy);
@@ -99,6 +107,9 @@ fn ensemble() {
     let (sr, sre) = ms(&acc[2]);
     let (er, ere) = ms(&acc[3]);
     let valid = res.iter().filter(|r| r.valid).count();
+    let (ls, lse) = ms(&late.0);
+    let (le, lee) = ms(&late.1);
+    println!("LATE (landed after {t_late} s) S={ls:.5}±{lse:.5} e={le:.0}±{lee:.0}");
     println!(
         "ENSEMBLE {} n={} valid={} S={:.5}±{:.5} e={:.0}±{:.0} S_rm={:.5}±{:.5} e_rm={:.0}±{:.0} wall={:.1}s",
         p.integrator.name(), acc[0].len(), valid, s, se, e, ee, sr, sre, er, ere, wall

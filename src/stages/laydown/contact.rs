@@ -9,7 +9,11 @@
 //!   |w| ≤ μ p_n the node sticks (tangential velocity set to the belt's, exactly);
 //!   otherwise it slips and the impulse is μ p_n opposite w. With μ = 0 the node slides freely.
 //!
-//! Under the inextensible scheme the contact state also restricts the node's
+//! In the projection schemes the axial force comes from the projection, after this
+//! step: the contact and stick tests then add the previous projection's force on the
+//! node (one step lag), so that fibre tension can lift or pull a laid node loose.
+//!
+//! In the projection schemes the contact state also restricts the node's
 //! effective inverse mass in the length projection: a sticking node is fixed, a
 //! sliding one keeps only its in-plane freedom.
 
@@ -33,17 +37,23 @@ impl BeltContact {
         for i in 0..end {
             let z = rod.x[i][2];
             let v = rod.v[i];
-            if z + dt * v[2] > 0.0 {
+            let m = rod.mass[i];
+            // In the projection schemes the axial force is not in v yet: the contact and
+            // stick tests use the last projection's force on the node (lagged), so that
+            // fibre tension can lift or pull a laid node loose.
+            let lag = if restrict_w { ws.lag_force[i] } else { [0.0; 3] };
+            let h = dt / m;
+            let vz_test = v[2] + h * lag[2];
+            if z + dt * vz_test > 0.0 {
                 continue;
             }
-            let m = rod.mass[i];
             let vz = -z * idt;
-            let pn = vz - v[2];
+            let pn = (vz - vz_test).max(0.0);
             w_normal += m * pn * 0.5 * (vz + v[2]);
             let mut state = NodeContact::Slide;
             let mut vt = [v[0], v[1]];
             if let Some(mu) = self.friction {
-                let w = [v[0] - vb, v[1]];
+                let w = [v[0] - vb + h * lag[0], v[1] + h * lag[1]];
                 let wn = (w[0] * w[0] + w[1] * w[1]).sqrt();
                 let limit = mu * pn;
                 if wn <= limit {

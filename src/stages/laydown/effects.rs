@@ -199,15 +199,38 @@ impl Term {
     }
 }
 
-/// x^p for x ≥ 0 and 0 < p < 1 as exp(p ln x) (cheaper than `powf`, ~1 ulp apart);
-/// exactly 0 at x = 0, so the drag vanishes smoothly as Re → 0.
+/// x^p for x ≥ 0 and 0 < p < 1, exactly 0 at x = 0 so the drag vanishes smoothly as
+/// Re → 0. Computed as exp(p ln x) with short series (relative error < 1e-9, about
+/// three times cheaper than `powf`); arguments outside [1e-200, 1e200] use `powf`.
 #[inline]
-fn pow_pos(x: f64, p: f64) -> f64 {
-    if x > 0.0 {
-        (p * x.ln()).exp()
-    } else {
-        0.0
+pub fn pow_pos(x: f64, p: f64) -> f64 {
+    if !(x > 1e-200 && x < 1e200) {
+        return if x > 0.0 { x.powf(p) } else { 0.0 };
     }
+    use std::f64::consts::{LN_2, SQRT_2};
+    // x = m 2^k with m in [√½, √2)
+    let bits = x.to_bits();
+    let mut k = ((bits >> 52) & 0x7ff) as i64 - 1023;
+    let mut m = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
+    if m > SQRT_2 {
+        m *= 0.5;
+        k += 1;
+    }
+    // ln m = 2 atanh(s), s = (m − 1)/(m + 1), |s| < 0.172
+    let s = (m - 1.0) / (m + 1.0);
+    let s2 = s * s;
+    let ln_m = 2.0 * s * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 * (1.0 / 7.0 + s2 * (1.0 / 9.0 + s2 * (1.0 / 11.0))))));
+    let y = p * (ln_m + k as f64 * LN_2);
+    // exp(y) = 2^n exp(r), |r| ≤ ln2/2
+    // round to nearest without a libm call (|y/ln2| < 2^51)
+    const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52
+    let n = (y * (1.0 / LN_2) + MAGIC) - MAGIC;
+    let r = y - n * LN_2;
+    let mut e = 1.0 / 3_628_800.0;
+    for c in [1.0 / 362_880.0, 1.0 / 40_320.0, 1.0 / 5040.0, 1.0 / 720.0, 1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0] {
+        e = e * r + c;
+    }
+    e * f64::from_bits(((n as i64 + 1023) as u64) << 52)
 }
 
 /// y = S x for a symmetric 3×3 stored as [xx, yy, zz, xy, xz, yz].
@@ -367,6 +390,13 @@ mod tests {
             assert!((law.normal(v) - fnn).abs() < 1e-12 * fnn.max(1e-30));
         }
         assert_eq!(law.tangential(0.0), 0.0);
+        for x in [1e-250, 1e-12, 0.003, 0.7, 1.0, 1.4142, 9.99, 123.4, 5e7] {
+            for p in [0.39, 0.56] {
+                let (a, b) = (pow_pos(x, p), x.powf(p));
+                assert!((a - b).abs() <= 1e-9 * b, "{x}^{p}: {a} vs {b}");
+            }
+        }
+        assert_eq!(pow_pos(0.0, 0.39), 0.0);
         assert_eq!(law.normal(0.0), 0.0);
     }
 }

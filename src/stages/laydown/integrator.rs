@@ -1,25 +1,36 @@
-//! Time stepping of the rod: both schemes share the force terms, the implicit
+//! Time stepping of the rod: all schemes share the force terms, the implicit
 //! node-diagonal part, the contact/friction impulses and the bookkeeping.
 //!
 //! One step t → t + Δt:
-//! 1. explicit forces F (elasticity, gravity) and implicit node matrices A_i
-//!    (m I + Δt G_drag + Δt α m I + (Δt c + Δt² k) P_xy) from the enabled [`Term`]s;
+//! 1. explicit forces F (elasticity, gravity; in the projection schemes also the
+//!    segment forces found by the previous projection, so that friction sees the
+//!    fibre tension) and implicit node matrices
+//!    A_i = m I + Δt G_drag + Δt α_R m I + (Δt c + Δt² k) P_xy from the enabled [`Term`]s;
 //! 2. v* = A_i⁻¹ (m v + Δt F + r_i) per node (semi-implicit / symplectic Euler);
 //!    kinematic top node (v_z = −v_f) and clamped nodes imposed;
 //! 3. belt contact and Coulomb friction as velocity impulses (see [`super::contact`]);
 //! 4. x ← x + Δt v;
-//! 5. `Inextensible` only: segment lengths restored exactly by a mass-weighted
-//!    projection (Newton on C_k = |x_{k+1} − x_k|² − l_k² = 0; each iteration one
-//!    symmetric tridiagonal solve of J W Jᵀ λ = C, W = A⁻¹ restricted by the contact
-//!    state), then v ← v + (x − x_predicted)/Δt (SHAKE-like, first order).
+//! 5. `ImplicitAxial` / `Inextensible` only: segment lengths projected (XPBD form
+//!    solved exactly): Newton on C_k = |e_k| − l_k + (l_k/EA)(P_k + λ_k/Δt²) = 0 with the
+//!    compliance l_k/EA (`ImplicitAxial`: backward Euler on the axial springs) or 0
+//!    (`Inextensible`); each iteration is one symmetric tridiagonal solve
+//!    (J W Jᵀ + α̃) Δλ = −C, W = A⁻¹ restricted by the contact state (a sticking node
+//!    is fixed, a sliding one moves in plane only); nodes pushed below the belt join the
+//!    contact set and the projection is repeated; then v ← v + (x − x_predicted)/Δt.
 //!
 //! Stable step (ω_max of the lumped chain):
 //! - axial ω_a = 2 c_0/Δs, c_0 = √(E/ρ): Δt_a = Δs/c_0 (0.69 µs at Δs = 1 mm);
 //! - bending ω_b = 4/Δs² · √(EI/ρA): Δt_b = Δs²/2 · √(ρA/EI) (27.6 µs at 1 mm, d = 50 µm);
+//!   factor 1.0 is measured to be unstable, 0.8 (default) and 0.5 give the same statistics;
 //! - kinematic: Δt_k = Δs/(4 v_max), v_max the largest imposed speed (feed, belt, ωu0),
 //!   so a node never moves more than a quarter element per step;
-//! - `Explicit`: Δt = factor · min(2/√(ω_a² + ω_b²), Δt_k);
-//!   `Inextensible`: Δt = factor · min(Δt_b, Δt_k).
+//! - `Explicit`: fixed Δt = factor · min(2/√(ω_a² + ω_b²), Δt_k);
+//! - projection schemes: adaptive Δt ≤ factor · min(Δt_b, Δt_k), starting at 1 % of it,
+//!   growing by at most 25 % per step, and kept below ½/σ where σ = P/(2√(EI ρA)) is the
+//!   growth rate of the fastest Euler-buckling mode under the largest compression P of
+//!   the last step (the start-up impact compresses the column and needs ~µs steps for
+//!   about a millisecond); a step that fails (projection not converging, blow-up) is
+//!   retaken at Δt/4.
 
 use super::contact::BeltContact;
 use super::effects::{axial_energy_of, bending_energy_of, Term};
@@ -136,8 +147,9 @@ pub struct Simulator {
     pub projection_residual: f64,
     /// Axial compliance l-independent part 1/EA (1/N) of the projection; 0 = inextensible.
     pub compliance: f64,
-    /// Compression P_k of each segment (N, < 0 = tension) from the projections so far
-    /// (implicit schemes): applied as a lagged force at the start of the next step.
+    /// Compression P_k of each segment (N, < 0 = tension) found by the last projection;
+    /// the friction test of the next step includes it (lagged), so that tension can
+    /// unstick a laid node.
     pub segment_force: Vec<f64>,
     /// Largest compressive force of the last projection (N), from its multipliers.
     pub max_compression: f64,
@@ -225,25 +237,6 @@ impl Simulator {
         for term in &self.terms {
             term.accumulate(&self.rod, &mut self.ws, t, dt);
         }
-        if self.integrator != Integrator::Explicit {
-            // segment forces of the previous projection, applied explicitly (lagged) so
-            // that friction and the rest of the step see the fibre tension; the
-            // projection then only adds the increment
-            for k in 0..self.rod.rest.len() {
-                let p = self.segment_force[k];
-                let tk = self.ws.tangent[k];
-                let f = [p * tk[0], p * tk[1], p * tk[2]];
-                let a = &mut self.ws.force[k];
-                a[0] -= f[0];
-                a[1] -= f[1];
-                a[2] -= f[2];
-                let b = &mut self.ws.force[k + 1];
-                b[0] += f[0];
-                b[1] += f[1];
-                b[2] += f[2];
-            }
-        }
-
         // 2. node-wise implicit velocity update
         let need_w = self.integrator != Integrator::Explicit;
         let driven = if self.driven_top.is_some() { n - 1 } else { usize::MAX };
@@ -280,6 +273,19 @@ impl Simulator {
         // 3. contact and friction
         if let Some(c) = &self.contact {
             let skip_top = if self.driven_top.is_some() { n - 1 } else { n };
+            if need_w {
+                for f in self.ws.lag_force.iter_mut() {
+                    *f = [0.0; 3];
+                }
+                for k in 0..self.rod.rest.len() {
+                    let p = self.segment_force[k];
+                    let tk = self.ws.tangent[k];
+                    for j in 0..3 {
+                        self.ws.lag_force[k][j] -= p * tk[j];
+                        self.ws.lag_force[k + 1][j] += p * tk[j];
+                    }
+                }
+            }
             let (wn, wf) = c.apply(&mut self.rod, &mut self.ws, dt, skip_top, need_w);
             self.work.contact += wn;
             self.work.friction += wf;
@@ -408,142 +414,167 @@ impl Simulator {
     /// C_k = |e_k| − l_k, compliance α̃_k = l_k/(EA Δt²) (`ImplicitAxial`, i.e. backward
     /// Euler on the axial springs) or 0 (`Inextensible`). Newton iterations
     /// (J W Jᵀ + α̃) Δλ = −C − α̃ λ, Δx_j = W_j (Δλ_{j−1} t_{j−1} − Δλ_j t_j), each one
-    /// symmetric tridiagonal solve (Thomas algorithm, O(N)).
+    /// symmetric tridiagonal solve (Thomas algorithm, O(N)). Segments whose both ends
+    /// are held (laid fibre stuck to the belt) cannot change and split the chain into
+    /// independent runs, solved one by one.
     fn project(&mut self) -> Result<(), StepFailure> {
-        let rod = &mut self.rod;
-        let ws = &mut self.ws;
-        let ns = rod.rest.len();
-        let n = ns + 1;
-        let mut wref = 0.0f64;
-        for m in &rod.mass {
-            wref = wref.max(1.0 / m);
-        }
         self.projection_calls += 1;
-        let l0min = rod.rest.iter().cloned().fold(f64::INFINITY, f64::min);
-        let compliance = self.compliance / (self.dt * self.dt);
-        for l in ws.lambda_acc.iter_mut() {
+        let ns = self.rod.rest.len();
+        let held = |w: &[f64; 6]| w[0] == 0.0 && w[1] == 0.0 && w[2] == 0.0;
+        for l in self.ws.lambda_acc.iter_mut() {
             *l = 0.0;
         }
-        let mut residual = 0.0;
-        for iter in 0..=PROJECTION_MAX_ITERS {
-            residual = 0.0f64;
-            for k in 0..ns {
-                let (p, q) = (rod.x[k], rod.x[k + 1]);
-                let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-                let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-                let il = 1.0 / l;
-                let l0 = rod.rest[k];
-                let ak = compliance * l0;
-                ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
-                let c = l - l0 + self.compliance * l0 * self.segment_force[k] + ak * ws.lambda_acc[k];
-                ws.cons[k] = -c;
-                let (wa, wb) = (&ws.winv[k], &ws.winv[k + 1]);
-                let frozen = wa[0] == 0.0 && wa[1] == 0.0 && wa[2] == 0.0 && wb[0] == 0.0 && wb[1] == 0.0 && wb[2] == 0.0;
-                if !frozen {
-                    residual = residual.max(c.abs() / l0);
-                }
+        let mut residual = 0.0f64;
+        let mut worst = (0.0f64, 0usize);
+        let mut k = 0;
+        while k < ns {
+            if held(&self.ws.winv[k]) && held(&self.ws.winv[k + 1]) {
+                k += 1;
+                continue;
             }
-            if residual < PROJECTION_TOL || iter == PROJECTION_MAX_ITERS {
-                break;
+            let a = k;
+            while k < ns && !(held(&self.ws.winv[k]) && held(&self.ws.winv[k + 1])) {
+                k += 1;
             }
-            self.projection_iterations += 1;
-            // fused: W t products, tridiagonal entries and the Thomas forward sweep
-            let drop_tol = 1e-12 * wref;
-            ws.we_next[0] = sym_mul(&ws.winv[0], &ws.seg_e[0]);
-            let mut cprev = 0.0; // c'_{k-1}
-            let mut lprev = 0.0; // d'_{k-1}
-            let mut off_prev = 0.0; // off_{k-1}
-            for k in 0..ns {
-                let e = ws.seg_e[k];
-                let wb = &ws.winv[k + 1];
-                let b = sym_mul(wb, &e);
-                ws.we_prev[k + 1] = b;
-                let a = ws.we_next[k];
-                let mut d = e[0] * (a[0] + b[0]) + e[1] * (a[1] + b[1]) + e[2] * (a[2] + b[2]);
-                let mut off = if k + 1 < ns {
-                    let c = sym_mul(wb, &ws.seg_e[k + 1]);
-                    ws.we_next[k + 1] = c;
-                    -(e[0] * c[0] + e[1] * c[1] + e[2] * c[2])
-                } else {
-                    0.0
-                };
-                let mut rhs = ws.cons[k];
-                let mut lower = off_prev;
-                if d <= drop_tol {
-                    // a segment that cannot change length (both ends fixed along it)
-                    d = 1.0;
-                    rhs = 0.0;
-                    off = 0.0;
-                    lower = 0.0;
-                } else {
-                    d += compliance * rod.rest[k];
-                }
-                let inv = 1.0 / (d - lower * cprev);
-                cprev = off * inv;
-                lprev = (rhs - lower * lprev) * inv;
-                ws.cprime[k] = cprev;
-                ws.lambda[k] = lprev;
-                off_prev = off;
-            }
-            // back substitution fused with the position update of node k + 1
-            let mut lnext = 0.0; // λ_{k+1}
-            let mut dmax2 = 0.0f64;
-            for k in (0..ns).rev() {
-                let l = ws.lambda[k] - ws.cprime[k] * lnext;
-                ws.lambda[k] = l;
-                ws.lambda_acc[k] += l;
-                // node k+1: Δx = W (λ_k t_k − λ_{k+1} t_{k+1})
-                let wp = ws.we_prev[k + 1];
-                let d = if k + 1 < ns {
-                    let wn = ws.we_next[k + 1];
-                    [l * wp[0] - lnext * wn[0], l * wp[1] - lnext * wn[1], l * wp[2] - lnext * wn[2]]
-                } else {
-                    [l * wp[0], l * wp[1], l * wp[2]]
-                };
-                let x = &mut rod.x[k + 1];
-                x[0] += d[0];
-                x[1] += d[1];
-                x[2] += d[2];
-                dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                lnext = l;
-            }
-            let wn = ws.we_next[0];
-            let d = [-lnext * wn[0], -lnext * wn[1], -lnext * wn[2]];
-            let x = &mut rod.x[0];
-            x[0] += d[0];
-            x[1] += d[1];
-            x[2] += d[2];
-            dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            // The constraints are linear in λ and the solve is exact, so what is left after
-            // this update is the curvature of |e|: at most 2 max|Δx|²/l² (relative).
-            let estimate = 2.0 * dmax2 / (l0min * l0min);
-            if estimate < PROJECTION_TOL {
-                residual = estimate;
-                break;
+            let (r, iters, wk) = project_run(&mut self.rod, &mut self.ws, a, k, self.compliance / (self.dt * self.dt));
+            self.projection_iterations += iters;
+            residual = residual.max(r);
+            if r > worst.0 {
+                worst = (r, wk);
             }
         }
         self.projection_residual = self.projection_residual.max(residual);
         // multiplier λ_k > 0 pushes the segment ends apart: compression P_k = λ_k/Δt²
         let idt2 = 1.0 / (self.dt * self.dt);
         let mut pmax = 0.0f64;
-        for (p, l) in self.segment_force.iter_mut().zip(&ws.lambda_acc) {
-            *p += l * idt2;
-            pmax = pmax.max(*p);
+        let ws = &self.ws;
+        for k in 0..ns {
+            let p = ws.lambda_acc[k] * idt2;
+            self.segment_force[k] = p;
+            // buckling needs a free span: segments touching the belt do not count
+            if ws.contact[k] == NodeContact::Free && ws.contact[k + 1] == NodeContact::Free {
+                pmax = pmax.max(p);
+            }
         }
         self.max_compression = self.max_compression.max(pmax);
         if !(residual < 1e-4) {
-            let mut worst = 0;
-            for k in 0..ns {
-                if ws.cons[k].abs() > ws.cons[worst].abs() {
-                    worst = k;
-                }
-            }
-            let c = |i: usize| if i < n { format!("{:?} z={:.2e}", ws.contact[i], rod.x[i][2]) } else { String::new() };
+            let wk = worst.1;
+            let c = |i: usize| format!("{:?} z={:.2e}", ws.contact[i], self.rod.x[i][2]);
             return Err(StepFailure(format!(
-                "length projection did not converge at t = {:.6e} s, dt = {:.3e} s (relative residual {residual:.3e} at segment {worst}: nodes {} / {})",
-                self.t + self.dt, self.dt, c(worst), c(worst + 1)
+                "length projection did not converge at t = {:.6e} s, dt = {:.3e} s (relative residual {residual:.3e} at segment {wk}: nodes {} / {})",
+                self.t + self.dt,
+                self.dt,
+                c(wk),
+                c(wk + 1)
             )));
         }
         Ok(())
     }
+}
+
+/// Newton iterations of the length projection on segments a..b (nodes a..=b), which
+/// are coupled to no other segment. Returns (relative residual, iterations, worst segment).
+fn project_run(rod: &mut Rod, ws: &mut Workspace, a: usize, b: usize, compliance: f64) -> (f64, u64, usize) {
+    let wref = rod.max_inv_mass;
+    let l0min = rod.min_rest;
+    let drop_tol = 1e-12 * wref;
+    let mut residual = 0.0f64;
+    let mut worst = a;
+    let mut iterations = 0;
+    for iter in 0..=PROJECTION_MAX_ITERS {
+        residual = 0.0;
+        for k in a..b {
+            let (p, q) = (rod.x[k], rod.x[k + 1]);
+            let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+            let il = 1.0 / l;
+            let l0 = rod.rest[k];
+            ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
+            let c = l - l0 + compliance * l0 * ws.lambda_acc[k];
+            ws.cons[k] = -c;
+            let r = c.abs() / l0;
+            if r > residual {
+                residual = r;
+                worst = k;
+            }
+        }
+        if residual < PROJECTION_TOL || iter == PROJECTION_MAX_ITERS {
+            break;
+        }
+        iterations += 1;
+        // fused: W t products, tridiagonal entries and the Thomas forward sweep
+        ws.we_next[a] = sym_mul(&ws.winv[a], &ws.seg_e[a]);
+        let mut cprev = 0.0; // c'_{k-1}
+        let mut lprev = 0.0; // d'_{k-1}
+        let mut off_prev = 0.0; // off_{k-1}
+        for k in a..b {
+            let e = ws.seg_e[k];
+            let wb = &ws.winv[k + 1];
+            let bb = sym_mul(wb, &e);
+            ws.we_prev[k + 1] = bb;
+            let aa = ws.we_next[k];
+            let mut d = e[0] * (aa[0] + bb[0]) + e[1] * (aa[1] + bb[1]) + e[2] * (aa[2] + bb[2]);
+            let mut off = if k + 1 < b {
+                let c = sym_mul(wb, &ws.seg_e[k + 1]);
+                ws.we_next[k + 1] = c;
+                -(e[0] * c[0] + e[1] * c[1] + e[2] * c[2])
+            } else {
+                0.0
+            };
+            let mut rhs = ws.cons[k];
+            let mut lower = off_prev;
+            if d <= drop_tol {
+                // a segment that cannot change length (both ends fixed along it)
+                d = 1.0;
+                rhs = 0.0;
+                off = 0.0;
+                lower = 0.0;
+            } else {
+                d += compliance * rod.rest[k];
+            }
+            let inv = 1.0 / (d - lower * cprev);
+            cprev = off * inv;
+            lprev = (rhs - lower * lprev) * inv;
+            ws.cprime[k] = cprev;
+            ws.lambda[k] = lprev;
+            off_prev = off;
+        }
+        // back substitution fused with the position update of node k + 1
+        let mut lnext = 0.0; // λ_{k+1}
+        let mut dmax2 = 0.0f64;
+        for k in (a..b).rev() {
+            let l = ws.lambda[k] - ws.cprime[k] * lnext;
+            ws.lambda[k] = l;
+            ws.lambda_acc[k] += l;
+            // node k+1: Δx = W (λ_k t_k − λ_{k+1} t_{k+1})
+            let wp = ws.we_prev[k + 1];
+            let d = if k + 1 < b {
+                let wn = ws.we_next[k + 1];
+                [l * wp[0] - lnext * wn[0], l * wp[1] - lnext * wn[1], l * wp[2] - lnext * wn[2]]
+            } else {
+                [l * wp[0], l * wp[1], l * wp[2]]
+            };
+            let x = &mut rod.x[k + 1];
+            x[0] += d[0];
+            x[1] += d[1];
+            x[2] += d[2];
+            dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            lnext = l;
+        }
+        let wn = ws.we_next[a];
+        let d = [-lnext * wn[0], -lnext * wn[1], -lnext * wn[2]];
+        let x = &mut rod.x[a];
+        x[0] += d[0];
+        x[1] += d[1];
+        x[2] += d[2];
+        dmax2 = dmax2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        // The constraints are linear in λ and the solve is exact, so what is left after
+        // this update is the curvature of |e|: at most 2 max|Δx|²/l² (relative).
+        let estimate = 2.0 * dmax2 / (l0min * l0min);
+        if estimate < PROJECTION_TOL {
+            residual = estimate;
+            break;
+        }
+    }
+    (residual, iterations, worst)
 }

@@ -38,6 +38,8 @@ pub struct LaydownResult {
     pub min_time_step: f64,
     /// Steps rejected and retaken with a smaller step (adaptive schemes).
     pub rejected_steps: u64,
+    /// Newton iterations of the length projection (tridiagonal solves, summed over runs).
+    pub projection_iterations: u64,
     pub time_step_limits: Option<TimeStepLimits>,
     /// Simulated time reached (s).
     pub end_time: f64,
@@ -74,6 +76,7 @@ impl LaydownResult {
             time_step: 0.0,
             min_time_step: 0.0,
             rejected_steps: 0,
+            projection_iterations: 0,
             time_step_limits: None,
             end_time: 0.0,
             elements: 0,

@@ -18,6 +18,9 @@ pub struct Rod {
     pub axial_stiffness: f64,
     /// EI (N·m²).
     pub bending_stiffness: f64,
+    /// Shortest rest length (m) and largest inverse node mass (1/kg).
+    pub min_rest: f64,
+    pub max_inv_mass: f64,
 }
 
 impl Rod {
@@ -34,7 +37,9 @@ impl Rod {
         for i in 1..n - 1 {
             inv_voronoi[i] = 2.0 / (rest[i - 1] + rest[i]);
         }
-        Rod { x, v, mass, rest, inv_voronoi, axial_stiffness: ea, bending_stiffness: ei }
+        let min_rest = rest.iter().cloned().fold(f64::INFINITY, f64::min);
+        let max_inv_mass = mass.iter().map(|m| 1.0 / m).fold(0.0, f64::max);
+        Rod { x, v, mass, rest, inv_voronoi, axial_stiffness: ea, bending_stiffness: ei, min_rest, max_inv_mass }
     }
 
     pub fn nodes(&self) -> usize {
@@ -71,6 +76,8 @@ pub struct Workspace {
     /// Effective inverse mass of each node for the constraint projection.
     pub winv: Vec<[f64; 6]>,
     pub x_old: Vec<[f64; 3]>,
+    /// Constraint (axial) forces of the last projection on each node (N).
+    pub lag_force: Vec<[f64; 3]>,
     pub contact: Vec<NodeContact>,
     // tridiagonal solver buffers (one entry per segment)
     pub seg_e: Vec<[f64; 3]>,
@@ -96,6 +103,7 @@ impl Workspace {
             seg_len: vec![0.0; s],
             winv: vec![[0.0; 6]; nodes],
             x_old: vec![[0.0; 3]; nodes],
+            lag_force: vec![[0.0; 3]; nodes],
             contact: vec![NodeContact::Free; nodes],
             seg_e: vec![[0.0; 3]; s],
             cons: vec![0.0; s],

@@ -229,9 +229,6 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         }
         sim.dt = dt_max;
     }
-    if std::env::var_os("LAYDOWN_DEBUG").is_some() {
-        eprintln!("projection calls {} iterations {} steps {}", sim.projection_calls, sim.projection_iterations, sim.steps);
-    }
     if error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
         sim.rod.x.copy_from_slice(&last_good);
     }
@@ -272,6 +269,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         time_step: sim.dt,
         min_time_step: min_dt,
         rejected_steps: rejected,
+        projection_iterations: sim.projection_iterations,
         time_step_limits: Some(super::integrator::TimeStepLimits { chosen: sim.dt, ..limits }),
         end_time: t_end,
         elements: sim.rod.rest.len(),

@@ -1,1 +1,2 @@
 //! One module per pipeline stage.
+pub mod image;

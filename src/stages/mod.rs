@@ -14,6 +14,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 pub mod grid;
+pub mod image;
 pub mod laydown;
 pub mod param_table;
 pub mod spectra;

@@ -1,0 +1,723 @@
+//! Image stage numerics (paper §3.4, Table 4, Figs 11–12): the uniformity of a bonded
+//! nonwoven from a greyscale image, raw and after removing the bond lattice by FFT
+//! notch filtering.
+//!
+//! # Method
+//! 1. **Raw CV** of the grey levels (population std / mean, [`crate::uniformity`]).
+//! 2. **Spectrum.** The image is split into periodic + smooth components
+//!    ([`periodic`], Moisan 2011) so the edge jumps of a scan do not paint a "+" of
+//!    false peaks along the frequency axes; the 2D FFT ([`fft2`], rows then columns,
+//!    any size) of the periodic component gives the energy spectrum `|F|²`.
+//! 3. **Broad central peak** (the random web): a median of the power in polar cells
+//!    (annulus × angular sector), divided by ln 2, smoothed along the radius
+//!    ([`background`]). The spectrum is **divided** by it, giving a whitened spectrum
+//!    `W = |F|²/E|F|² ~ Exp(1)`.
+//! 4. **Peak detection** ([`peaks`]): `W > ln(M·passes/α)` (α = `false_alarm_rate`
+//!    expected false peaks per image, `M` bins searched), outside a DC disc, local
+//!    maxima only, and only bins holding at least `min_peak_fraction` of the image
+//!    variance (well above the noise floor). Up to `max_passes` passes: after each pass
+//!    the notches are applied and the residual is searched again, which catches the
+//!    leakage of peaks whose period does not divide the image size.
+//! 5. **Notches** ([`notch`]): circular Gaussians of `notch_sigma_bins`, widened by
+//!    `(1 + off_grid_widening·2·max|δ|)` where `δ` is the peak's sub-bin offset (leakage
+//!    is wider when the period does not divide the image size), each with its conjugate.
+//! 6. **Inverse FFT** of the notched image spectrum (the notch mask multiplies the
+//!    spectra of both components) → filtered image, **CV_corr**, fraction of variance
+//!    removed, CV over zone sizes. The notches also remove the web's own power under
+//!    them; `cv_corr_compensated` adds back its expectation from the background model.
+//! 7. **Lattice**: two basis vectors fitted to the peaks ([`peaks::fit_lattice`]).
+//!
+//! # The mean pitfall
+//! Notching never touches the DC bin, so the filtered image keeps the raw mean. If the
+//! bond pattern has a non-zero mean (bonds are a one-sided brightening of `contrast·f`
+//! on average, `f` the bond area fraction), `CV_corr = σ_web/(μ_web + contrast·f)` is
+//! biased low. The image alone cannot tell a one-sided pattern from a zero-mean one
+//! (they differ only by a constant), so the stage reports both:
+//! * [`ImageAnalysis::cv_corr`]: mean kept (the paper's method; exact for a zero-mean pattern);
+//! * [`ImageAnalysis::cv_corr_one_sided`]: the removed pattern `raw − filtered` is zero
+//!   mean, and its median is the level between bonds, i.e. `−contrast·f` when bonds cover
+//!   less than half the area; subtracting that estimate ([`ImageAnalysis::bond_mean_estimate`])
+//!   from the mean gives the CV for a one-sided pattern (bonds added on top of the web).
+//!
+//! # Example
+//! ```
+//! use laydown::stages::image::{analyze, ImageParams};
+//! use laydown::stages::image::render::{render, random_fibre_web, BondPattern, RenderParams};
+//! let cell = 0.34e-3;
+//! let web = random_fibre_web(128, 160, cell, 20.0, 10e-3, 1e-3, None, 7);
+//! let truth = render(&web, cell, &RenderParams::default()).unwrap().grey;
+//! let rp = RenderParams { bonds: Some(BondPattern { contrast: 0.3, ..Default::default() }), ..Default::default() };
+//! let bonded = render(&web, cell, &rp).unwrap().grey;
+//! let a = analyze(&bonded, cell, &ImageParams::default()).unwrap();
+//! let cv_true = laydown::uniformity::coefficient_of_variation(truth.iter().copied());
+//! assert!(a.cv_raw > 1.2 * cv_true);                  // the bonds dominate the raw CV
+//! assert!((a.cv_corr / cv_true - 1.0).abs() < 0.05);  // the notch filter recovers the web
+//! let lat = a.lattice.as_ref().unwrap();
+//! assert!(lat.periods.iter().all(|p| (p - 4e-3).abs() < 0.1e-3));
+//! ```
+pub mod background;
+pub mod fft2;
+pub mod io;
+pub mod notch;
+pub mod panel;
+pub mod peaks;
+pub mod periodic;
+pub mod render;
+
+use std::path::{Path, PathBuf};
+
+use ndarray::Array2;
+use num_complex::Complex64;
+
+use crate::uniformity::{coefficient_of_variation, cv_by_zone_size, log_zone_sizes, ZoneCv};
+pub use io::{expand_inputs, read_grey, GreyImage, InputSpec};
+pub use peaks::{Lattice, Peak};
+
+/// Smallest image side accepted (pixels).
+pub const MIN_SIDE: usize = 16;
+
+/// Errors of the image stage. Every variant that concerns a file names it.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("cannot read image {}: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("cannot decode image {}: {message}", path.display())]
+    Decode { path: PathBuf, message: String },
+    #[error("cannot write {}: {message}", path.display())]
+    Write { path: PathBuf, message: String },
+    #[error("bad glob pattern {pattern:?}: {message}")]
+    BadPattern { pattern: String, message: String },
+    #[error("no files match {pattern:?}")]
+    NoFiles { pattern: String },
+    #[error("image{} is {rows}×{cols} pixels; at least {min}×{min} are needed", at(path))]
+    TooSmall { path: Option<PathBuf>, rows: usize, cols: usize, min: usize },
+    #[error("image{} has {count} non-finite grey levels (NaN or infinite)", at(path))]
+    NonFinite { path: Option<PathBuf>, count: usize },
+    #[error("image{} has mean grey level {mean}: the CV (std/mean) needs a positive mean", at(path))]
+    NonPositiveMean { path: Option<PathBuf>, mean: f64 },
+    #[error("parameter `{name}` = {value} is invalid: allowed {allowed}")]
+    InvalidParam { name: &'static str, value: String, allowed: String },
+}
+
+fn at(path: &Option<PathBuf>) -> String {
+    path.as_ref().map(|p| format!(" {}", p.display())).unwrap_or_default()
+}
+
+impl ImageError {
+    /// Attaches a file path to the errors that can carry one and have none yet.
+    pub fn with_path(self, p: &Path) -> Self {
+        match self {
+            ImageError::TooSmall { path: None, rows, cols, min } => ImageError::TooSmall { path: Some(p.into()), rows, cols, min },
+            ImageError::NonFinite { path: None, count } => ImageError::NonFinite { path: Some(p.into()), count },
+            ImageError::NonPositiveMean { path: None, mean } => ImageError::NonPositiveMean { path: Some(p.into()), mean },
+            other => other,
+        }
+    }
+}
+
+/// Parameters of the image analysis. All lengths in the YAML/CLI are in millimetres;
+/// [`ImageParams::pixel_size_m`] converts to SI. See [`PARAMETERS`] for units and ranges.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ImageParams {
+    /// Pixel size (mm). Give this or `dpi`; with neither, [`DEFAULT_PIXEL_SIZE_MM`].
+    pub pixel_size_mm: Option<f64>,
+    /// Scan resolution (dots per inch); pixel size = 25.4/dpi mm.
+    pub dpi: Option<f64>,
+    /// Expected number of false peaks per image. Default 1e-3.
+    pub false_alarm_rate: f64,
+    /// Gaussian notch standard deviation (frequency bins). Default 1.5.
+    pub notch_sigma_bins: f64,
+    /// Notch widening for peaks between bins: σ·(1 + w·2·max|δ|). Default 1.
+    pub off_grid_widening: f64,
+    /// Radius of the excluded DC disc (bins). Default 4.
+    pub dc_exclusion_bins: f64,
+    /// Smallest peak share of the image variance searched for. Default 1e-5.
+    pub min_peak_fraction: f64,
+    /// Angular sectors of the background model over 180°. Default 8.
+    pub background_sectors: usize,
+    /// Smallest radial half-width (annuli) of a background pool. Default 1.
+    pub background_smoothing: usize,
+    /// Bins a background pool aims for (median precision 1/(ln2·√pool)). Default 256.
+    pub background_pool: usize,
+    /// Detection passes (each searches the residual after the previous notches). Default 3.
+    pub max_passes: usize,
+    /// Maximum number of peaks (half plane) notched. Default 400.
+    pub max_peaks: usize,
+    /// Use the periodic-plus-smooth decomposition before the FFT. Default true.
+    pub periodic_decomposition: bool,
+    /// Smallest zone side of the CV-per-zone curves (mm). Default 0.5.
+    pub zone_min_mm: f64,
+    /// Largest zone side (mm). Default 16.
+    pub zone_max_mm: f64,
+    /// Zone sizes per doubling. Default 2.
+    pub zones_per_octave: usize,
+    /// Edge band left out of the filtered statistics, in longest bond periods. Default 1.
+    pub edge_margin_periods: f64,
+}
+
+/// Default pixel size: an A4 sheet's long side (297 mm) over 871 pixels, the paper's scans.
+pub const DEFAULT_PIXEL_SIZE_MM: f64 = 297.0 / 871.0;
+
+impl Default for ImageParams {
+    fn default() -> Self {
+        ImageParams {
+            pixel_size_mm: None,
+            dpi: None,
+            false_alarm_rate: 1e-3,
+            notch_sigma_bins: 1.5,
+            off_grid_widening: 1.0,
+            dc_exclusion_bins: 4.0,
+            min_peak_fraction: 1e-5,
+            background_sectors: 8,
+            background_smoothing: 1,
+            background_pool: 256,
+            max_passes: 3,
+            max_peaks: 400,
+            periodic_decomposition: true,
+            zone_min_mm: 0.5,
+            zone_max_mm: 16.0,
+            zones_per_octave: 2,
+            edge_margin_periods: 1.0,
+        }
+    }
+}
+
+/// Typed default of a parameter in [`PARAMETERS`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ParamDefault {
+    Float(f64),
+    Int(i64),
+    Bool(bool),
+    /// No default: optional, the doc says what happens when absent.
+    Unset,
+}
+
+/// One row of the parameter table (for YAML validation, `--help` and JSON schema).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub default: ParamDefault,
+    /// Inclusive bounds (for Bool: 0 and 1).
+    pub min: f64,
+    pub max: f64,
+    pub doc: &'static str,
+}
+
+/// The image stage's parameters: name, unit, default, range, meaning.
+pub const PARAMETERS: &[ParamSpec] = &[
+    ParamSpec { name: "pixel_size_mm", unit: "mm", default: ParamDefault::Unset, min: 1e-4, max: 100.0,
+        doc: "Pixel size; give this or dpi (not both). Neither: 297/871 mm (A4 at 871 px, the paper's scans)." },
+    ParamSpec { name: "dpi", unit: "1/inch", default: ParamDefault::Unset, min: 1.0, max: 1e5,
+        doc: "Scan resolution; pixel size = 25.4/dpi mm. Give this or pixel_size_mm." },
+    ParamSpec { name: "false_alarm_rate", unit: "peaks/image", default: ParamDefault::Float(1e-3), min: 1e-12, max: 0.5,
+        doc: "Expected number of false peaks per bond-free image; sets the Exp(1) threshold ln(M·passes/α)." },
+    ParamSpec { name: "notch_sigma_bins", unit: "bins", default: ParamDefault::Float(1.5), min: 0.5, max: 10.0,
+        doc: "Standard deviation of the circular Gaussian notches, in frequency bins." },
+    ParamSpec { name: "off_grid_widening", unit: "1", default: ParamDefault::Float(1.0), min: 0.0, max: 5.0,
+        doc: "Notch widening for peaks between bins (period not dividing the image): σ·(1 + w·2·max|δ|)." },
+    ParamSpec { name: "dc_exclusion_bins", unit: "bins", default: ParamDefault::Float(4.0), min: 1.0, max: 200.0,
+        doc: "Radius of the disc around DC that is never searched (web scale, not bonds)." },
+    ParamSpec { name: "min_peak_fraction", unit: "1", default: ParamDefault::Float(1e-5), min: 0.0, max: 0.1,
+        doc: "A peak (with its conjugate) must hold at least this share of the image variance above background." },
+    ParamSpec { name: "background_sectors", unit: "count", default: ParamDefault::Int(8), min: 1.0, max: 64.0,
+        doc: "Angular sectors (over 180°) of the median background model; 1 = purely radial." },
+    ParamSpec { name: "background_smoothing", unit: "annuli", default: ParamDefault::Int(1), min: 0.0, max: 20.0,
+        doc: "Smallest radial half-width of the pools whose median is the background." },
+    ParamSpec { name: "background_pool", unit: "bins", default: ParamDefault::Int(256), min: 16.0, max: 100000.0,
+        doc: "Bins a background pool aims for; pools grow radially (within ±17 % of the radius) to reach it." },
+    ParamSpec { name: "max_passes", unit: "count", default: ParamDefault::Int(3), min: 1.0, max: 10.0,
+        doc: "Detection passes; each searches the residual after the previous notches." },
+    ParamSpec { name: "max_peaks", unit: "count", default: ParamDefault::Int(400), min: 1.0, max: 100000.0,
+        doc: "Upper bound on notched peaks (half plane); reaching it adds a warning." },
+    ParamSpec { name: "periodic_decomposition", unit: "bool", default: ParamDefault::Bool(true), min: 0.0, max: 1.0,
+        doc: "Periodic-plus-smooth decomposition (Moisan) before the FFT, against edge-jump artefacts." },
+    ParamSpec { name: "zone_min_mm", unit: "mm", default: ParamDefault::Float(0.5), min: 1e-4, max: 1000.0,
+        doc: "Smallest zone side of the CV-per-zone-size curves." },
+    ParamSpec { name: "zone_max_mm", unit: "mm", default: ParamDefault::Float(16.0), min: 1e-4, max: 1000.0,
+        doc: "Largest zone side of the CV-per-zone-size curves (≥ zone_min_mm)." },
+    ParamSpec { name: "zones_per_octave", unit: "count", default: ParamDefault::Int(2), min: 1.0, max: 16.0,
+        doc: "Zone sizes per doubling of the zone side." },
+    ParamSpec { name: "edge_margin_periods", unit: "bond periods", default: ParamDefault::Float(1.0), min: 0.0, max: 10.0,
+        doc: "Edge band left out of the filtered-image CVs, in longest detected bond periods (0 = whole image)." },
+];
+
+fn spec(name: &str) -> &'static ParamSpec {
+    PARAMETERS.iter().find(|p| p.name == name).expect("parameter in table")
+}
+
+fn check(name: &'static str, v: f64) -> Result<(), ImageError> {
+    let s = spec(name);
+    if v.is_finite() && v >= s.min && v <= s.max {
+        Ok(())
+    } else {
+        Err(ImageError::InvalidParam {
+            name,
+            value: v.to_string(),
+            allowed: format!("{} to {} {}", s.min, s.max, s.unit),
+        })
+    }
+}
+
+impl ImageParams {
+    /// Checks every parameter against [`PARAMETERS`]; the error names the parameter and
+    /// its allowed range.
+    pub fn validate(&self) -> Result<(), ImageError> {
+        if let Some(v) = self.pixel_size_mm {
+            check("pixel_size_mm", v)?;
+        }
+        if let Some(v) = self.dpi {
+            check("dpi", v)?;
+        }
+        if let (Some(mm), Some(dpi)) = (self.pixel_size_mm, self.dpi) {
+            return Err(ImageError::InvalidParam {
+                name: "dpi",
+                value: format!("{dpi} (with pixel_size_mm = {mm})"),
+                allowed: "only one of pixel_size_mm and dpi".into(),
+            });
+        }
+        check("false_alarm_rate", self.false_alarm_rate)?;
+        check("notch_sigma_bins", self.notch_sigma_bins)?;
+        check("off_grid_widening", self.off_grid_widening)?;
+        check("dc_exclusion_bins", self.dc_exclusion_bins)?;
+        check("min_peak_fraction", self.min_peak_fraction)?;
+        check("background_sectors", self.background_sectors as f64)?;
+        check("background_smoothing", self.background_smoothing as f64)?;
+        check("background_pool", self.background_pool as f64)?;
+        check("max_passes", self.max_passes as f64)?;
+        check("max_peaks", self.max_peaks as f64)?;
+        check("zone_min_mm", self.zone_min_mm)?;
+        check("zone_max_mm", self.zone_max_mm)?;
+        check("zones_per_octave", self.zones_per_octave as f64)?;
+        check("edge_margin_periods", self.edge_margin_periods)?;
+        if self.zone_max_mm < self.zone_min_mm {
+            return Err(ImageError::InvalidParam {
+                name: "zone_max_mm",
+                value: self.zone_max_mm.to_string(),
+                allowed: format!("≥ zone_min_mm = {}", self.zone_min_mm),
+            });
+        }
+        Ok(())
+    }
+
+    /// Pixel size in metres, from `pixel_size_mm`, `dpi` or the default.
+    pub fn pixel_size_m(&self) -> f64 {
+        match (self.pixel_size_mm, self.dpi) {
+            (Some(mm), _) => mm * 1e-3,
+            (None, Some(dpi)) => 25.4e-3 / dpi,
+            (None, None) => DEFAULT_PIXEL_SIZE_MM * 1e-3,
+        }
+    }
+}
+
+/// Everything the analysis of one image produces.
+#[derive(Debug, Clone)]
+pub struct ImageAnalysis {
+    /// Pixel size used (m).
+    pub pixel_size: f64,
+    /// Input grey levels, (rows, cols).
+    pub raw: Array2<f64>,
+    /// Image after notching the bond peaks (same mean as `raw`).
+    pub filtered: Array2<f64>,
+    /// log10 of the energy spectrum |F|²/N² of the analysed (periodic) component before
+    /// notching, fftshifted (DC at row ⌊H/2⌋, column ⌊W/2⌋). Σ of the energy over non-DC
+    /// bins is the variance. Floored at 1e-16 of the total energy.
+    pub log_spectrum_raw: Array2<f64>,
+    /// Same after notching.
+    pub log_spectrum_notched: Array2<f64>,
+    /// Detected peaks (half plane; each was notched with its conjugate), strongest first per pass.
+    pub peaks: Vec<Peak>,
+    /// Lattice fitted to the peaks, if any.
+    pub lattice: Option<Lattice>,
+    /// Number of Gaussian notches applied (2 per peak, conjugates included).
+    pub notch_count: usize,
+    /// Mean grey level (same before and after filtering).
+    pub mean: f64,
+    /// CV of the raw grey levels.
+    pub cv_raw: f64,
+    /// CV of the filtered image, mean kept: the paper's CV_corr. Biased low by the web
+    /// variance the notches also remove (see `cv_corr_compensated`).
+    pub cv_corr: f64,
+    /// Best estimate of the web's own CV for a zero-mean bond pattern:
+    /// `√(Var(filtered) + web_variance_notched) / mean`.
+    pub cv_corr_compensated: f64,
+    /// Expected web variance removed with the bond peaks, `Σ (1 − g²)·B / N²` over the
+    /// notch gains `g` and the background model `B` (0 without notches).
+    pub web_variance_notched: f64,
+    /// Estimated mean grey level added by the bonds if they are one-sided (see module docs).
+    pub bond_mean_estimate: f64,
+    /// Compensated CV about `mean − bond_mean_estimate` (one-sided bonds):
+    /// `√(Var(filtered) + web_variance_notched) / (mean − bond_mean_estimate)`;
+    /// None when that mean is not positive.
+    pub cv_corr_one_sided: Option<f64>,
+    /// 1 − Var(filtered)/Var(raw), whole images.
+    pub fraction_variance_removed: f64,
+    /// Width (pixels) of the edge band left out of the filtered-image statistics
+    /// (`cv_corr*`, `zone_cv_filtered`, `bond_mean_estimate`): `edge_margin_periods`
+    /// times the longest lattice period, at most a quarter of each side; 0 without lattice.
+    pub margin_px: usize,
+    /// Whitened-power threshold used.
+    pub threshold: f64,
+    /// Bins searched per pass (M).
+    pub bins_searched: usize,
+    /// CV over zone sizes, raw and filtered.
+    pub zone_cv_raw: Vec<ZoneCv>,
+    pub zone_cv_filtered: Vec<ZoneCv>,
+    /// Things the user should know (saturation, peak cap reached, constant image, ...).
+    pub warnings: Vec<String>,
+}
+
+impl ImageAnalysis {
+    /// The scalar results, for tables and group statistics.
+    pub fn summary(&self) -> Summary {
+        Summary {
+            cv_raw: self.cv_raw,
+            cv_corr: self.cv_corr,
+            cv_corr_compensated: self.cv_corr_compensated,
+            cv_corr_one_sided: self.cv_corr_one_sided,
+            fraction_variance_removed: self.fraction_variance_removed,
+            notch_count: self.notch_count,
+            peak_count: self.peaks.len(),
+            mean: self.mean,
+            lattice_periods: self.lattice.as_ref().map(|l| l.periods.clone()).unwrap_or_default(),
+        }
+    }
+}
+
+/// Scalar results of one image.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Summary {
+    pub cv_raw: f64,
+    pub cv_corr: f64,
+    pub cv_corr_compensated: f64,
+    pub cv_corr_one_sided: Option<f64>,
+    pub fraction_variance_removed: f64,
+    pub notch_count: usize,
+    pub peak_count: usize,
+    pub mean: f64,
+    /// Detected bond repeat distances (m), empty without a lattice.
+    pub lattice_periods: Vec<f64>,
+}
+
+fn mean_var(a: &Array2<f64>) -> (f64, f64) {
+    let n = a.len() as f64;
+    let m = a.sum() / n;
+    let v = a.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / n;
+    (m, v)
+}
+
+fn log_energy(power: &Array2<f64>, n2: f64) -> Array2<f64> {
+    let total: f64 = power.sum() / n2;
+    let floor = (total * 1e-16).max(f64::MIN_POSITIVE);
+    fft2::fftshift(&power.mapv(|p| (p / n2).max(floor).log10()))
+}
+
+/// Analyses one grey image (any positive scale, e.g. [0, 1]) of pixel size `pixel_size` (m).
+///
+/// Errors: invalid parameters, images smaller than [`MIN_SIDE`], non-finite values, a
+/// non-positive mean. A constant image is not an error: CV 0, no peaks, and a warning.
+pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Result<ImageAnalysis, ImageError> {
+    params.validate()?;
+    if !(pixel_size > 0.0 && pixel_size.is_finite()) {
+        return Err(ImageError::InvalidParam {
+            name: "pixel_size",
+            value: pixel_size.to_string(),
+            allowed: "a positive length in metres".into(),
+        });
+    }
+    let (h, w) = image.dim();
+    if h < MIN_SIDE || w < MIN_SIDE {
+        return Err(ImageError::TooSmall { path: None, rows: h, cols: w, min: MIN_SIDE });
+    }
+    let bad = image.iter().filter(|v| !v.is_finite()).count();
+    if bad > 0 {
+        return Err(ImageError::NonFinite { path: None, count: bad });
+    }
+    let raw = image.to_owned();
+    let (mean, var_raw) = mean_var(&raw);
+    if !(mean > 0.0) {
+        return Err(ImageError::NonPositiveMean { path: None, mean });
+    }
+    let mut warnings = Vec::new();
+    let (lo, hi) = raw.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    if hi <= 1.0 && lo >= 0.0 {
+        let sat = raw.iter().filter(|&&v| v <= 0.0 || v >= 1.0).count() as f64 / raw.len() as f64;
+        if sat > 0.01 {
+            warnings.push(format!(
+                "{:.1} % of pixels are saturated at 0 or 1: clipped bonds are not purely periodic, so part of the pattern survives the notches and CV_corr is biased high",
+                100.0 * sat
+            ));
+        }
+    }
+    let n = (h * w) as f64;
+    let n2 = n * n;
+    let cell = pixel_size;
+    let zones = log_zone_sizes(params.zone_min_mm * 1e-3, params.zone_max_mm * 1e-3, params.zones_per_octave);
+    let cv_raw = coefficient_of_variation(raw.iter().copied());
+
+    let plan = fft2::Fft2::new(h, w);
+    let (p_hat, s_hat) = if params.periodic_decomposition {
+        periodic::periodic_smooth_spectra(&raw, &plan)
+    } else {
+        let mut u = raw.mapv(|x| Complex64::new(x, 0.0));
+        plan.forward(&mut u);
+        (u, Array2::zeros((h, w)))
+    };
+    let power = p_hat.mapv(|z| z.norm_sqr());
+    let total_ac = power.sum() - power[[0, 0]];
+    let space = peaks::search_space(h, w, params.dc_exclusion_bins, params.max_passes, params.false_alarm_rate);
+    let mut mask = notch::NotchMask::new(h, w);
+    let mut found: Vec<Peak> = Vec::new();
+    let mut web_var_notched = 0.0;
+
+    let constant = lo == hi;
+    if constant || !(total_ac > 0.0) {
+        if constant {
+            warnings.push("constant image: CV is 0 and there is nothing to filter".into());
+        }
+    } else {
+        let bg = background::fit(&power, params.background_sectors, params.background_smoothing, params.background_pool);
+        // Per-bin threshold, raised for the estimation error of the background.
+        let thr = {
+            const STEP: f64 = 0.002;
+            let max_sd = bg.log_sd.iter().copied().fold(0.0, f64::max).min(5.0);
+            let table: Vec<f64> = (0..=((max_sd / STEP).ceil() as usize + 1))
+                .map(|i| background::corrected_threshold(space.threshold, i as f64 * STEP))
+                .collect();
+            bg.log_sd.mapv(|sd| {
+                let x = (sd.clamp(0.0, max_sd)) / STEP;
+                let i = (x.floor() as usize).min(table.len() - 2);
+                let f = x - i as f64;
+                (1.0 - f) * table[i] + f * table[i + 1]
+            })
+        };
+        let mut taken = Array2::from_elem((h, w), false);
+        let mut current = p_hat.clone();
+        for pass in 0..params.max_passes {
+            let cur_power = if pass == 0 { power.clone() } else { current.mapv(|z| z.norm_sqr()) };
+            let cands = peaks::find_candidates(
+                &cur_power,
+                &bg.mean_power,
+                total_ac,
+                &thr,
+                params.dc_exclusion_bins,
+                params.min_peak_fraction,
+                &taken,
+            );
+            if cands.is_empty() {
+                break;
+            }
+            let room = params.max_peaks.saturating_sub(found.len());
+            for c in cands.iter().take(room) {
+                let (v, u) = peaks::refine(&current, c.q, c.r);
+                let off = (v - v.round()).abs().max((u - u.round()).abs());
+                let sigma = params.notch_sigma_bins * (1.0 + params.off_grid_widening * 2.0 * off);
+                mask.add_pair(v, u, sigma);
+                taken[[c.q, c.r]] = true;
+                let kx = u / (w as f64 * cell);
+                let ky = v / (h as f64 * cell);
+                let kk = kx.hypot(ky);
+                found.push(Peak {
+                    kx,
+                    ky,
+                    u,
+                    v,
+                    period: 1.0 / kk,
+                    angle_deg: ky.atan2(kx).to_degrees().rem_euclid(180.0),
+                    strength: c.w,
+                    variance_fraction: 2.0 * (c.power - c.bg) / total_ac,
+                    notch_sigma: sigma,
+                    pass,
+                    lattice_index: None,
+                });
+            }
+            if cands.len() > room {
+                warnings.push(format!("peak limit max_peaks = {} reached; stronger peaks were kept", params.max_peaks));
+                break;
+            }
+            current = &p_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0));
+        }
+        if !found.is_empty() {
+            // Expected web variance inside the notches: Σ (1 − g²) E|F|² / N², DC excluded.
+            web_var_notched = mask
+                .gain
+                .iter()
+                .zip(bg.mean_power.iter())
+                .skip(1)
+                .map(|(g, b)| (1.0 - g * g) * b)
+                .sum::<f64>()
+                / n2;
+        }
+    }
+
+    let notched_hat = &p_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0));
+    let notched_power = notched_hat.mapv(|z| z.norm_sqr());
+    let filtered = if found.is_empty() {
+        // Nothing notched: the image is returned bit for bit (no FFT round-off).
+        raw.clone()
+    } else {
+        // The notches act on the whole image spectrum (periodic + smooth parts), as in
+        // the paper; the decomposition only keeps edge artefacts out of the detection.
+        let mut f_hat = &notched_hat + &(&s_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0)));
+        plan.inverse(&mut f_hat);
+        f_hat.mapv(|z| z.re)
+    };
+    // Statistics of the filtered image over the interior: a band of `edge_margin_periods`
+    // bond periods along the edges keeps residual bond pattern (the notches cannot remove
+    // the part of an off-grid harmonic that wraps around the image edges).
+    let lattice = peaks::fit_lattice(&mut found, 8);
+    let margin_px = match &lattice {
+        Some(l) if params.edge_margin_periods > 0.0 => {
+            let p = l.periods.iter().copied().fold(0.0, f64::max);
+            ((params.edge_margin_periods * p / cell).round() as usize).min(h / 4).min(w / 4)
+        }
+        _ => 0,
+    };
+    let interior = |a: &Array2<f64>| a.slice(ndarray::s![margin_px..h - margin_px, margin_px..w - margin_px]).to_owned();
+    let filtered_in = interior(&filtered);
+    let (mean_in, var_f) = if found.is_empty() { (mean, var_raw) } else { mean_var(&filtered_in) };
+    let cv_corr = if found.is_empty() { cv_raw } else { var_f.sqrt() / mean_in };
+    let var_comp = var_f + web_var_notched;
+    let cv_corr_compensated = if found.is_empty() { cv_raw } else { var_comp.sqrt() / mean_in };
+    let fraction_variance_removed = if var_raw > 0.0 { 1.0 - mean_var(&filtered).1 / var_raw } else { 0.0 };
+    // One-sided bond mean: median level of the removed (zero-mean) pattern.
+    let (bond_mean_estimate, cv_corr_one_sided) = if found.is_empty() {
+        (0.0, Some(cv_corr))
+    } else {
+        let mut removed: Vec<f64> = interior(&raw).iter().zip(filtered_in.iter()).map(|(a, b)| a - b).collect();
+        let k = removed.len() / 2;
+        let (_, med, _) = removed.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+        let est = -*med;
+        let m = mean_in - est;
+        (est, if m > 0.0 { Some(var_comp.sqrt() / m) } else { None })
+    };
+    if !found.is_empty() && lattice.is_none() {
+        warnings.push("peaks were found but no lattice fits them".into());
+    }
+    let zone_cv_raw = cv_by_zone_size(raw.view(), cell, &zones);
+    let zone_cv_filtered = cv_by_zone_size(filtered_in.view(), cell, &zones);
+    Ok(ImageAnalysis {
+        pixel_size,
+        log_spectrum_raw: log_energy(&power, n2),
+        log_spectrum_notched: log_energy(&notched_power, n2),
+        raw,
+        filtered,
+        notch_count: mask.count,
+        peaks: found,
+        lattice,
+        mean,
+        cv_raw,
+        cv_corr,
+        cv_corr_compensated,
+        web_variance_notched: web_var_notched,
+        bond_mean_estimate,
+        cv_corr_one_sided,
+        fraction_variance_removed,
+        margin_px,
+        threshold: space.threshold,
+        bins_searched: space.bins,
+        zone_cv_raw,
+        zone_cv_filtered,
+        warnings,
+    })
+}
+
+/// Reads and analyses one file with the pixel size from `params`.
+pub fn analyze_file(path: &Path, params: &ImageParams) -> Result<ImageAnalysis, ImageError> {
+    let img = read_grey(path)?;
+    analyze(&img.data, params.pixel_size_m(), params).map_err(|e| e.with_path(path))
+}
+
+/// Mean and sample standard deviation (n − 1); std is 0 for a single value.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MeanStd {
+    pub mean: f64,
+    pub std: f64,
+}
+
+impl MeanStd {
+    pub fn of(v: &[f64]) -> MeanStd {
+        let n = v.len();
+        if n == 0 {
+            return MeanStd { mean: 0.0, std: 0.0 };
+        }
+        let mean = v.iter().sum::<f64>() / n as f64;
+        let std = if n > 1 { (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt() } else { 0.0 };
+        MeanStd { mean, std }
+    }
+}
+
+/// Per-condition statistics over the samples of one group.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GroupStats {
+    pub group: String,
+    pub n: usize,
+    pub cv_raw: MeanStd,
+    pub cv_corr: MeanStd,
+    pub cv_corr_compensated: MeanStd,
+    pub fraction_variance_removed: MeanStd,
+    pub notch_count: MeanStd,
+}
+
+/// One analysed file of a batch.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SampleSummary {
+    pub path: PathBuf,
+    pub group: String,
+    pub summary: Summary,
+}
+
+/// Results of a batch: per-file summaries (input order) and per-group statistics
+/// (groups in order of first appearance).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BatchSummary {
+    pub samples: Vec<SampleSummary>,
+    pub groups: Vec<GroupStats>,
+}
+
+/// Groups (label, summary) pairs and computes mean and sample std per group.
+pub fn group_statistics<'a>(samples: impl IntoIterator<Item = (&'a str, &'a Summary)>) -> Vec<GroupStats> {
+    let mut groups: Vec<(String, Vec<&Summary>)> = Vec::new();
+    for (g, s) in samples {
+        match groups.iter_mut().find(|(name, _)| name == g) {
+            Some((_, v)) => v.push(s),
+            None => groups.push((g.to_string(), vec![s])),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(group, v)| {
+            let col = |f: &dyn Fn(&Summary) -> f64| MeanStd::of(&v.iter().map(|s| f(s)).collect::<Vec<_>>());
+            GroupStats {
+                n: v.len(),
+                cv_raw: col(&|s| s.cv_raw),
+                cv_corr: col(&|s| s.cv_corr),
+                cv_corr_compensated: col(&|s| s.cv_corr_compensated),
+                fraction_variance_removed: col(&|s| s.fraction_variance_removed),
+                notch_count: col(&|s| s.notch_count as f64),
+                group,
+            }
+        })
+        .collect()
+}
+
+/// Expands `specs`, analyses each file in turn (stopping at the first error, which names
+/// the file) and hands each full analysis to `sink` before dropping it, so a batch of
+/// large scans never holds more than one analysis in memory.
+pub fn analyze_files(
+    specs: &[InputSpec],
+    params: &ImageParams,
+    mut sink: impl FnMut(&Path, &str, &ImageAnalysis),
+) -> Result<BatchSummary, ImageError> {
+    params.validate()?;
+    let files = expand_inputs(specs)?;
+    let mut samples = Vec::with_capacity(files.len());
+    for (path, group) in files {
+        let a = analyze_file(&path, params)?;
+        sink(&path, &group, &a);
+        samples.push(SampleSummary { summary: a.summary(), path, group });
+    }
+    let groups = group_statistics(samples.iter().map(|s| (s.group.as_str(), &s.summary)));
+    Ok(BatchSummary { samples, groups })
+}

@@ -203,7 +203,11 @@ fn add_sweep_coordinates(out: &mut Output, sweep: &[(String, Vec<ParamValue>)]) 
     let coords = names.join(" ");
     for v in out.variables.iter_mut() {
         if v.dims.iter().any(|d| d == "point") && !names.contains(&v.name) {
-            v.attrs.insert("coordinates".into(), Attr::Str(coords.clone()));
+            let joined = match v.attrs.get("coordinates") {
+                Some(Attr::Str(own)) => format!("{own} {coords}"),
+                _ => coords.clone(),
+            };
+            v.attrs.insert("coordinates".into(), Attr::Str(joined));
         }
     }
     Ok(())

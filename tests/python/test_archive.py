@@ -49,6 +49,8 @@ def test_xarray_sees_named_dimensions(quickstart_archive):
         ds.close()
     ideal = xr.open_dataset(quickstart_archive, group="/ideal/latest", engine="h5netcdf")
     assert ideal["energy_spectrum"].dims == ("point", "fibre", "bin")
+    assert "arc_length" in ideal["curvature"].coords and "angular_frequency" in ideal["energy_spectrum"].coords
+    np.testing.assert_allclose(ideal["arc_length"].values[0, 1], ideal["sample_spacing"].values[0])
     fibre = xr.open_dataset(quickstart_archive, group="/fibre/latest", engine="h5netcdf")
     assert fibre["positions"].dims == ("point", "replicate", "node", "xyz")
     assert list(fibre["xyz"].values) == ["x", "y", "z"]

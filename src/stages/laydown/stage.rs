@@ -107,7 +107,8 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
         return (f64::NAN, f64::NAN, 0);
     }
     let mean = v.iter().sum::<f64>() / n as f64;
-    let var = if n > 1 { v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64 } else { 0.0 };
+    // The sample standard deviation of a single value is undefined: NaN, not 0.
+    let var = if n > 1 { v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64 } else { f64::NAN };
     (mean, var.sqrt(), n)
 }
 

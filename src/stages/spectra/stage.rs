@@ -219,6 +219,19 @@ fn assemble(rows: &[Vec<Row>]) -> Output {
     out.f64("bending_energy_from_curvature", &["point", "fibre"], e_k, "1", "e = (L/2) Σ κ_m² Δs (eqs 6, A.3)");
     out.f64("bending_energy_from_spectrum", &["point", "fibre"], e_s, "1", "e = (L²/2) Σ S_r (Parseval, eq A.4)");
     out.flags("valid", &["point", "fibre"], valid, "spectrum present (padding is false)");
+    let arc = Array2::from_shape_fn((npoints, nbins), |(p, m)| m as f64 * spacing[p]);
+    let arc_angle = Array2::from_shape_fn((npoints, nangles), |(p, m)| m as f64 * spacing[p]);
+    out.f64("arc_length", &["point", "sample"], arc, "m", "s_m = mΔs of each curvature sample (eq 9)");
+    out.f64("angle_arc_length", &["point", "angle_sample"], arc_angle, "m", "arc length of each tangent-angle sample");
+    for v in out.variables.iter_mut() {
+        let c = match v.dims.last().map(|d| d.as_str()) {
+            Some("sample") if v.name != "arc_length" => "arc_length",
+            Some("angle_sample") if v.name != "angle_arc_length" => "angle_arc_length",
+            Some("bin") if v.name != "angular_frequency" && v.name != "bin" => "angular_frequency",
+            _ => continue,
+        };
+        v.attrs.insert("coordinates".into(), crate::archive::data::Attr::Str(c.into()));
+    }
     out.f64("sample_spacing", &["point"], spacing, "m", "Δs, arc-length spacing of the samples");
     out.f64("segment_length", &["point"], length, "m", "L = NΔs, length of the analysed fibre or segment");
     out

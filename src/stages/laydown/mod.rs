@@ -31,28 +31,52 @@
 //!   caller's RNG.
 //!
 //! # Integrators ([`Integrator`], formulas in [`integrator`])
-//! - `explicit`: extensible rod, symplectic Euler, Δt = factor·2/√(ω_a² + ω_b²) with
-//!   ω_a = 2√(E/ρ)/Δs, ω_b = (4/Δs²)√(EI/ρA): ≈ factor × 0.69 µs at Δs = 1 mm. Reference.
-//! - `inextensible`: no axial spring; segment lengths kept exactly by a mass-weighted
-//!   Newton projection with one O(N) tridiagonal solve per iteration;
-//!   Δt = factor·(Δs²/2)√(ρA/EI): ≈ factor × 27.6 µs at Δs = 1 mm, d = 50 µm.
+//! - `explicit` (reference): extensible rod, symplectic Euler, fixed
+//!   Δt = factor·2/√(ω_a² + ω_b²) with ω_a = 2√(E/ρ)/Δs, ω_b = (4/Δs²)√(EI/ρA):
+//!   ≈ factor × 0.69 µs at Δs = 1 mm.
+//! - `implicit_axial` (default, fast): axial springs by backward Euler through a
+//!   compliant length projection (XPBD form solved exactly, one O(N) tridiagonal solve
+//!   per Newton iteration); bending explicit; adaptive
+//!   Δt ≤ factor·(Δs²/2)√(ρA/EI) ≈ factor × 27.6 µs at Δs = 1 mm, d = 50 µm, reduced
+//!   while a compressed free span could buckle faster than the step.
+//! - `inextensible`: as `implicit_axial` with zero compliance.
 //!
-//! Both also keep Δt ≤ factor·Δs/(4 v_max). `coil_resolution` raises N when the inertial
+//! All keep Δt ≤ factor·Δs/(4 v_max) (v_max: feed, belt, ωu0). `coil_resolution` raises N when the inertial
 //! coil scale √(EI/ρA v_f²) (3.6 mm at the baseline, ten times smaller at 50 m/s) would
 //! be resolved by fewer than that many elements.
 //!
-//! # Validity
+//! # Validity and failures
 //! A replicate is invalid when a node, after first touching the belt, later rises more
-//! than `bounce_tolerance` (default 1 mm, one element at the baseline, 20 diameters)
-//! above it: the paper discards such bounced fibres. A step that cannot be taken
-//! (non-finite state, node faster than 50 v_ref + 10 m/s, belt penetration beyond
-//! `penetration_tolerance`, explicit strain > 50 %, projection not converging) ends
-//! the replicate with [`LaydownResult::error`] set; positions are never NaN.
+//! than `bounce_tolerance` (default 1 mm: one element at the baseline, 20 diameters;
+//! the typical rise of laid nodes is 0.1-0.6 mm, so about one replicate in ten is
+//! rejected with the fast scheme, as in the paper) above it: the paper discards such
+//! bounced fibres. [`LaydownResult::max_lift_after_landing`] lets the caller apply
+//! another threshold. A step that cannot be taken (non-finite state, node faster than
+//! 50 v_ref + 10 m/s, belt penetration beyond `penetration_tolerance`, explicit strain
+//! > 50 %, projection not converging even at 10⁻⁴ of the step) ends the replicate with
+//! [`LaydownResult::error`] set; positions are then the last good state, never NaN.
+//!
+//! # Metrics
+//! S (eq 5) and e (eq 6, via [`crate::geometry`]) are computed on the laid nodes (finite
+//! landing time) projected on the belt plane, in fibre order, and again after removing
+//! the belt motion x ← x − v_belt (t_end − landing_time), landing_time being the first
+//! touch. The belt-removed e is sensitive to node-scale position noise (nodes laid
+//! out of order during the start-up impact, micro-bounces before sticking): it grows
+//! with refinement and with belt speed; the belt-removed S is robust.
+//!
+//! # Use
+//! ```no_run
+//! use laydown::stages::laydown::{simulate, replicate_rng, run_jobs, LaydownJob, LaydownParams};
+//! let p = LaydownParams::default(); // Table 1 baseline, all effects, implicit_axial
+//! p.validate().unwrap();
+//! let r = simulate(&p, &mut replicate_rng(2024, 0));
+//! println!("S = {} m, e = {}, valid = {}", r.radius_of_gyration, r.bending_energy, r.valid);
+//! let jobs: Vec<_> = (0..10).map(|k| LaydownJob { params: p.clone(), seed: 2024, replicate: k }).collect();
+//! let results = run_jobs(&jobs); // rayon; identical for any thread count
+//! ```
 //!
 //! # Measured numbers
-//! See the crate's report in the commit history; the mesh study is below.
-//!
-//! MESH_TABLE_PLACEHOLDER
+//! MEASURED_PLACEHOLDER
 
 pub mod contact;
 pub mod effects;
@@ -67,5 +91,5 @@ mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, LaydownResult};
-pub use params::{Effects, Integrator, LaydownParams, ParamError, ParamKind, ParamSpec, PARAMETERS};
+pub use params::{parameter_table_markdown, Effects, Integrator, LaydownParams, ParamError, ParamKind, ParamSpec, PARAMETERS};
 pub use scene::{replicate_rng, run_jobs, simulate, LaydownJob};

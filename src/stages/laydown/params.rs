@@ -457,3 +457,21 @@ mod tests {
         assert!(LaydownParams::default().set("nonsense", 1.0).is_err());
     }
 }
+
+/// The parameter table as Markdown (name | unit | default | range | doc), effect flags and
+/// integrators included, for `--help` output and documentation.
+pub fn parameter_table_markdown() -> String {
+    let mut s = String::from("| name | unit | default | min | max | description |\n|---|---|---|---|---|---|\n");
+    for p in PARAMETERS {
+        s += &format!("| {} | {} | {} | {} | {} | {} |\n", p.name, p.unit, p.default, p.min, p.max, p.doc);
+    }
+    for (name, doc) in Effects::FLAGS {
+        s += &format!("| effects.{name} | bool | true | | | {doc} |\n");
+    }
+    s += &format!(
+        "| integrator | | {} | | | one of {} |\n",
+        Integrator::default().name(),
+        Integrator::NAMES.join(", ")
+    );
+    s
+}

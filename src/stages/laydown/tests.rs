@@ -506,3 +506,9 @@ fn mesh_convergence_reduced() {
     assert!(d2 < 0.85 * d1, "e not converging: {} {} {}", a[1], b[1], c[1]);
     assert!((c[0] - b[0]).abs() < 0.05 * b[0], "S: {} vs {}", b[0], c[0]);
 }
+
+#[test]
+#[ignore]
+fn print_parameter_table() {
+    println!("{}", parameter_table_markdown());
+}

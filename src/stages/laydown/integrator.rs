@@ -259,7 +259,12 @@ impl Simulator {
                 }
                 continue;
             }
-            let ai = sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?;
+            let ai = if a[3] == 0.0 && a[4] == 0.0 && a[5] == 0.0 {
+                // no coupling term on this node (outside the drag zone): diagonal
+                [1.0 / a[0], 1.0 / a[1], 1.0 / a[2], 0.0, 0.0, 0.0]
+            } else {
+                sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?
+            };
             self.rod.v[i] = super::effects::sym_mul(&ai, &b);
             if need_w {
                 self.ws.winv[i] = ai;

@@ -76,7 +76,47 @@
 //! ```
 //!
 //! # Measured numbers
-//! MEASURED_PLACEHOLDER
+//! All on the 2-vCPU development VM while other builds ran (load average 6-10), release
+//! build, one thread per replicate; "CPU" is user time of the process.
+//!
+//! Cost of one Table 1 replicate (1000 elements, 0.19 s simulated):
+//!
+//! | integrator | steps | Δt | CPU | wall |
+//! |---|---|---|---|---|
+//! | `explicit` | 344 709 | 0.551 µs (fixed) | ≈ 42 s | 43 s (light load), 55-107 s (load 7-10) |
+//! | `implicit_axial` | ≈ 8 670 | ≤ 22.05 µs (adaptive; ~2 ns-0.2 µs during the start-up impact) | 1.02-1.15 s | 1.6-3 s |
+//! | `inextensible` | ≈ 8 680 | same | ≈ 1.0 s | 1.5 s |
+//!
+//! Accuracy of the fast scheme against the explicit reference (Table 1, 1000 elements,
+//! seed 2024, replicates 0..n; mean ± standard error):
+//!
+//! | scheme | n | S (mm) | e | S belt removed (mm) | valid |
+//! |---|---|---|---|---|---|
+//! | `explicit` | 12 | 15.12 ± 0.07 | 10 650 ± 120 | 10.56 ± 0.10 | 1/12 |
+//! | `implicit_axial` (factor 0.8) | 10 | 15.34 ± 0.07 (+1.5 %) | 11 333 ± 179 (+6.4 %) | 10.86 ± 0.08 (+2.8 %) | 6/10 |
+//! | `implicit_axial` (factor 0.2) | 6 | 15.42 ± 0.14 | 11 235 ± 117 | 10.96 ± 0.07 | 3/6 |
+//! | `inextensible` | 6 | 15.39 ± 0.14 | 11 022 ± 180 | 10.85 ± 0.15 | 4/6 |
+//!
+//! The fast schemes agree with each other and do not change between factor 0.8 and 0.2,
+//! but sit 1.5 % (S) and 6 % (e) above the reference: the difference is the axial wave
+//! dynamics, which backward Euler damps and the undamped explicit rod keeps (α_R =
+//! 0.01 1/s does not damp them). On a reduced scene (L = 0.3 m, 300 elements, 12
+//! replicates) e is 794 ± 20 at factor 0.8, 743 ± 19 at factor 0.02 (Δt 0.44 µs, the
+//! explicit step) and 705 ± 17 explicit. The explicit reference also rebounds the free
+//! bottom end 1.1-3.7 mm at the start-up impact in nearly every replicate (the classic
+//! rebound of an elastic rod), so almost all its replicates fail the 1 mm bounce test.
+//!
+//! Mesh convergence (`implicit_axial`, Table 1, `coil_resolution` = 0, 6 replicates):
+//!
+//! | elements | S (mm) | e | S belt removed (mm) | e belt removed | wall per replicate |
+//! |---|---|---|---|---|---|
+//! | 250 | 15.94 ± 0.46 | 8 915 ± 160 | 11.73 ± 0.57 | 9 043 ± 121 | 0.08 s |
+//! | 500 | 15.44 ± 0.14 | 10 294 ± 167 | 10.89 ± 0.14 | 10 605 ± 292 | 0.25 s |
+//! | 1000 | 15.40 ± 0.18 | 11 346 ± 229 | 10.87 ± 0.15 | 12 841 ± 798 | 1-3 s |
+//! | 2000 | 15.34 ± 0.12 | 11 431 ± 199 | 10.74 ± 0.06 | 26 132 ± 3 503 | ≈ 29 s |
+//!
+//! S is converged to < 1 % from 500 elements, e to about 1 % at 1000; the belt-removed
+//! e does not converge (node-scale noise of the subtraction, see Metrics).
 
 pub mod contact;
 pub mod effects;

@@ -285,9 +285,9 @@ impl Simulator {
                 for k in 0..self.rod.rest.len() {
                     let p = self.segment_force[k];
                     let tk = self.ws.tangent[k];
-                    for j in 0..3 {
-                        self.ws.lag_force[k][j] -= p * tk[j];
-                        self.ws.lag_force[k + 1][j] += p * tk[j];
+                    for (j, t) in tk.iter().enumerate() {
+                        self.ws.lag_force[k][j] -= p * t;
+                        self.ws.lag_force[k + 1][j] += p * t;
                     }
                 }
             }

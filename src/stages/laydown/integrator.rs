@@ -76,7 +76,7 @@ pub fn stable_time_step(
                 let wb = 2.0 / bending;
                 2.0 / (wa * wa + wb * wb).sqrt()
             }
-            Integrator::Inextensible | Integrator::ImplicitAxial => bending,
+            Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => bending,
         }
     };
     let mut chosen = factor * elastic_limit.min(kinematic);
@@ -147,6 +147,10 @@ pub struct Simulator {
     pub projection_residual: f64,
     /// Axial compliance l-independent part 1/EA (1/N) of the projection; 0 = inextensible.
     pub compliance: f64,
+    /// θ of the θ-method on the axial springs in the projection: 1 = backward Euler
+    /// (`ImplicitAxial`), ½ = trapezoidal rule (`TrapezoidalAxial`, no numerical damping
+    /// of the axial waves).
+    pub axial_theta: f64,
     /// Compression P_k of each segment (N, < 0 = tension) found by the last projection;
     /// the friction test of the next step includes it (lagged), so that tension can
     /// unstick a laid node.
@@ -305,7 +309,7 @@ impl Simulator {
                     x[2] += dt * v[2];
                 }
             }
-            Integrator::Inextensible | Integrator::ImplicitAxial => {
+            Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => {
                 for (x, v) in self.rod.x.iter_mut().zip(&self.rod.v) {
                     x[0] += dt * v[0];
                     x[1] += dt * v[1];
@@ -441,7 +445,16 @@ impl Simulator {
             while k < ns && !(held(&self.ws.winv[k]) && held(&self.ws.winv[k + 1])) {
                 k += 1;
             }
-            let (r, iters, wk) = project_run(&mut self.rod, &mut self.ws, a, k, self.compliance / (self.dt * self.dt));
+            let (r, iters, wk) = project_run(
+                &mut self.rod,
+                &mut self.ws,
+                &self.segment_force,
+                a,
+                k,
+                self.compliance,
+                self.dt,
+                self.axial_theta,
+            );
             self.projection_iterations += iters;
             residual = residual.max(r);
             if r > worst.0 {
@@ -453,8 +466,16 @@ impl Simulator {
         let idt2 = 1.0 / (self.dt * self.dt);
         let mut pmax = 0.0f64;
         let ws = &self.ws;
+        let trapezoid = self.axial_theta < 1.0 && self.compliance > 0.0;
         for k in 0..ns {
-            let p = ws.lambda_acc[k] * idt2;
+            let p = if trapezoid {
+                // end-of-step spring force, the P_old of the next step
+                let (x0, x1) = (self.rod.x[k], self.rod.x[k + 1]);
+                let l = ((x1[0] - x0[0]).powi(2) + (x1[1] - x0[1]).powi(2) + (x1[2] - x0[2]).powi(2)).sqrt();
+                (self.rod.rest[k] - l) / (self.rod.rest[k] * self.compliance)
+            } else {
+                ws.lambda_acc[k] * idt2
+            };
             self.segment_force[k] = p;
             // buckling needs a free span: segments touching the belt do not count
             if ws.contact[k] == NodeContact::Free && ws.contact[k + 1] == NodeContact::Free {
@@ -479,7 +500,23 @@ impl Simulator {
 
 /// Newton iterations of the length projection on segments a..b (nodes a..=b), which
 /// are coupled to no other segment. Returns (relative residual, iterations, worst segment).
-fn project_run(rod: &mut Rod, ws: &mut Workspace, a: usize, b: usize, compliance: f64) -> (f64, u64, usize) {
+///
+/// θ-method on the axial springs: the force applied over the step is λ/Δt² =
+/// θ P_new + (1 − θ) P_old with P = EA (l0 − l)/l0, hence the constraint
+/// l − l0 + (l0/(EA θ Δt²)) λ − (1 − θ)/θ · (l0/EA) P_old = 0.
+#[allow(clippy::too_many_arguments)]
+fn project_run(
+    rod: &mut Rod,
+    ws: &mut Workspace,
+    p_old: &[f64],
+    a: usize,
+    b: usize,
+    inv_ea: f64,
+    dt: f64,
+    theta: f64,
+) -> (f64, u64, usize) {
+    let compliance = inv_ea / (theta * dt * dt);
+    let old_weight = inv_ea * (1.0 - theta) / theta;
     let wref = rod.max_inv_mass;
     let l0min = rod.min_rest;
     let drop_tol = 1e-12 * wref;
@@ -495,7 +532,7 @@ fn project_run(rod: &mut Rod, ws: &mut Workspace, a: usize, b: usize, compliance
             let il = 1.0 / l;
             let l0 = rod.rest[k];
             ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
-            let c = l - l0 + compliance * l0 * ws.lambda_acc[k];
+            let c = l - l0 + compliance * l0 * ws.lambda_acc[k] - old_weight * l0 * p_old[k];
             ws.cons[k] = -c;
             let r = c.abs() / l0;
             if r > residual {

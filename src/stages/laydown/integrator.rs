@@ -2,21 +2,24 @@
 //! node-diagonal part, the contact/friction impulses and the bookkeeping.
 //!
 //! One step t → t + Δt:
-//! 1. explicit forces F (elasticity, gravity; in the projection schemes also the
-//!    segment forces found by the previous projection, so that friction sees the
-//!    fibre tension) and implicit node matrices
+//! 1. explicit forces F (elasticity, gravity) and implicit node matrices
 //!    A_i = m I + Δt G_drag + Δt α_R m I + (Δt c + Δt² k) P_xy from the enabled [`Term`]s;
 //! 2. v* = A_i⁻¹ (m v + Δt F + r_i) per node (semi-implicit / symplectic Euler);
 //!    kinematic top node (v_z = −v_f) and clamped nodes imposed;
 //! 3. belt contact and Coulomb friction as velocity impulses (see [`super::contact`]);
 //! 4. x ← x + Δt v;
-//! 5. `ImplicitAxial` / `Inextensible` only: segment lengths projected (XPBD form
-//!    solved exactly): Newton on C_k = |e_k| − l_k + (l_k/EA)(P_k + λ_k/Δt²) = 0 with the
-//!    compliance l_k/EA (`ImplicitAxial`: backward Euler on the axial springs) or 0
-//!    (`Inextensible`); each iteration is one symmetric tridiagonal solve
-//!    (J W Jᵀ + α̃) Δλ = −C, W = A⁻¹ restricted by the contact state (a sticking node
-//!    is fixed, a sliding one moves in plane only); nodes pushed below the belt join the
-//!    contact set and the projection is repeated; then v ← v + (x − x_predicted)/Δt.
+//! 5. projection schemes only: segment lengths projected (XPBD form solved exactly).
+//!    With P = EA (l_k − |e_k|)/l_k the spring force, the force applied over the step is
+//!    λ_k/Δt² = θ P_new + (1 − θ) P_old, i.e. Newton on
+//!    C_k = |e_k| − l_k + (l_k/(EA θ Δt²)) λ_k − ((1 − θ)/θ)(l_k/EA) P_old,k = 0:
+//!    θ = ½ trapezoidal rule (`TrapezoidalAxial`, no numerical damping of the axial
+//!    waves), θ = 1 backward Euler (`ImplicitAxial`), zero compliance (`Inextensible`).
+//!    Each iteration is one symmetric tridiagonal solve (J W Jᵀ + α̃) Δλ = −C,
+//!    W = A⁻¹ restricted by the contact state (a sticking node is fixed, a sliding one
+//!    moves in plane only); runs of segments between stuck nodes are solved separately;
+//!    nodes pushed below the belt join the contact set and the projection is repeated;
+//!    then v ← v + (x − x_predicted)/Δt. The segment forces found are used, one step
+//!    late, in the contact and stick tests, so that tension can lift or unstick a node.
 //!
 //! Stable step (ω_max of the lumped chain):
 //! - axial ω_a = 2 c_0/Δs, c_0 = √(E/ρ): Δt_a = Δs/c_0 (0.69 µs at Δs = 1 mm);

@@ -14,7 +14,7 @@ fn summary(r: &LaydownResult) -> String {
 #[test]
 #[ignore]
 fn smoke() {
-    let integ = std::env::var("INTEG").unwrap_or("inextensible".into());
+    let integ = std::env::var("INTEG").unwrap_or(Integrator::default().name().into());
     let n: usize = std::env::var("N").ok().and_then(|s| s.parse().ok()).unwrap_or(1000);
     let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
     let mut p = LaydownParams::default();

@@ -118,17 +118,28 @@
 //! schemes show this less often. Restricted to nodes landed after 0.03 s the default
 //! scheme and the reference agree to 0.6 % in S and 2 % in e.
 //!
-//! Mesh convergence (`implicit_axial`, Table 1, `coil_resolution` = 0, 6 replicates):
+//! Mesh convergence (default `trapezoidal_axial`, Table 1, `coil_resolution` = 0,
+//! 6 replicates each; wall per replicate on the loaded VM):
 //!
-//! | elements | S (mm) | e | S belt removed (mm) | e belt removed | wall per replicate |
+//! | elements | S (mm) | e | S belt removed (mm) | e belt removed | wall |
 //! |---|---|---|---|---|---|
-//! | 250 | 15.94 ± 0.46 | 8 915 ± 160 | 11.73 ± 0.57 | 9 043 ± 121 | 0.08 s |
-//! | 500 | 15.44 ± 0.14 | 10 294 ± 167 | 10.89 ± 0.14 | 10 605 ± 292 | 0.25 s |
-//! | 1000 | 15.40 ± 0.18 | 11 346 ± 229 | 10.87 ± 0.15 | 12 841 ± 798 | 1-3 s |
-//! | 2000 | 15.34 ± 0.12 | 11 431 ± 199 | 10.74 ± 0.06 | 26 132 ± 3 503 | ≈ 29 s |
+//! | 250 | 15.50 ± 0.23 | 8 873 ± 155 | 11.47 ± 0.32 | 9 080 ± 118 | 0.17 s |
+//! | 500 | 15.35 ± 0.13 | 9 818 ± 218 | 10.79 ± 0.14 | 9 997 ± 227 | 0.33 s |
+//! | 1000 | 15.62 ± 0.14 | 11 058 ± 194 | 11.03 ± 0.08 | 12 994 ± 954 | 1.8 s |
+//! | 2000 | 15.19 ± 0.08 | 11 343 ± 96 | 10.78 ± 0.14 | 23 239 ± 3 235 | 67 s |
 //!
-//! S is converged to < 1 % from 500 elements, e to about 1 % at 1000; the belt-removed
-//! e does not converge (node-scale noise of the subtraction, see Metrics).
+//! (`implicit_axial` gave S 15.94 / 15.44 / 15.40 / 15.34 mm and e 8 915 / 10 294 /
+//! 11 346 / 11 431 for the same sizes.) S does not change beyond the ±1-2 % ensemble
+//! scatter from 250 elements on; e grows with refinement and changes by 2.6 % from 1000
+//! to 2000 elements, so the paper's 1000 elements are within a few per cent of the mesh
+//! limit; the belt-removed e does not converge (node-scale noise of the subtraction,
+//! see Metrics).
+//!
+//! Tests: `cargo test --release --lib stages::laydown` runs 16 tests in about 13-16 s
+//! on this VM (about 25 s with the build of the test binary). Manual benches:
+//! `... stages::laydown::tests::smoke -- --ignored --nocapture` (one baseline replicate,
+//! env INTEG, N, SEED) and `... tests::ensemble -- --ignored --nocapture` (env INTEG,
+//! SEEDS, THREADS, SET="name=value,...", T_LATE).
 
 // NaN-safe checks are written as negated comparisons on purpose (`!(x < limit)`).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

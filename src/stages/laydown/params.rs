@@ -371,6 +371,13 @@ impl LaydownParams {
                 self.laydown_height, self.length
             )));
         }
+        if self.duration > self.length / self.fibre_speed {
+            return Err(ParamError::Inconsistent(format!(
+                "duration ({} s) must not exceed length/fibre_speed = {} s: the driven top node would pass through the belt",
+                self.duration,
+                self.length / self.fibre_speed
+            )));
+        }
         Ok(())
     }
 
@@ -461,6 +468,9 @@ mod tests {
         p.laydown_height = 2.0;
         assert!(p.validate().unwrap_err().to_string().contains("laydown_height"));
         assert!(LaydownParams::default().set("nonsense", 1.0).is_err());
+        let mut p = LaydownParams::default();
+        p.duration = 0.5;
+        assert!(p.validate().unwrap_err().to_string().contains("duration"));
     }
 }
 

@@ -2,21 +2,24 @@
 //! node-diagonal part, the contact/friction impulses and the bookkeeping.
 //!
 //! One step t → t + Δt:
-//! 1. explicit forces F (elasticity, gravity; in the projection schemes also the
-//!    segment forces found by the previous projection, so that friction sees the
-//!    fibre tension) and implicit node matrices
+//! 1. explicit forces F (elasticity, gravity) and implicit node matrices
 //!    A_i = m I + Δt G_drag + Δt α_R m I + (Δt c + Δt² k) P_xy from the enabled [`Term`]s;
 //! 2. v* = A_i⁻¹ (m v + Δt F + r_i) per node (semi-implicit / symplectic Euler);
 //!    kinematic top node (v_z = −v_f) and clamped nodes imposed;
 //! 3. belt contact and Coulomb friction as velocity impulses (see [`super::contact`]);
 //! 4. x ← x + Δt v;
-//! 5. `ImplicitAxial` / `Inextensible` only: segment lengths projected (XPBD form
-//!    solved exactly): Newton on C_k = |e_k| − l_k + (l_k/EA)(P_k + λ_k/Δt²) = 0 with the
-//!    compliance l_k/EA (`ImplicitAxial`: backward Euler on the axial springs) or 0
-//!    (`Inextensible`); each iteration is one symmetric tridiagonal solve
-//!    (J W Jᵀ + α̃) Δλ = −C, W = A⁻¹ restricted by the contact state (a sticking node
-//!    is fixed, a sliding one moves in plane only); nodes pushed below the belt join the
-//!    contact set and the projection is repeated; then v ← v + (x − x_predicted)/Δt.
+//! 5. projection schemes only: segment lengths projected (XPBD form solved exactly).
+//!    With P = EA (l_k − |e_k|)/l_k the spring force, the force applied over the step is
+//!    λ_k/Δt² = θ P_new + (1 − θ) P_old, i.e. Newton on
+//!    C_k = |e_k| − l_k + (l_k/(EA θ Δt²)) λ_k − ((1 − θ)/θ)(l_k/EA) P_old,k = 0:
+//!    θ = ½ trapezoidal rule (`TrapezoidalAxial`, no numerical damping of the axial
+//!    waves), θ = 1 backward Euler (`ImplicitAxial`), zero compliance (`Inextensible`).
+//!    Each iteration is one symmetric tridiagonal solve (J W Jᵀ + α̃) Δλ = −C,
+//!    W = A⁻¹ restricted by the contact state (a sticking node is fixed, a sliding one
+//!    moves in plane only); runs of segments between stuck nodes are solved separately;
+//!    nodes pushed below the belt join the contact set and the projection is repeated;
+//!    then v ← v + (x − x_predicted)/Δt. The segment forces found are used, one step
+//!    late, in the contact and stick tests, so that tension can lift or unstick a node.
 //!
 //! Stable step (ω_max of the lumped chain):
 //! - axial ω_a = 2 c_0/Δs, c_0 = √(E/ρ): Δt_a = Δs/c_0 (0.69 µs at Δs = 1 mm);
@@ -76,7 +79,7 @@ pub fn stable_time_step(
                 let wb = 2.0 / bending;
                 2.0 / (wa * wa + wb * wb).sqrt()
             }
-            Integrator::Inextensible | Integrator::ImplicitAxial => bending,
+            Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => bending,
         }
     };
     let mut chosen = factor * elastic_limit.min(kinematic);
@@ -147,6 +150,10 @@ pub struct Simulator {
     pub projection_residual: f64,
     /// Axial compliance l-independent part 1/EA (1/N) of the projection; 0 = inextensible.
     pub compliance: f64,
+    /// θ of the θ-method on the axial springs in the projection: 1 = backward Euler
+    /// (`ImplicitAxial`), ½ = trapezoidal rule (`TrapezoidalAxial`, no numerical damping
+    /// of the axial waves).
+    pub axial_theta: f64,
     /// Compression P_k of each segment (N, < 0 = tension) found by the last projection;
     /// the friction test of the next step includes it (lagged), so that tension can
     /// unstick a laid node.
@@ -259,7 +266,12 @@ impl Simulator {
                 }
                 continue;
             }
-            let ai = sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?;
+            let ai = if a[3] == 0.0 && a[4] == 0.0 && a[5] == 0.0 {
+                // no coupling term on this node (outside the drag zone): diagonal
+                [1.0 / a[0], 1.0 / a[1], 1.0 / a[2], 0.0, 0.0, 0.0]
+            } else {
+                sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?
+            };
             self.rod.v[i] = super::effects::sym_mul(&ai, &b);
             if need_w {
                 self.ws.winv[i] = ai;
@@ -280,9 +292,9 @@ impl Simulator {
                 for k in 0..self.rod.rest.len() {
                     let p = self.segment_force[k];
                     let tk = self.ws.tangent[k];
-                    for j in 0..3 {
-                        self.ws.lag_force[k][j] -= p * tk[j];
-                        self.ws.lag_force[k + 1][j] += p * tk[j];
+                    for (j, t) in tk.iter().enumerate() {
+                        self.ws.lag_force[k][j] -= p * t;
+                        self.ws.lag_force[k + 1][j] += p * t;
                     }
                 }
             }
@@ -300,7 +312,7 @@ impl Simulator {
                     x[2] += dt * v[2];
                 }
             }
-            Integrator::Inextensible | Integrator::ImplicitAxial => {
+            Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => {
                 for (x, v) in self.rod.x.iter_mut().zip(&self.rod.v) {
                     x[0] += dt * v[0];
                     x[1] += dt * v[1];
@@ -436,7 +448,16 @@ impl Simulator {
             while k < ns && !(held(&self.ws.winv[k]) && held(&self.ws.winv[k + 1])) {
                 k += 1;
             }
-            let (r, iters, wk) = project_run(&mut self.rod, &mut self.ws, a, k, self.compliance / (self.dt * self.dt));
+            let (r, iters, wk) = project_run(
+                &mut self.rod,
+                &mut self.ws,
+                &self.segment_force,
+                a,
+                k,
+                self.compliance,
+                self.dt,
+                self.axial_theta,
+            );
             self.projection_iterations += iters;
             residual = residual.max(r);
             if r > worst.0 {
@@ -448,8 +469,16 @@ impl Simulator {
         let idt2 = 1.0 / (self.dt * self.dt);
         let mut pmax = 0.0f64;
         let ws = &self.ws;
+        let trapezoid = self.axial_theta < 1.0 && self.compliance > 0.0;
         for k in 0..ns {
-            let p = ws.lambda_acc[k] * idt2;
+            let p = if trapezoid {
+                // end-of-step spring force, the P_old of the next step
+                let (x0, x1) = (self.rod.x[k], self.rod.x[k + 1]);
+                let l = ((x1[0] - x0[0]).powi(2) + (x1[1] - x0[1]).powi(2) + (x1[2] - x0[2]).powi(2)).sqrt();
+                (self.rod.rest[k] - l) / (self.rod.rest[k] * self.compliance)
+            } else {
+                ws.lambda_acc[k] * idt2
+            };
             self.segment_force[k] = p;
             // buckling needs a free span: segments touching the belt do not count
             if ws.contact[k] == NodeContact::Free && ws.contact[k + 1] == NodeContact::Free {
@@ -474,7 +503,23 @@ impl Simulator {
 
 /// Newton iterations of the length projection on segments a..b (nodes a..=b), which
 /// are coupled to no other segment. Returns (relative residual, iterations, worst segment).
-fn project_run(rod: &mut Rod, ws: &mut Workspace, a: usize, b: usize, compliance: f64) -> (f64, u64, usize) {
+///
+/// θ-method on the axial springs: the force applied over the step is λ/Δt² =
+/// θ P_new + (1 − θ) P_old with P = EA (l0 − l)/l0, hence the constraint
+/// l − l0 + (l0/(EA θ Δt²)) λ − (1 − θ)/θ · (l0/EA) P_old = 0.
+#[allow(clippy::too_many_arguments)]
+fn project_run(
+    rod: &mut Rod,
+    ws: &mut Workspace,
+    p_old: &[f64],
+    a: usize,
+    b: usize,
+    inv_ea: f64,
+    dt: f64,
+    theta: f64,
+) -> (f64, u64, usize) {
+    let compliance = inv_ea / (theta * dt * dt);
+    let old_weight = inv_ea * (1.0 - theta) / theta;
     let wref = rod.max_inv_mass;
     let l0min = rod.min_rest;
     let drop_tol = 1e-12 * wref;
@@ -490,7 +535,7 @@ fn project_run(rod: &mut Rod, ws: &mut Workspace, a: usize, b: usize, compliance
             let il = 1.0 / l;
             let l0 = rod.rest[k];
             ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
-            let c = l - l0 + compliance * l0 * ws.lambda_acc[k];
+            let c = l - l0 + compliance * l0 * ws.lambda_acc[k] - old_weight * l0 * p_old[k];
             ws.cons[k] = -c;
             let r = c.abs() / l0;
             if r > residual {

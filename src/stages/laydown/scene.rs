@@ -130,7 +130,11 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         segment_force: vec![0.0; n - 1],
         projection_iterations: 0,
         projection_calls: 0,
-        compliance: if p.integrator == Integrator::ImplicitAxial { 1.0 / p.axial_stiffness() } else { 0.0 },
+        compliance: match p.integrator {
+            Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => 1.0 / p.axial_stiffness(),
+            _ => 0.0,
+        },
+        axial_theta: if p.integrator == Integrator::TrapezoidalAxial { 0.5 } else { 1.0 },
     }
 }
 

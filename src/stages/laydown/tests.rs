@@ -14,7 +14,7 @@ fn summary(r: &LaydownResult) -> String {
 #[test]
 #[ignore]
 fn smoke() {
-    let integ = std::env::var("INTEG").unwrap_or("inextensible".into());
+    let integ = std::env::var("INTEG").unwrap_or(Integrator::default().name().into());
     let n: usize = std::env::var("N").ok().and_then(|s| s.parse().ok()).unwrap_or(1000);
     let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
     let mut p = LaydownParams::default();
@@ -224,12 +224,14 @@ fn cantilever_check(d: f64, sag_ref: f64, f1_ref: f64, integrator: Integrator) {
 
 #[test]
 fn cantilever_20um() {
+    cantilever_check(20e-6, 0.233e-3, 40.6, Integrator::TrapezoidalAxial);
     cantilever_check(20e-6, 0.233e-3, 40.6, Integrator::ImplicitAxial);
     cantilever_check(20e-6, 0.233e-3, 40.6, Integrator::Explicit);
 }
 
 #[test]
 fn cantilever_50um() {
+    cantilever_check(50e-6, 0.037e-3, 101.5, Integrator::TrapezoidalAxial);
     cantilever_check(50e-6, 0.037e-3, 101.5, Integrator::ImplicitAxial);
     cantilever_check(50e-6, 0.037e-3, 101.5, Integrator::Explicit);
 }
@@ -256,7 +258,7 @@ fn falling(d: f64, dir: [f64; 3], integrator: Integrator, duration: f64) -> (Lay
 #[test]
 fn drag_terminal_velocity_normal() {
     for (d, reference) in [(20e-6, 0.180), (50e-6, 0.330)] {
-        let (p, v) = falling(d, [1.0, 0.0, 0.0], Integrator::ImplicitAxial, 0.4);
+        let (p, v) = falling(d, [1.0, 0.0, 0.0], Integrator::TrapezoidalAxial, 0.4);
         let law = effects::DragLaw::new(d, p.air_density, p.air_kinematic_viscosity, p.tangential_drag_beta);
         let analytic = law.normal_terminal_speed(p.mass_per_length() * p.gravity);
         println!("horizontal d={d:e}: {v:.5} m/s, analytic {analytic:.5}, reference {reference}");
@@ -268,7 +270,7 @@ fn drag_terminal_velocity_normal() {
 #[test]
 fn drag_terminal_velocity_tangential() {
     for d in [20e-6, 50e-6] {
-        let (p, v) = falling(d, [0.0, 0.0, 1.0], Integrator::ImplicitAxial, 2.0);
+        let (p, v) = falling(d, [0.0, 0.0, 1.0], Integrator::TrapezoidalAxial, 2.0);
         // eqs 1-2: ½ π d ρ_a β (V d/ν)^-0.61 V² = ρ A g  ⇒  V = (ρAg / (½ π d ρ_a β (d/ν)^-0.61))^(1/1.39)
         let k = 0.5 * PI * d * p.air_density * p.tangential_drag_beta * (d / p.air_kinematic_viscosity).powf(-0.61);
         let analytic = (p.mass_per_length() * p.gravity / k).powf(1.0 / 1.39);
@@ -300,7 +302,7 @@ fn sliding(mu: f64, air: bool, integrator: Integrator) -> (LaydownParams, Vec<[f
 
 #[test]
 fn friction_stick_and_slip() {
-    for integ in [Integrator::Explicit, Integrator::ImplicitAxial] {
+    for integ in [Integrator::Explicit, Integrator::ImplicitAxial, Integrator::TrapezoidalAxial] {
         // high mu, pressed by the air: every node moves exactly with the belt
         let (p, v) = sliding(5.0, true, integ);
         for v in &v {
@@ -490,8 +492,8 @@ fn paper_trends() {
 #[test]
 fn mesh_convergence_reduced() {
     // Reduced scene at 150, 300, 600 elements (the full study is in the module docs):
-    // e grows towards its mesh limit (first order at full scale: the change roughly
-    // halves per refinement), S stays within a few per cent.
+    // e approaches its mesh limit (its change shrinks with refinement), S stays within
+    // a few per cent.
     let at = |n: usize| {
         let mut p = reduced();
         p.elements = n;
@@ -502,7 +504,12 @@ fn mesh_convergence_reduced() {
     println!("150 {a:?}\n300 {b:?}\n600 {c:?}");
     let d1 = (b[1] - a[1]).abs();
     let d2 = (c[1] - b[1]).abs();
-    assert!(a[1] < b[1] && b[1] < c[1], "e should grow with refinement: {} {} {}", a[1], b[1], c[1]);
-    assert!(d2 < 0.85 * d1, "e not converging: {} {} {}", a[1], b[1], c[1]);
+    assert!(d2 < 0.7 * d1, "e not converging: {} {} {}", a[1], b[1], c[1]);
     assert!((c[0] - b[0]).abs() < 0.05 * b[0], "S: {} vs {}", b[0], c[0]);
+}
+
+#[test]
+#[ignore]
+fn print_parameter_table() {
+    println!("{}", parameter_table_markdown());
 }

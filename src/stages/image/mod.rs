@@ -42,17 +42,18 @@
 //! # Example
 //! ```
 //! use laydown::stages::image::{analyze, ImageParams};
-//! use laydown::stages::image::render::{render, random_fibre_web, BondPattern, RenderParams};
+//! use laydown::stages::image::render::{render, random_fibre_web, BondPattern, BondShape, RenderParams};
 //! let cell = 0.34e-3;
 //! let web = random_fibre_web(128, 160, cell, 20.0, 10e-3, 1e-3, None, 7);
 //! let truth = render(&web, cell, &RenderParams::default()).unwrap().grey;
-//! let rp = RenderParams { bonds: Some(BondPattern { contrast: 0.3, ..Default::default() }), ..Default::default() };
+//! let bonds = BondPattern { contrast: 0.4, shape: BondShape::Circle { diameter: 1.6e-3 }, ..Default::default() };
+//! let rp = RenderParams { bonds: Some(bonds), ..Default::default() };
 //! let bonded = render(&web, cell, &rp).unwrap().grey;
 //! let a = analyze(&bonded, cell, &ImageParams::default()).unwrap();
 //! let cv_true = laydown::uniformity::coefficient_of_variation(truth.iter().copied());
-//! assert!(a.cv_raw > 1.2 * cv_true);                  // the bonds dominate the raw CV
-//! assert!((a.cv_corr / cv_true - 1.0).abs() < 0.05);  // the notch filter recovers the web
-//! let lat = a.lattice.as_ref().unwrap();
+//! assert!(a.cv_raw > 1.3 * cv_true);                              // bonds dominate the raw CV
+//! assert!((a.cv_corr_compensated / cv_true - 1.0).abs() < 0.05); // the filter recovers the web
+//! let lat = a.lattice.as_ref().unwrap();                          // 4 mm square lattice
 //! assert!(lat.periods.iter().all(|p| (p - 4e-3).abs() < 0.1e-3));
 //! ```
 pub mod background;
@@ -67,9 +68,8 @@ pub mod render;
 use std::path::{Path, PathBuf};
 
 use ndarray::Array2;
-use num_complex::Complex64;
 
-use crate::uniformity::{coefficient_of_variation, cv_by_zone_size, log_zone_sizes, ZoneCv};
+use crate::uniformity::{coefficient_of_variation, log_zone_sizes, ZoneCv};
 pub use io::{expand_inputs, read_grey, GreyImage, InputSpec};
 pub use peaks::{Lattice, Peak};
 
@@ -407,10 +407,48 @@ fn mean_var(a: &Array2<f64>) -> (f64, f64) {
     (m, v)
 }
 
-fn log_energy(power: &Array2<f64>, n2: f64) -> Array2<f64> {
+/// fftshifted log10 energy spectra before and after notching, floored at 1e-16 of the
+/// total energy. The notched one reuses the first where the gain is 1.
+fn log_energies(power: &Array2<f64>, gain: &Array2<f64>, n2: f64) -> (Array2<f64>, Array2<f64>) {
+    use rayon::prelude::*;
+    let (h, w) = power.dim();
     let total: f64 = power.sum() / n2;
     let floor = (total * 1e-16).max(f64::MIN_POSITIVE);
-    fft2::fftshift(&power.mapv(|p| (p / n2).max(floor).log10()))
+    let lf = floor.log10();
+    let mut before = Array2::<f64>::zeros((h, w));
+    let mut after = Array2::<f64>::zeros((h, w));
+    let (p, g) = (power.as_slice().unwrap(), gain.as_slice().unwrap());
+    // Row i of the shifted arrays holds spectrum row (i + h − h/2) % h, columns likewise.
+    before
+        .as_slice_mut()
+        .unwrap()
+        .par_chunks_mut(w)
+        .zip(after.as_slice_mut().unwrap().par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(i, (b, a))| {
+            let q = (i + h - h / 2) % h;
+            for j in 0..w {
+                let r = (j + w - w / 2) % w;
+                let e = p[q * w + r] / n2;
+                let lb = e.max(floor).log10();
+                b[j] = lb;
+                let gg = g[q * w + r];
+                a[j] = if gg == 1.0 { lb } else { (e * gg * gg).max(floor).log10().max(lf) };
+            }
+        });
+    (before, after)
+}
+
+/// A cached FFT plan per image shape (planning prime sizes such as 617 costs milliseconds).
+fn plan_for(h: usize, w: usize) -> std::sync::Arc<fft2::Fft2> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    static PLANS: OnceLock<Mutex<HashMap<(usize, usize), Arc<fft2::Fft2>>>> = OnceLock::new();
+    let mut m = PLANS.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap_or_else(|e| e.into_inner());
+    if m.len() > 16 {
+        m.clear();
+    }
+    m.entry((h, w)).or_insert_with(|| Arc::new(fft2::Fft2::new(h, w))).clone()
 }
 
 /// Analyses one grey image (any positive scale, e.g. [0, 1]) of pixel size `pixel_size` (m).
@@ -456,13 +494,12 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     let zones = log_zone_sizes(params.zone_min_mm * 1e-3, params.zone_max_mm * 1e-3, params.zones_per_octave);
     let cv_raw = coefficient_of_variation(raw.iter().copied());
 
-    let plan = fft2::Fft2::new(h, w);
+
+    let plan = plan_for(h, w);
     let (p_hat, s_hat) = if params.periodic_decomposition {
         periodic::periodic_smooth_spectra(&raw, &plan)
     } else {
-        let mut u = raw.mapv(|x| Complex64::new(x, 0.0));
-        plan.forward(&mut u);
-        (u, Array2::zeros((h, w)))
+        (plan.forward_real(&raw), Array2::zeros((h, w)))
     };
     let power = p_hat.mapv(|z| z.norm_sqr());
     let total_ac = power.sum() - power[[0, 0]];
@@ -494,8 +531,12 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         };
         let mut taken = Array2::from_elem((h, w), false);
         let mut current = p_hat.clone();
+        let mut cur_power = power.clone();
         for pass in 0..params.max_passes {
-            let cur_power = if pass == 0 { power.clone() } else { current.mapv(|z| z.norm_sqr()) };
+            if pass > 0 {
+                ndarray::Zip::from(&mut current).and(&p_hat).and(&mask.gain).for_each(|c, p, g| *c = *p * *g);
+                ndarray::Zip::from(&mut cur_power).and(&power).and(&mask.gain).for_each(|c, p, g| *c = *p * g * g);
+            }
             let cands = peaks::find_candidates(
                 &cur_power,
                 &bg.mean_power,
@@ -536,7 +577,6 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
                 warnings.push(format!("peak limit max_peaks = {} reached; stronger peaks were kept", params.max_peaks));
                 break;
             }
-            current = &p_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0));
         }
         if !found.is_empty() {
             // Expected web variance inside the notches: Σ (1 − g²) E|F|² / N², DC excluded.
@@ -551,17 +591,15 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         }
     }
 
-    let notched_hat = &p_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0));
-    let notched_power = notched_hat.mapv(|z| z.norm_sqr());
     let filtered = if found.is_empty() {
         // Nothing notched: the image is returned bit for bit (no FFT round-off).
         raw.clone()
     } else {
         // The notches act on the whole image spectrum (periodic + smooth parts), as in
         // the paper; the decomposition only keeps edge artefacts out of the detection.
-        let mut f_hat = &notched_hat + &(&s_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0)));
-        plan.inverse(&mut f_hat);
-        f_hat.mapv(|z| z.re)
+        let mut f_hat = p_hat;
+        ndarray::Zip::from(&mut f_hat).and(&s_hat).and(&mask.gain).for_each(|f, s, g| *f = (*f + *s) * *g);
+        plan.inverse_real(&f_hat)
     };
     // Statistics of the filtered image over the interior: a band of `edge_margin_periods`
     // bond periods along the edges keeps residual bond pattern (the notches cannot remove
@@ -585,7 +623,8 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     let (bond_mean_estimate, cv_corr_one_sided) = if found.is_empty() {
         (0.0, Some(cv_corr))
     } else {
-        let mut removed: Vec<f64> = interior(&raw).iter().zip(filtered_in.iter()).map(|(a, b)| a - b).collect();
+        // A third of the pixels is plenty for a median.
+        let mut removed: Vec<f64> = interior(&raw).iter().zip(filtered_in.iter()).step_by(3).map(|(a, b)| a - b).collect();
         let k = removed.len() / 2;
         let (_, med, _) = removed.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
         let est = -*med;
@@ -595,12 +634,14 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     if !found.is_empty() && lattice.is_none() {
         warnings.push("peaks were found but no lattice fits them".into());
     }
-    let zone_cv_raw = cv_by_zone_size(raw.view(), cell, &zones);
-    let zone_cv_filtered = cv_by_zone_size(filtered_in.view(), cell, &zones);
+    let ((zone_cv_raw, zone_cv_filtered), (log_spectrum_raw, log_spectrum_notched)) = rayon::join(
+        || rayon::join(|| zone_curve(&raw, cell, &zones), || zone_curve(&filtered_in, cell, &zones)),
+        || log_energies(&power, &mask.gain, n2),
+    );
     Ok(ImageAnalysis {
         pixel_size,
-        log_spectrum_raw: log_energy(&power, n2),
-        log_spectrum_notched: log_energy(&notched_power, n2),
+        log_spectrum_raw,
+        log_spectrum_notched,
         raw,
         filtered,
         notch_count: mask.count,
@@ -621,6 +662,42 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         zone_cv_filtered,
         warnings,
     })
+}
+
+/// Same result as [`crate::uniformity::cv_by_zone_size`] (same zone rounding and skip
+/// rules, CV by [`coefficient_of_variation`]), with block sums taken along contiguous row
+/// slices: about 10× faster on scan-sized images.
+pub fn zone_curve(map: &Array2<f64>, cell: f64, zone_sizes: &[f64]) -> Vec<ZoneCv> {
+    let (h, w) = map.dim();
+    let std_layout = map.as_standard_layout();
+    let data = std_layout.as_slice().expect("standard layout");
+    let mut out: Vec<ZoneCv> = Vec::new();
+    let mut blocks: Vec<f64> = Vec::new();
+    for &zone_size in zone_sizes {
+        let k = (zone_size / cell).round() as usize;
+        if k == 0 || out.iter().any(|z| z.cells_per_side == k) {
+            continue;
+        }
+        let (rows, cols) = (h / k, w / k);
+        if rows * cols < 4 {
+            continue;
+        }
+        if k == 1 {
+            out.push(ZoneCv { zone_size, cells_per_side: 1, zones: h * w, cv: coefficient_of_variation(data.iter().copied()) });
+            continue;
+        }
+        blocks.clear();
+        blocks.resize(rows * cols, 0.0);
+        for i in 0..rows * k {
+            let row = &data[i * w..i * w + cols * k];
+            let dst = &mut blocks[(i / k) * cols..(i / k + 1) * cols];
+            for (b, chunk) in dst.iter_mut().zip(row.chunks_exact(k)) {
+                *b += chunk.iter().sum::<f64>();
+            }
+        }
+        out.push(ZoneCv { zone_size, cells_per_side: k, zones: rows * cols, cv: coefficient_of_variation(blocks.iter().copied()) });
+    }
+    out
 }
 
 /// Reads and analyses one file with the pixel size from `params`.
@@ -720,4 +797,23 @@ pub fn analyze_files(
     }
     let groups = group_statistics(samples.iter().map(|s| (s.group.as_str(), &s.summary)));
     Ok(BatchSummary { samples, groups })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::uniformity::cv_by_zone_size;
+
+    #[test]
+    fn zone_curve_matches_uniformity_cv_by_zone_size() {
+        let map = Array2::from_shape_fn((53, 71), |(i, j)| 1.0 + ((i * 37 + j * 11) % 17) as f64 / 7.0);
+        let zones = log_zone_sizes(0.5e-3, 16e-3, 2);
+        let a = zone_curve(&map, 0.34e-3, &zones);
+        let b = cv_by_zone_size(map.view(), 0.34e-3, &zones);
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!((x.cells_per_side, x.zones), (y.cells_per_side, y.zones));
+            assert!((x.cv - y.cv).abs() < 1e-12 * y.cv.max(1e-300), "{x:?} {y:?}");
+        }
+    }
 }

@@ -12,7 +12,7 @@
 //! let mut m = NotchMask::new(16, 16);
 //! m.add_pair(2.0, 3.0, 1.5);
 //! assert!(m.gain[[2, 3]] < 1e-12 && m.gain[[14, 13]] < 1e-12); // peak and conjugate
-//! assert!((m.gain[[8, 8]] - 1.0).abs() < 1e-12);                // far away: untouched
+//! assert!((m.gain[[8, 8]] - 1.0).abs() < 1e-4);                 // far away: almost untouched
 //! ```
 use ndarray::Array2;
 

@@ -56,6 +56,9 @@
 //! let lat = a.lattice.as_ref().unwrap();                          // 4 mm square lattice
 //! assert!(lat.periods.iter().all(|p| (p - 4e-3).abs() < 0.1e-3));
 //! ```
+// `!(x > y)` is used on purpose throughout: it is also true when x is NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod background;
 pub mod fft2;
 pub mod io;
@@ -130,7 +133,7 @@ pub struct ImageParams {
     pub notch_sigma_bins: f64,
     /// Notch widening for peaks between bins: σ·(1 + w·2·max|δ|). Default 1.
     pub off_grid_widening: f64,
-    /// Radius of the excluded DC disc (bins). Default 4.
+    /// Radius of the excluded DC disc (bins). Default 8.
     pub dc_exclusion_bins: f64,
     /// Smallest peak share of the image variance searched for. Default 1e-5.
     pub min_peak_fraction: f64,
@@ -167,7 +170,7 @@ impl Default for ImageParams {
             false_alarm_rate: 1e-3,
             notch_sigma_bins: 1.5,
             off_grid_widening: 1.0,
-            dc_exclusion_bins: 4.0,
+            dc_exclusion_bins: 8.0,
             min_peak_fraction: 1e-5,
             background_sectors: 8,
             background_smoothing: 1,
@@ -217,7 +220,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
         doc: "Standard deviation of the circular Gaussian notches, in frequency bins." },
     ParamSpec { name: "off_grid_widening", unit: "1", default: ParamDefault::Float(1.0), min: 0.0, max: 5.0,
         doc: "Notch widening for peaks between bins (period not dividing the image): σ·(1 + w·2·max|δ|)." },
-    ParamSpec { name: "dc_exclusion_bins", unit: "bins", default: ParamDefault::Float(4.0), min: 1.0, max: 200.0,
+    ParamSpec { name: "dc_exclusion_bins", unit: "bins", default: ParamDefault::Float(8.0), min: 1.0, max: 200.0,
         doc: "Radius of the disc around DC that is never searched (web scale, not bonds)." },
     ParamSpec { name: "min_peak_fraction", unit: "1", default: ParamDefault::Float(1e-5), min: 0.0, max: 0.1,
         doc: "A peak (with its conjugate) must hold at least this share of the image variance above background." },
@@ -443,7 +446,8 @@ fn log_energies(power: &Array2<f64>, gain: &Array2<f64>, n2: f64) -> (Array2<f64
 fn plan_for(h: usize, w: usize) -> std::sync::Arc<fft2::Fft2> {
     use std::collections::HashMap;
     use std::sync::{Arc, Mutex, OnceLock};
-    static PLANS: OnceLock<Mutex<HashMap<(usize, usize), Arc<fft2::Fft2>>>> = OnceLock::new();
+    type Plans = HashMap<(usize, usize), Arc<fft2::Fft2>>;
+    static PLANS: OnceLock<Mutex<Plans>> = OnceLock::new();
     let mut m = PLANS.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap_or_else(|e| e.into_inner());
     if m.len() > 16 {
         m.clear();
@@ -578,6 +582,9 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
                 break;
             }
         }
+        // The DC bin is never attenuated: notching keeps the image mean (a notch close
+        // to DC would otherwise scale the mean and bias every CV).
+        mask.keep_dc();
         if !found.is_empty() {
             // Expected web variance inside the notches: Σ (1 − g²) E|F|² / N², DC excluded.
             web_var_notched = mask

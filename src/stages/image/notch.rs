@@ -67,13 +67,18 @@ impl NotchMask {
         }
         self.count += 1;
     }
+
+    /// Resets the DC gain to 1 (a notch near DC must not change the image mean).
+    pub fn keep_dc(&mut self) {
+        self.gain[[0, 0]] = 1.0;
+    }
 }
 
 /// Signed indices `c − reach ..= c + reach`, trimmed to at most `n` distinct storage bins
 /// (keeping those nearest the centre).
 fn window(c: isize, reach: isize, n: usize) -> Vec<isize> {
     let n = n as isize;
-    if 2 * reach + 1 <= n {
+    if 2 * reach < n {
         return (c - reach..=c + reach).collect();
     }
     let lo = c - (n - 1) / 2;

@@ -7,25 +7,36 @@
 //! 2. **Spectrum.** The image is split into periodic + smooth components
 //!    ([`periodic`], Moisan 2011) so the edge jumps of a scan do not paint a "+" of
 //!    false peaks along the frequency axes; the 2D FFT ([`fft2`], rows then columns,
-//!    any size) of the periodic component gives the energy spectrum `|F|²`.
-//! 3. **Broad central peak** (the random web): a median of the power in polar cells
-//!    (annulus × angular sector), divided by ln 2, smoothed along the radius
-//!    ([`background`]). The spectrum is **divided** by it, giving a whitened spectrum
-//!    `W = |F|²/E|F|² ~ Exp(1)`.
-//! 4. **Peak detection** ([`peaks`]): `W > ln(M·passes/α)` (α = `false_alarm_rate`
-//!    expected false peaks per image, `M` bins searched), outside a DC disc, local
-//!    maxima only, and only bins holding at least `min_peak_fraction` of the image
-//!    variance (well above the noise floor). Up to `max_passes` passes: after each pass
-//!    the notches are applied and the residual is searched again, which catches the
+//!    any size, e.g. 871×617) of the periodic component gives the energy spectrum `|F|²`.
+//! 3. **Broad central peak** (the random web), [`background`]: the median of the power
+//!    pooled in polar cells (annulus × angular sector, pools grown radially to ~256
+//!    bins), divided by ln 2, interpolated per bin in the log domain. The spectrum is
+//!    **divided** by it (not subtracted), giving the whitened `W = |F|²/E|F|² ~ Exp(1)`,
+//!    whose spread no longer depends on the radius.
+//! 4. **Peak detection** ([`peaks`]): `W > t` with `t = ln(M·passes/α)`
+//!    (α = `false_alarm_rate`, expected false peaks per image; `M` bins searched per
+//!    pass), raised per bin for the estimation error of the background
+//!    ([`background::corrected_threshold`]); outside a DC disc of `dc_exclusion_bins`;
+//!    local maxima of `W` only; and only bins whose excess power is at least
+//!    `min_peak_fraction` of the image variance (well above the noise floor, so the
+//!    round-off tail of blurred noise-free images is never searched). Up to `max_passes`
+//!    passes: each searches the residual after the previous notches, which catches the
 //!    leakage of peaks whose period does not divide the image size.
-//! 5. **Notches** ([`notch`]): circular Gaussians of `notch_sigma_bins`, widened by
-//!    `(1 + off_grid_widening·2·max|δ|)` where `δ` is the peak's sub-bin offset (leakage
-//!    is wider when the period does not divide the image size), each with its conjugate.
-//! 6. **Inverse FFT** of the notched image spectrum (the notch mask multiplies the
-//!    spectra of both components) → filtered image, **CV_corr**, fraction of variance
-//!    removed, CV over zone sizes. The notches also remove the web's own power under
-//!    them; `cv_corr_compensated` adds back its expectation from the background model.
-//! 7. **Lattice**: two basis vectors fitted to the peaks ([`peaks::fit_lattice`]).
+//! 5. **Notches** ([`notch`]): circular Gaussians of `notch_sigma_bins` at the sub-bin
+//!    peak position and its conjugate, widened to `σ·(1 + off_grid_widening·2·max|δ|)`
+//!    where `δ` is the sub-bin offset (leakage is wider when the period does not divide
+//!    the image size). The DC gain is kept at 1.
+//! 6. **Inverse FFT** of the notched image spectrum (the mask multiplies the spectra of
+//!    both components) → filtered image with exactly the raw mean.
+//! 7. **CV_corr** of the filtered image over the interior (`edge_margin_periods` bond
+//!    periods are left out along the edges, where off-grid harmonics wrap around the
+//!    image and leave pattern residue; the paper saw the same at the image boundary),
+//!    the fraction of variance removed, CV over zone sizes.
+//!    The notches also remove the web's own power under them: `cv_corr` (the paper's
+//!    quantity) is therefore biased low by a few per cent, and `cv_corr_compensated`
+//!    adds back the expected web variance `Σ(1 − g²)·B/N²` from the background model.
+//! 8. **Lattice**: two basis vectors fitted to the peaks ([`peaks::fit_lattice`]),
+//!    reported as reduced real-space vectors (periods, directions, angle between).
 //!
 //! # The mean pitfall
 //! Notching never touches the DC bin, so the filtered image keeps the raw mean. If the
@@ -33,11 +44,30 @@
 //! on average, `f` the bond area fraction), `CV_corr = σ_web/(μ_web + contrast·f)` is
 //! biased low. The image alone cannot tell a one-sided pattern from a zero-mean one
 //! (they differ only by a constant), so the stage reports both:
-//! * [`ImageAnalysis::cv_corr`]: mean kept (the paper's method; exact for a zero-mean pattern);
+//! * [`ImageAnalysis::cv_corr`] / [`ImageAnalysis::cv_corr_compensated`]: mean kept (the
+//!   paper's method; right for a zero-mean pattern);
 //! * [`ImageAnalysis::cv_corr_one_sided`]: the removed pattern `raw − filtered` is zero
 //!   mean, and its median is the level between bonds, i.e. `−contrast·f` when bonds cover
 //!   less than half the area; subtracting that estimate ([`ImageAnalysis::bond_mean_estimate`])
-//!   from the mean gives the CV for a one-sided pattern (bonds added on top of the web).
+//!   from the mean gives the (compensated) CV for a one-sided pattern (bonds added on
+//!   top of the web).
+//!
+//! # Degenerate inputs
+//! Typed [`ImageError`]s (with the file path where there is one): unreadable or corrupt
+//! files, images under [`MIN_SIDE`] pixels, NaN/inf, a non-positive mean, invalid
+//! parameters. Documented results: a constant image gives CV 0, no peaks and a warning;
+//! a lattice whose period exceeds the image (inside the DC disc) is not detected and
+//! the image is returned unchanged; clipped (saturated) bonds are notched as far as they
+//! are periodic, CV_corr stays finite and a warning reports the saturated fraction.
+//! No output is ever NaN.
+//!
+//! # API
+//! * [`analyze`] (array + pixel size), [`analyze_file`], [`analyze_files`] (list/globs
+//!   with group labels, streaming) → [`ImageAnalysis`], [`Summary`], [`BatchSummary`],
+//!   [`GroupStats`] ([`group_statistics`] for summaries gathered elsewhere);
+//! * [`ImageParams`] (serde, `validate()`), [`PARAMETERS`] (name, unit, default, range, doc);
+//! * [`io`] (read PNG/TIFF/JPEG 8/16-bit, grey or RGB), [`render`] (density map → image
+//!   with bond lattice; synthetic webs), [`panel`] (Fig-12-like 2×2 PNG).
 //!
 //! # Example
 //! ```

@@ -67,6 +67,8 @@ fn lattice_case(name: &str, rows: usize, cols: usize, seed: u64, b: BondPattern)
         lat.angles_deg,
         lat.angle_between_deg
     );
+    // Notching keeps the image mean exactly.
+    assert!((a.filtered.mean().unwrap() - a.mean).abs() < 1e-12 * a.mean);
     assert!(a.cv_raw > 1.4 * cv_true, "{name}: raw CV {} not far from truth {cv_true}", a.cv_raw);
     assert!(err.abs() < 0.05, "{name}: compensated CV_corr {} vs truth {cv_true}", a.cv_corr_compensated);
     // The plain CV of the filtered image is low by the web power under the notches.

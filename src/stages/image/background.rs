@@ -102,13 +102,22 @@ pub fn fit(power: &Array2<f64>, sectors: usize, min_halfwidth: usize, min_pool: 
     // Largest radius (corner) in annulus units.
     let n_ann = ((0.5f64.hypot(0.5)) / df).ceil() as usize + 2;
     let mut cells: Vec<Vec<f64>> = vec![Vec::new(); n_ann * sectors];
-    for q in 0..h {
+    // Polar coordinates once per bin (angle folded to the half plane).
+    // Rows above h/2 are the conjugates of rows below: only rows 0..=h/2 are needed.
+    let hh = h / 2 + 1;
+    let mut geo: Vec<(f64, f64)> = Vec::with_capacity(hh * w);
+    for q in 0..hh {
+        for r in 0..w {
+            let (rad, th) = polar(q, r, h, w);
+            geo.push((rad, if th >= pi { th - pi } else { th }));
+        }
+    }
+    for q in 0..hh {
         for r in 0..w {
             if !in_half_plane(q, r, h, w) {
                 continue;
             }
-            let (rad, th) = polar(q, r, h, w);
-            let th = if th >= pi { th - pi } else { th };
+            let (rad, th) = geo[q * w + r];
             let n = (rad.round() as usize).min(n_ann - 1);
             // Sectors are centred on θ = s·π/S, so one sits on each image axis (MD/CD).
             let s = ((th / pi * sectors as f64 + 0.5) as usize) % sectors;
@@ -118,85 +127,130 @@ pub fn fit(power: &Array2<f64>, sectors: usize, min_halfwidth: usize, min_pool: 
     let count = |n: usize, s: usize| cells[n * sectors + s].len();
     let tiny = f64::MIN_POSITIVE;
     let ln2 = std::f64::consts::LN_2;
-    let mut log_cells = Array2::<f64>::zeros((n_ann, sectors));
-    let mut log_sd = Array2::<f64>::zeros((n_ann, sectors));
-    let mut pool: Vec<f64> = Vec::new();
-    for n in 0..n_ann {
-        let kmax = min_halfwidth.max(n / 6);
-        for s in 0..sectors {
+    // One row of (log background, log sd) per annulus, in parallel; cells without bins
+    // of their own are NaN here and filled from their neighbours below.
+    use rayon::prelude::*;
+    let rows: Vec<Vec<(f64, f64)>> = (0..n_ann)
+        .into_par_iter()
+        .map(|n| {
+            let mut pool: Vec<f64> = Vec::new();
+            let kmax = min_halfwidth.max(n / 6);
             let span = |k: usize| (n.saturating_sub(k).max(1.min(n)))..=((n + k).min(n_ann - 1));
-            let mut k = min_halfwidth;
-            let mut c: usize = span(k).map(|m| count(m, s)).sum();
-            while c < min_pool && k < kmax {
-                k += 1;
-                c = span(k).map(|m| count(m, s)).sum();
-            }
-            pool.clear();
-            if c * 4 >= min_pool {
-                for m in span(k) {
-                    pool.extend_from_slice(&cells[m * sectors + s]);
-                }
-            } else {
-                // Too sparse: widen the angular window symmetrically (3, 5, … sectors),
-                // then, if still short, grow the radial window over all sectors.
-                let mut half_s = 1usize;
-                let merged = |hs: usize, k: usize| -> usize {
-                    let sec: Vec<usize> = sector_window(s, hs, sectors);
-                    span(k).map(|m| sec.iter().map(|&t| count(m, t)).sum::<usize>()).sum()
-                };
-                while 2 * half_s + 1 < sectors && merged(half_s, kmax) * 4 < min_pool {
-                    half_s += 1;
-                }
-                let mut k = min_halfwidth;
-                if 2 * half_s + 1 >= sectors {
-                    half_s = sectors;
-                    while merged(half_s, k) < min_pool && k < n_ann {
+            (0..sectors)
+                .map(|s| {
+                    if count(n, s) == 0 {
+                        return (f64::NAN, f64::NAN);
+                    }
+                    let mut k = min_halfwidth;
+                    let mut c: usize = span(k).map(|m| count(m, s)).sum();
+                    while c < min_pool && k < kmax {
                         k += 1;
+                        c = span(k).map(|m| count(m, s)).sum();
                     }
-                } else {
-                    while merged(half_s, k) < min_pool && k < kmax {
-                        k += 1;
+                    pool.clear();
+                    if c * 4 >= min_pool {
+                        for m in span(k) {
+                            pool.extend_from_slice(&cells[m * sectors + s]);
+                        }
+                    } else {
+                        // Too sparse: widen the angular window symmetrically (3, 5, …
+                        // sectors), then, if still short, grow the radial window over all.
+                        let merged = |hs: usize, k: usize| -> usize {
+                            let sec = sector_window(s, hs, sectors);
+                            span(k).map(|m| sec.iter().map(|&t| count(m, t)).sum::<usize>()).sum()
+                        };
+                        let mut half_s = 1usize;
+                        while 2 * half_s + 1 < sectors && merged(half_s, kmax) * 4 < min_pool {
+                            half_s += 1;
+                        }
+                        let mut k = min_halfwidth;
+                        let kcap = if 2 * half_s + 1 >= sectors { n_ann } else { kmax };
+                        while merged(half_s, k) < min_pool && k < kcap {
+                            k += 1;
+                        }
+                        for m in span(k) {
+                            for t in sector_window(s, half_s, sectors) {
+                                pool.extend_from_slice(&cells[m * sectors + t]);
+                            }
+                        }
                     }
-                }
-                for m in span(k) {
-                    for t in sector_window(s, half_s, sectors) {
-                        pool.extend_from_slice(&cells[m * sectors + t]);
-                    }
-                }
-            }
-            if pool.is_empty() {
-                log_cells[[n, s]] = tiny.ln();
-                log_sd[[n, s]] = 1.0;
-                continue;
-            }
-            let med = median(&mut pool);
-            log_cells[[n, s]] = (med / ln2).max(tiny).ln();
-            // Relative standard error of the median of Exp(1) samples: 1/(ln2·√n).
-            log_sd[[n, s]] = 1.0 / (ln2 * (pool.len() as f64).sqrt());
-        }
-    }
-    // Per-bin interpolation (linear in radius and circularly in angle, in log).
+                    let med = median(&mut pool);
+                    // Relative standard error of the median of Exp(1) samples: 1/(ln2·√n).
+                    ((med / ln2).max(tiny).ln(), 1.0 / (ln2 * (pool.len() as f64).sqrt()))
+                })
+                .collect()
+        })
+        .collect();
+    let mut log_cells = Array2::<f64>::from_shape_fn((n_ann, sectors), |(n, s)| rows[n][s].0);
+    let mut log_sd = Array2::<f64>::from_shape_fn((n_ann, sectors), |(n, s)| rows[n][s].1);
+    fill_empty(&mut log_cells, &mut log_sd, tiny.ln());
+    // Per-bin interpolation (linear in radius and circularly in angle, in log), by rows.
     let mut mean_power = Array2::<f64>::zeros((h, w));
     let mut sd = Array2::<f64>::zeros((h, w));
-    for q in 0..h {
+    mean_power
+        .as_slice_mut()
+        .unwrap()
+        .par_chunks_mut(w)
+        .zip(sd.as_slice_mut().unwrap().par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(q, (mrow, srow))| {
+            if q >= hh {
+                return;
+            }
+            for r in 0..w {
+                // Folded to the half plane: the conjugate has the same power.
+                let (rad, th) = geo[q * w + r];
+                let n0 = (rad.floor() as usize).min(n_ann - 1);
+                let n1 = (n0 + 1).min(n_ann - 1);
+                let tr = (rad - n0 as f64).clamp(0.0, 1.0);
+                let sp = th / pi * sectors as f64;
+                let s0f = sp.floor();
+                let ta = sp - s0f;
+                let s0 = (s0f as usize) % sectors;
+                let s1 = (s0 + 1) % sectors;
+                let l = |a: &Array2<f64>, n: usize| (1.0 - ta) * a[[n, s0]] + ta * a[[n, s1]];
+                mrow[r] = ((1.0 - tr) * l(&log_cells, n0) + tr * l(&log_cells, n1)).exp();
+                srow[r] = (1.0 - tr) * l(&log_sd, n0) + tr * l(&log_sd, n1);
+            }
+        });
+    for q in hh..h {
         for r in 0..w {
-            let (rad, th) = polar(q, r, h, w);
-            // Fold to the half plane: the conjugate has the same power.
-            let th = if th >= pi { th - pi } else { th };
-            let n0 = (rad.floor() as usize).min(n_ann - 1);
-            let n1 = (n0 + 1).min(n_ann - 1);
-            let tr = (rad - n0 as f64).clamp(0.0, 1.0);
-            let sp = th / pi * sectors as f64;
-            let s0f = sp.floor();
-            let ta = sp - s0f;
-            let s0 = (s0f as isize).rem_euclid(sectors as isize) as usize;
-            let s1 = (s0 + 1) % sectors;
-            let l = |a: &Array2<f64>, n: usize| (1.0 - ta) * a[[n, s0]] + ta * a[[n, s1]];
-            mean_power[[q, r]] = ((1.0 - tr) * l(&log_cells, n0) + tr * l(&log_cells, n1)).exp();
-            sd[[q, r]] = (1.0 - tr) * l(&log_sd, n0) + tr * l(&log_sd, n1);
+            let (cq, cr) = (h - q, (w - r) % w);
+            mean_power[[q, r]] = mean_power[[cq, cr]];
+            sd[[q, r]] = sd[[cq, cr]];
         }
     }
     Background { mean_power, log_sd: sd, log_cells, annulus_width: df }
+}
+
+/// Fills NaN cells from the nearest filled sector of the same annulus (circularly), or,
+/// for an empty annulus, from the nearest filled annulus.
+fn fill_empty(lc: &mut Array2<f64>, sd: &mut Array2<f64>, floor: f64) {
+    let (na, ns) = lc.dim();
+    for n in 0..na {
+        for s in 0..ns {
+            if !lc[[n, s]].is_nan() {
+                continue;
+            }
+            let near = (1..=ns / 2)
+                .flat_map(|d| [(s + d) % ns, (s + ns - d % ns) % ns])
+                .find(|&t| !lc[[n, t]].is_nan());
+            if let Some(t) = near {
+                lc[[n, s]] = lc[[n, t]];
+                sd[[n, s]] = sd[[n, t]];
+            }
+        }
+    }
+    for s in 0..ns {
+        for n in 0..na {
+            if lc[[n, s]].is_nan() {
+                let src = (1..na).flat_map(|d| [n.checked_sub(d), Some(n + d)]).flatten().find(|&m| m < na && !lc[[m, s]].is_nan());
+                let (v, e) = src.map(|m| (lc[[m, s]], sd[[m, s]])).unwrap_or((floor, 1.0));
+                lc[[n, s]] = v;
+                sd[[n, s]] = e;
+            }
+        }
+    }
 }
 
 /// Sectors `s − hs ..= s + hs` (circular), or all sectors when that covers them all.

@@ -7,25 +7,36 @@
 //! 2. **Spectrum.** The image is split into periodic + smooth components
 //!    ([`periodic`], Moisan 2011) so the edge jumps of a scan do not paint a "+" of
 //!    false peaks along the frequency axes; the 2D FFT ([`fft2`], rows then columns,
-//!    any size) of the periodic component gives the energy spectrum `|F|²`.
-//! 3. **Broad central peak** (the random web): a median of the power in polar cells
-//!    (annulus × angular sector), divided by ln 2, smoothed along the radius
-//!    ([`background`]). The spectrum is **divided** by it, giving a whitened spectrum
-//!    `W = |F|²/E|F|² ~ Exp(1)`.
-//! 4. **Peak detection** ([`peaks`]): `W > ln(M·passes/α)` (α = `false_alarm_rate`
-//!    expected false peaks per image, `M` bins searched), outside a DC disc, local
-//!    maxima only, and only bins holding at least `min_peak_fraction` of the image
-//!    variance (well above the noise floor). Up to `max_passes` passes: after each pass
-//!    the notches are applied and the residual is searched again, which catches the
+//!    any size, e.g. 871×617) of the periodic component gives the energy spectrum `|F|²`.
+//! 3. **Broad central peak** (the random web), [`background`]: the median of the power
+//!    pooled in polar cells (annulus × angular sector, pools grown radially to ~256
+//!    bins), divided by ln 2, interpolated per bin in the log domain. The spectrum is
+//!    **divided** by it (not subtracted), giving the whitened `W = |F|²/E|F|² ~ Exp(1)`,
+//!    whose spread no longer depends on the radius.
+//! 4. **Peak detection** ([`peaks`]): `W > t` with `t = ln(M·passes/α)`
+//!    (α = `false_alarm_rate`, expected false peaks per image; `M` bins searched per
+//!    pass), raised per bin for the estimation error of the background
+//!    ([`background::corrected_threshold`]); outside a DC disc of `dc_exclusion_bins`;
+//!    local maxima of `W` only; and only bins whose excess power is at least
+//!    `min_peak_fraction` of the image variance (well above the noise floor, so the
+//!    round-off tail of blurred noise-free images is never searched). Up to `max_passes`
+//!    passes: each searches the residual after the previous notches, which catches the
 //!    leakage of peaks whose period does not divide the image size.
-//! 5. **Notches** ([`notch`]): circular Gaussians of `notch_sigma_bins`, widened by
-//!    `(1 + off_grid_widening·2·max|δ|)` where `δ` is the peak's sub-bin offset (leakage
-//!    is wider when the period does not divide the image size), each with its conjugate.
-//! 6. **Inverse FFT** of the notched image spectrum (the notch mask multiplies the
-//!    spectra of both components) → filtered image, **CV_corr**, fraction of variance
-//!    removed, CV over zone sizes. The notches also remove the web's own power under
-//!    them; `cv_corr_compensated` adds back its expectation from the background model.
-//! 7. **Lattice**: two basis vectors fitted to the peaks ([`peaks::fit_lattice`]).
+//! 5. **Notches** ([`notch`]): circular Gaussians of `notch_sigma_bins` at the sub-bin
+//!    peak position and its conjugate, widened to `σ·(1 + off_grid_widening·2·max|δ|)`
+//!    where `δ` is the sub-bin offset (leakage is wider when the period does not divide
+//!    the image size). The DC gain is kept at 1.
+//! 6. **Inverse FFT** of the notched image spectrum (the mask multiplies the spectra of
+//!    both components) → filtered image with exactly the raw mean.
+//! 7. **CV_corr** of the filtered image over the interior (`edge_margin_periods` bond
+//!    periods are left out along the edges, where off-grid harmonics wrap around the
+//!    image and leave pattern residue; the paper saw the same at the image boundary),
+//!    the fraction of variance removed, CV over zone sizes.
+//!    The notches also remove the web's own power under them: `cv_corr` (the paper's
+//!    quantity) is therefore biased low by a few per cent, and `cv_corr_compensated`
+//!    adds back the expected web variance `Σ(1 − g²)·B/N²` from the background model.
+//! 8. **Lattice**: two basis vectors fitted to the peaks ([`peaks::fit_lattice`]),
+//!    reported as reduced real-space vectors (periods, directions, angle between).
 //!
 //! # The mean pitfall
 //! Notching never touches the DC bin, so the filtered image keeps the raw mean. If the
@@ -33,28 +44,51 @@
 //! on average, `f` the bond area fraction), `CV_corr = σ_web/(μ_web + contrast·f)` is
 //! biased low. The image alone cannot tell a one-sided pattern from a zero-mean one
 //! (they differ only by a constant), so the stage reports both:
-//! * [`ImageAnalysis::cv_corr`]: mean kept (the paper's method; exact for a zero-mean pattern);
+//! * [`ImageAnalysis::cv_corr`] / [`ImageAnalysis::cv_corr_compensated`]: mean kept (the
+//!   paper's method; right for a zero-mean pattern);
 //! * [`ImageAnalysis::cv_corr_one_sided`]: the removed pattern `raw − filtered` is zero
 //!   mean, and its median is the level between bonds, i.e. `−contrast·f` when bonds cover
 //!   less than half the area; subtracting that estimate ([`ImageAnalysis::bond_mean_estimate`])
-//!   from the mean gives the CV for a one-sided pattern (bonds added on top of the web).
+//!   from the mean gives the (compensated) CV for a one-sided pattern (bonds added on
+//!   top of the web).
+//!
+//! # Degenerate inputs
+//! Typed [`ImageError`]s (with the file path where there is one): unreadable or corrupt
+//! files, images under [`MIN_SIDE`] pixels, NaN/inf, a non-positive mean, invalid
+//! parameters. Documented results: a constant image gives CV 0, no peaks and a warning;
+//! a lattice whose period exceeds the image (inside the DC disc) is not detected and
+//! the image is returned unchanged; clipped (saturated) bonds are notched as far as they
+//! are periodic, CV_corr stays finite and a warning reports the saturated fraction.
+//! No output is ever NaN.
+//!
+//! # API
+//! * [`analyze`] (array + pixel size), [`analyze_file`], [`analyze_files`] (list/globs
+//!   with group labels, streaming) → [`ImageAnalysis`], [`Summary`], [`BatchSummary`],
+//!   [`GroupStats`] ([`group_statistics`] for summaries gathered elsewhere);
+//! * [`ImageParams`] (serde, `validate()`), [`PARAMETERS`] (name, unit, default, range, doc);
+//! * [`io`] (read PNG/TIFF/JPEG 8/16-bit, grey or RGB), [`render`] (density map → image
+//!   with bond lattice; synthetic webs), [`panel`] (Fig-12-like 2×2 PNG).
 //!
 //! # Example
 //! ```
 //! use laydown::stages::image::{analyze, ImageParams};
-//! use laydown::stages::image::render::{render, random_fibre_web, BondPattern, RenderParams};
+//! use laydown::stages::image::render::{render, random_fibre_web, BondPattern, BondShape, RenderParams};
 //! let cell = 0.34e-3;
 //! let web = random_fibre_web(128, 160, cell, 20.0, 10e-3, 1e-3, None, 7);
 //! let truth = render(&web, cell, &RenderParams::default()).unwrap().grey;
-//! let rp = RenderParams { bonds: Some(BondPattern { contrast: 0.3, ..Default::default() }), ..Default::default() };
+//! let bonds = BondPattern { contrast: 0.4, shape: BondShape::Circle { diameter: 1.6e-3 }, ..Default::default() };
+//! let rp = RenderParams { bonds: Some(bonds), ..Default::default() };
 //! let bonded = render(&web, cell, &rp).unwrap().grey;
 //! let a = analyze(&bonded, cell, &ImageParams::default()).unwrap();
 //! let cv_true = laydown::uniformity::coefficient_of_variation(truth.iter().copied());
-//! assert!(a.cv_raw > 1.2 * cv_true);                  // the bonds dominate the raw CV
-//! assert!((a.cv_corr / cv_true - 1.0).abs() < 0.05);  // the notch filter recovers the web
-//! let lat = a.lattice.as_ref().unwrap();
+//! assert!(a.cv_raw > 1.3 * cv_true);                              // bonds dominate the raw CV
+//! assert!((a.cv_corr_compensated / cv_true - 1.0).abs() < 0.05); // the filter recovers the web
+//! let lat = a.lattice.as_ref().unwrap();                          // 4 mm square lattice
 //! assert!(lat.periods.iter().all(|p| (p - 4e-3).abs() < 0.1e-3));
 //! ```
+// `!(x > y)` is used on purpose throughout: it is also true when x is NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod background;
 pub mod fft2;
 pub mod io;
@@ -67,9 +101,8 @@ pub mod render;
 use std::path::{Path, PathBuf};
 
 use ndarray::Array2;
-use num_complex::Complex64;
 
-use crate::uniformity::{coefficient_of_variation, cv_by_zone_size, log_zone_sizes, ZoneCv};
+use crate::uniformity::{coefficient_of_variation, log_zone_sizes, ZoneCv};
 pub use io::{expand_inputs, read_grey, GreyImage, InputSpec};
 pub use peaks::{Lattice, Peak};
 
@@ -130,7 +163,7 @@ pub struct ImageParams {
     pub notch_sigma_bins: f64,
     /// Notch widening for peaks between bins: σ·(1 + w·2·max|δ|). Default 1.
     pub off_grid_widening: f64,
-    /// Radius of the excluded DC disc (bins). Default 4.
+    /// Radius of the excluded DC disc (bins). Default 8.
     pub dc_exclusion_bins: f64,
     /// Smallest peak share of the image variance searched for. Default 1e-5.
     pub min_peak_fraction: f64,
@@ -167,7 +200,7 @@ impl Default for ImageParams {
             false_alarm_rate: 1e-3,
             notch_sigma_bins: 1.5,
             off_grid_widening: 1.0,
-            dc_exclusion_bins: 4.0,
+            dc_exclusion_bins: 8.0,
             min_peak_fraction: 1e-5,
             background_sectors: 8,
             background_smoothing: 1,
@@ -217,7 +250,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
         doc: "Standard deviation of the circular Gaussian notches, in frequency bins." },
     ParamSpec { name: "off_grid_widening", unit: "1", default: ParamDefault::Float(1.0), min: 0.0, max: 5.0,
         doc: "Notch widening for peaks between bins (period not dividing the image): σ·(1 + w·2·max|δ|)." },
-    ParamSpec { name: "dc_exclusion_bins", unit: "bins", default: ParamDefault::Float(4.0), min: 1.0, max: 200.0,
+    ParamSpec { name: "dc_exclusion_bins", unit: "bins", default: ParamDefault::Float(8.0), min: 1.0, max: 200.0,
         doc: "Radius of the disc around DC that is never searched (web scale, not bonds)." },
     ParamSpec { name: "min_peak_fraction", unit: "1", default: ParamDefault::Float(1e-5), min: 0.0, max: 0.1,
         doc: "A peak (with its conjugate) must hold at least this share of the image variance above background." },
@@ -407,10 +440,49 @@ fn mean_var(a: &Array2<f64>) -> (f64, f64) {
     (m, v)
 }
 
-fn log_energy(power: &Array2<f64>, n2: f64) -> Array2<f64> {
+/// fftshifted log10 energy spectra before and after notching, floored at 1e-16 of the
+/// total energy. The notched one reuses the first where the gain is 1.
+fn log_energies(power: &Array2<f64>, gain: &Array2<f64>, n2: f64) -> (Array2<f64>, Array2<f64>) {
+    use rayon::prelude::*;
+    let (h, w) = power.dim();
     let total: f64 = power.sum() / n2;
     let floor = (total * 1e-16).max(f64::MIN_POSITIVE);
-    fft2::fftshift(&power.mapv(|p| (p / n2).max(floor).log10()))
+    let lf = floor.log10();
+    let mut before = Array2::<f64>::zeros((h, w));
+    let mut after = Array2::<f64>::zeros((h, w));
+    let (p, g) = (power.as_slice().unwrap(), gain.as_slice().unwrap());
+    // Row i of the shifted arrays holds spectrum row (i + h − h/2) % h, columns likewise.
+    before
+        .as_slice_mut()
+        .unwrap()
+        .par_chunks_mut(w)
+        .zip(after.as_slice_mut().unwrap().par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(i, (b, a))| {
+            let q = (i + h - h / 2) % h;
+            for j in 0..w {
+                let r = (j + w - w / 2) % w;
+                let e = p[q * w + r] / n2;
+                let lb = e.max(floor).log10();
+                b[j] = lb;
+                let gg = g[q * w + r];
+                a[j] = if gg == 1.0 { lb } else { (e * gg * gg).max(floor).log10().max(lf) };
+            }
+        });
+    (before, after)
+}
+
+/// A cached FFT plan per image shape (planning prime sizes such as 617 costs milliseconds).
+fn plan_for(h: usize, w: usize) -> std::sync::Arc<fft2::Fft2> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    type Plans = HashMap<(usize, usize), Arc<fft2::Fft2>>;
+    static PLANS: OnceLock<Mutex<Plans>> = OnceLock::new();
+    let mut m = PLANS.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap_or_else(|e| e.into_inner());
+    if m.len() > 16 {
+        m.clear();
+    }
+    m.entry((h, w)).or_insert_with(|| Arc::new(fft2::Fft2::new(h, w))).clone()
 }
 
 /// Analyses one grey image (any positive scale, e.g. [0, 1]) of pixel size `pixel_size` (m).
@@ -456,13 +528,12 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     let zones = log_zone_sizes(params.zone_min_mm * 1e-3, params.zone_max_mm * 1e-3, params.zones_per_octave);
     let cv_raw = coefficient_of_variation(raw.iter().copied());
 
-    let plan = fft2::Fft2::new(h, w);
+
+    let plan = plan_for(h, w);
     let (p_hat, s_hat) = if params.periodic_decomposition {
         periodic::periodic_smooth_spectra(&raw, &plan)
     } else {
-        let mut u = raw.mapv(|x| Complex64::new(x, 0.0));
-        plan.forward(&mut u);
-        (u, Array2::zeros((h, w)))
+        (plan.forward_real(&raw), Array2::zeros((h, w)))
     };
     let power = p_hat.mapv(|z| z.norm_sqr());
     let total_ac = power.sum() - power[[0, 0]];
@@ -494,8 +565,12 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         };
         let mut taken = Array2::from_elem((h, w), false);
         let mut current = p_hat.clone();
+        let mut cur_power = power.clone();
         for pass in 0..params.max_passes {
-            let cur_power = if pass == 0 { power.clone() } else { current.mapv(|z| z.norm_sqr()) };
+            if pass > 0 {
+                ndarray::Zip::from(&mut current).and(&p_hat).and(&mask.gain).for_each(|c, p, g| *c = *p * *g);
+                ndarray::Zip::from(&mut cur_power).and(&power).and(&mask.gain).for_each(|c, p, g| *c = *p * g * g);
+            }
             let cands = peaks::find_candidates(
                 &cur_power,
                 &bg.mean_power,
@@ -536,8 +611,10 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
                 warnings.push(format!("peak limit max_peaks = {} reached; stronger peaks were kept", params.max_peaks));
                 break;
             }
-            current = &p_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0));
         }
+        // The DC bin is never attenuated: notching keeps the image mean (a notch close
+        // to DC would otherwise scale the mean and bias every CV).
+        mask.keep_dc();
         if !found.is_empty() {
             // Expected web variance inside the notches: Σ (1 − g²) E|F|² / N², DC excluded.
             web_var_notched = mask
@@ -551,17 +628,15 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         }
     }
 
-    let notched_hat = &p_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0));
-    let notched_power = notched_hat.mapv(|z| z.norm_sqr());
     let filtered = if found.is_empty() {
         // Nothing notched: the image is returned bit for bit (no FFT round-off).
         raw.clone()
     } else {
         // The notches act on the whole image spectrum (periodic + smooth parts), as in
         // the paper; the decomposition only keeps edge artefacts out of the detection.
-        let mut f_hat = &notched_hat + &(&s_hat * &mask.gain.mapv(|g| Complex64::new(g, 0.0)));
-        plan.inverse(&mut f_hat);
-        f_hat.mapv(|z| z.re)
+        let mut f_hat = p_hat;
+        ndarray::Zip::from(&mut f_hat).and(&s_hat).and(&mask.gain).for_each(|f, s, g| *f = (*f + *s) * *g);
+        plan.inverse_real(&f_hat)
     };
     // Statistics of the filtered image over the interior: a band of `edge_margin_periods`
     // bond periods along the edges keeps residual bond pattern (the notches cannot remove
@@ -585,7 +660,8 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     let (bond_mean_estimate, cv_corr_one_sided) = if found.is_empty() {
         (0.0, Some(cv_corr))
     } else {
-        let mut removed: Vec<f64> = interior(&raw).iter().zip(filtered_in.iter()).map(|(a, b)| a - b).collect();
+        // A third of the pixels is plenty for a median.
+        let mut removed: Vec<f64> = interior(&raw).iter().zip(filtered_in.iter()).step_by(3).map(|(a, b)| a - b).collect();
         let k = removed.len() / 2;
         let (_, med, _) = removed.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
         let est = -*med;
@@ -595,12 +671,14 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     if !found.is_empty() && lattice.is_none() {
         warnings.push("peaks were found but no lattice fits them".into());
     }
-    let zone_cv_raw = cv_by_zone_size(raw.view(), cell, &zones);
-    let zone_cv_filtered = cv_by_zone_size(filtered_in.view(), cell, &zones);
+    let ((zone_cv_raw, zone_cv_filtered), (log_spectrum_raw, log_spectrum_notched)) = rayon::join(
+        || rayon::join(|| zone_curve(&raw, cell, &zones), || zone_curve(&filtered_in, cell, &zones)),
+        || log_energies(&power, &mask.gain, n2),
+    );
     Ok(ImageAnalysis {
         pixel_size,
-        log_spectrum_raw: log_energy(&power, n2),
-        log_spectrum_notched: log_energy(&notched_power, n2),
+        log_spectrum_raw,
+        log_spectrum_notched,
         raw,
         filtered,
         notch_count: mask.count,
@@ -621,6 +699,42 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         zone_cv_filtered,
         warnings,
     })
+}
+
+/// Same result as [`crate::uniformity::cv_by_zone_size`] (same zone rounding and skip
+/// rules, CV by [`coefficient_of_variation`]), with block sums taken along contiguous row
+/// slices: about 10× faster on scan-sized images.
+pub fn zone_curve(map: &Array2<f64>, cell: f64, zone_sizes: &[f64]) -> Vec<ZoneCv> {
+    let (h, w) = map.dim();
+    let std_layout = map.as_standard_layout();
+    let data = std_layout.as_slice().expect("standard layout");
+    let mut out: Vec<ZoneCv> = Vec::new();
+    let mut blocks: Vec<f64> = Vec::new();
+    for &zone_size in zone_sizes {
+        let k = (zone_size / cell).round() as usize;
+        if k == 0 || out.iter().any(|z| z.cells_per_side == k) {
+            continue;
+        }
+        let (rows, cols) = (h / k, w / k);
+        if rows * cols < 4 {
+            continue;
+        }
+        if k == 1 {
+            out.push(ZoneCv { zone_size, cells_per_side: 1, zones: h * w, cv: coefficient_of_variation(data.iter().copied()) });
+            continue;
+        }
+        blocks.clear();
+        blocks.resize(rows * cols, 0.0);
+        for i in 0..rows * k {
+            let row = &data[i * w..i * w + cols * k];
+            let dst = &mut blocks[(i / k) * cols..(i / k + 1) * cols];
+            for (b, chunk) in dst.iter_mut().zip(row.chunks_exact(k)) {
+                *b += chunk.iter().sum::<f64>();
+            }
+        }
+        out.push(ZoneCv { zone_size, cells_per_side: k, zones: rows * cols, cv: coefficient_of_variation(blocks.iter().copied()) });
+    }
+    out
 }
 
 /// Reads and analyses one file with the pixel size from `params`.
@@ -720,4 +834,23 @@ pub fn analyze_files(
     }
     let groups = group_statistics(samples.iter().map(|s| (s.group.as_str(), &s.summary)));
     Ok(BatchSummary { samples, groups })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::uniformity::cv_by_zone_size;
+
+    #[test]
+    fn zone_curve_matches_uniformity_cv_by_zone_size() {
+        let map = Array2::from_shape_fn((53, 71), |(i, j)| 1.0 + ((i * 37 + j * 11) % 17) as f64 / 7.0);
+        let zones = log_zone_sizes(0.5e-3, 16e-3, 2);
+        let a = zone_curve(&map, 0.34e-3, &zones);
+        let b = cv_by_zone_size(map.view(), 0.34e-3, &zones);
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!((x.cells_per_side, x.zones), (y.cells_per_side, y.zones));
+            assert!((x.cv - y.cv).abs() < 1e-12 * y.cv.max(1e-300), "{x:?} {y:?}");
+        }
+    }
 }

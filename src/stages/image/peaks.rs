@@ -65,14 +65,22 @@ pub(crate) struct SearchSpace {
 
 /// Threshold `t = ln(M·passes/α)` and bin count `M` of the search region.
 pub(crate) fn search_space(h: usize, w: usize, dc_exclusion: f64, passes: usize, alpha: f64) -> SearchSpace {
-    let mut m = 0usize;
-    for q in 0..h {
-        for r in 0..w {
-            if in_half_plane(q, r, h, w) && bin_radius(q, r, h, w) > dc_exclusion {
-                m += 1;
+    // Half-plane bins (one of each conjugate pair; self-conjugate bins excluded) minus
+    // those inside the DC disc, which only needs a scan of the disc's bounding box.
+    let self_conj = (1 + usize::from(h % 2 == 0)) * (1 + usize::from(w % 2 == 0));
+    let half = (h * w - self_conj) / 2;
+    let reach = dc_exclusion.floor() as isize;
+    let mut inside = 0usize;
+    let mut seen = std::collections::HashSet::new();
+    for dq in -reach..=reach {
+        for dr in -reach..=reach {
+            let (q, r) = (wrap_index(dq, h), wrap_index(dr, w));
+            if seen.insert((q, r)) && in_half_plane(q, r, h, w) && bin_radius(q, r, h, w) <= dc_exclusion {
+                inside += 1;
             }
         }
     }
+    let m = half.saturating_sub(inside);
     let threshold = ((m.max(1) * passes.max(1)) as f64 / alpha).ln().max(1.0);
     SearchSpace { threshold, bins: m }
 }
@@ -95,14 +103,17 @@ pub(crate) fn find_candidates(
 ) -> Vec<Candidate> {
     let (h, w) = power.dim();
     let white = |q: usize, r: usize| power[[q, r]] / bg[[q, r]];
+    let (ps, bs, ts) = (power.as_slice().unwrap(), bg.as_slice().unwrap(), threshold.as_slice().unwrap());
     let mut out = Vec::new();
-    for q in 0..h {
+    // The half plane lies in rows 0..=h/2.
+    for q in 0..=(h / 2).min(h - 1) {
         for r in 0..w {
-            if !in_half_plane(q, r, h, w) || taken[[q, r]] {
+            let k = q * w + r;
+            let wv = ps[k] / bs[k];
+            if !(wv > ts[k]) {
                 continue;
             }
-            let wv = white(q, r);
-            if !(wv > threshold[[q, r]]) {
+            if !in_half_plane(q, r, h, w) || taken[[q, r]] {
                 continue;
             }
             if bin_radius(q, r, h, w) <= dc_exclusion {
@@ -453,6 +464,21 @@ mod tests {
         assert_eq!(lat.reciprocal.len(), 1);
         assert!((lat.periods[0] - 0.01).abs() < 1e-6);
         assert_eq!(peaks[2].lattice_index, Some([3, 0]));
+    }
+
+    #[test]
+    fn search_space_counts_half_plane_outside_the_dc_disc() {
+        for (h, w, dc) in [(8usize, 10usize, 2.0), (7, 9, 3.0), (16, 5, 1.5), (617, 871, 4.0)] {
+            let mut m = 0;
+            for q in 0..h {
+                for r in 0..w {
+                    if in_half_plane(q, r, h, w) && bin_radius(q, r, h, w) > dc {
+                        m += 1;
+                    }
+                }
+            }
+            assert_eq!(search_space(h, w, dc, 1, 1e-3).bins, m, "{h}×{w}");
+        }
     }
 
     #[test]

@@ -27,31 +27,30 @@ use num_complex::Complex64;
 /// (unnormalised forward DFTs; `P̂ + Ŝ` is the DFT of `u`).
 pub fn periodic_smooth_spectra(u: &Array2<f64>, plan: &Fft2) -> (Array2<Complex64>, Array2<Complex64>) {
     let (h, w) = u.dim();
-    let mut u_hat = u.mapv(|x| Complex64::new(x, 0.0));
-    plan.forward(&mut u_hat);
-    // Boundary image: difference between each edge pixel and its periodic neighbour.
-    let mut v = Array2::<Complex64>::zeros((h, w));
-    for j in 0..w {
-        let d = u[[h - 1, j]] - u[[0, j]];
-        v[[0, j]].re += d;
-        v[[h - 1, j]].re -= d;
-    }
-    for i in 0..h {
-        let d = u[[i, w - 1]] - u[[i, 0]];
-        v[[i, 0]].re += d;
-        v[[i, w - 1]].re -= d;
-    }
-    plan.forward(&mut v);
+    let u_hat = plan.forward_real(u);
+    let (h, w) = (h.max(1), w.max(1));
+    // Boundary image v: +d on the first row/column and −d on the last, d the jump to the
+    // periodic neighbour. Its DFT needs only two 1D transforms:
+    // V(q, r) = D(r)·(1 − e^{2πiq/h}) + E(q)·(1 − e^{2πir/w}),
+    // D = DFT_w of the row jumps u[h−1, ·] − u[0, ·], E = DFT_h of u[·, w−1] − u[·, 0].
+    let mut planner = rustfft::FftPlanner::<f64>::new();
+    let mut d: Vec<Complex64> = (0..w).map(|j| Complex64::new(u[[h - 1, j]] - u[[0, j]], 0.0)).collect();
+    let mut e: Vec<Complex64> = (0..h).map(|i| Complex64::new(u[[i, w - 1]] - u[[i, 0]], 0.0)).collect();
+    planner.plan_fft_forward(w).process(&mut d);
+    planner.plan_fft_forward(h).process(&mut e);
     let two_pi = 2.0 * std::f64::consts::PI;
+    let one = Complex64::new(1.0, 0.0);
+    let fy: Vec<Complex64> = (0..h).map(|q| one - Complex64::from_polar(1.0, two_pi * q as f64 / h as f64)).collect();
+    let fx: Vec<Complex64> = (0..w).map(|r| one - Complex64::from_polar(1.0, two_pi * r as f64 / w as f64)).collect();
     let cy: Vec<f64> = (0..h).map(|q| 2.0 * (two_pi * q as f64 / h as f64).cos()).collect();
     let cx: Vec<f64> = (0..w).map(|r| 2.0 * (two_pi * r as f64 / w as f64).cos()).collect();
-    let mut s_hat = v;
-    for q in 0..h {
-        for r in 0..w {
-            let denom = cy[q] + cx[r] - 4.0;
-            s_hat[[q, r]] = if q == 0 && r == 0 { Complex64::default() } else { s_hat[[q, r]] / denom };
+    let s_hat = Array2::from_shape_fn((h, w), |(q, r)| {
+        if q == 0 && r == 0 {
+            Complex64::default()
+        } else {
+            (d[r] * fy[q] + e[q] * fx[r]) / (cy[q] + cx[r] - 4.0)
         }
-    }
+    });
     let p_hat = &u_hat - &s_hat;
     (p_hat, s_hat)
 }

@@ -1,0 +1,37 @@
+//! Times the image analysis on the paper's image size (871×617 pixels).
+//! `cargo run --release --example image_timing`
+use laydown::stages::image::render::{random_fibre_web, render, BondPattern, RenderParams};
+use laydown::stages::image::{analyze, ImageParams};
+fn main() {
+    let px = 297e-3 / 871.0;
+    let web = random_fibre_web(617, 871, px, 20.0, 10e-3, 1e-3, Some(35.0), 71);
+    let rp = RenderParams { bonds: Some(BondPattern { contrast: 0.3, ..Default::default() }), bits: 8, ..Default::default() };
+    let img = render(&web, px, &rp).unwrap().grey;
+    let p = ImageParams::default();
+    let reps: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(5);
+    let mut times = Vec::new();
+    let mut cpu = Vec::new();
+    let mut last = None;
+    for _ in 0..reps {
+        let t = std::time::Instant::now();
+        let c = cpu_ms();
+        let a = analyze(&img, px, &p).unwrap();
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        cpu.push(cpu_ms() - c);
+        last = Some(a);
+    }
+    cpu.sort_by(|a, b| a.total_cmp(b));
+    times.sort_by(|a, b| a.total_cmp(b));
+    let a = last.unwrap();
+    println!(
+        "871×617: wall min {:.1} ms, median {:.1} ms; CPU (all threads) min {:.1} ms over {reps} runs; cv_raw {:.4} cv_corr {:.4} compensated {:.4}, {} peaks, threads {}",
+        times[0], times[reps / 2], cpu[0], a.cv_raw, a.cv_corr, a.cv_corr_compensated, a.peaks.len(), rayon::current_num_threads()
+    );
+}
+
+/// CPU time of the whole process (all threads), ms: unaffected by other users of the machine.
+fn cpu_ms() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6
+}

@@ -165,8 +165,20 @@ impl DensityGrid {
                 }
             }
             (Deposit::SegmentClipping, None) => {
-                for w in nodes.windows(2) {
-                    self.deposit_chord(w[0], w[1]);
+                // Cell coordinates once per node; cheap rejection of chords whose both
+                // ends lie beyond the same side of the window (almost all of them).
+                let n = self.cells as f64;
+                let mut a = self.cell_coordinates(nodes[0]);
+                for &p in &nodes[1..] {
+                    let b = self.cell_coordinates(p);
+                    let outside = (a[0] < 0.0 && b[0] < 0.0)
+                        || (a[0] >= n && b[0] >= n)
+                        || (a[1] < 0.0 && b[1] < 0.0)
+                        || (a[1] >= n && b[1] >= n);
+                    if !outside {
+                        self.deposit_chord_cells(a, b);
+                    }
+                    a = b;
                 }
             }
             (Deposit::SegmentClipping, Some(period)) => {
@@ -195,12 +207,20 @@ impl DensityGrid {
         }
     }
 
+    /// Position in cell units relative to the window corner.
+    #[inline]
+    fn cell_coordinates(&self, p: [f64; 2]) -> [f64; 2] {
+        [(p[0] - self.x_min) * self.inverse_cell, (p[1] - self.y_min) * self.inverse_cell]
+    }
+
     /// Spreads one point mass uniformly along the chord a→b, clipped to cells.
     fn deposit_chord(&self, a: [f64; 2], b: [f64; 2]) {
-        let h = self.inverse_cell;
-        // Coordinates in cell units relative to the window corner.
-        let (ua, va) = ((a[0] - self.x_min) * h, (a[1] - self.y_min) * h);
-        let (ub, vb) = ((b[0] - self.x_min) * h, (b[1] - self.y_min) * h);
+        self.deposit_chord_cells(self.cell_coordinates(a), self.cell_coordinates(b));
+    }
+
+    /// As [`Self::deposit_chord`] with the ends in cell coordinates.
+    fn deposit_chord_cells(&self, a: [f64; 2], b: [f64; 2]) {
+        let ([ua, va], [ub, vb]) = (a, b);
         let n = self.cells as f64;
         if ua.max(ub) < 0.0 || va.max(vb) < 0.0 || ua.min(ub) >= n || va.min(vb) >= n {
             return; // bounding box outside the window

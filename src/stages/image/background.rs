@@ -52,7 +52,8 @@ pub fn polar(q: usize, r: usize, h: usize, w: usize) -> (f64, f64) {
     let fx = signed_index(r, w) as f64 / w as f64;
     let df = 1.0 / h.min(w) as f64;
     let rad = (fx * fx + fy * fy).sqrt() / df;
-    let th = fy.atan2(fx).rem_euclid(2.0 * std::f64::consts::PI);
+    let th = fy.atan2(fx);
+    let th = if th < 0.0 { th + 2.0 * std::f64::consts::PI } else { th };
     (rad, th)
 }
 

@@ -65,6 +65,18 @@ impl Fft2 {
         data.mapv_inplace(|z| z * scale);
     }
 
+    /// In-place 1D forward transform of one row (length = cols), with this plan.
+    pub fn forward_row(&self, row: &mut [Complex64]) {
+        assert_eq!(row.len(), self.cols);
+        self.row_fwd.process(row);
+    }
+
+    /// In-place 1D forward transform of one column (length = rows), with this plan.
+    pub fn forward_column(&self, col: &mut [Complex64]) {
+        assert_eq!(col.len(), self.rows);
+        self.col_fwd.process(col);
+    }
+
     /// Forward transform of a real image, returning the full (Hermitian) spectrum. About
     /// twice as fast as [`Fft2::forward`]: rows are transformed two at a time as the real
     /// and imaginary parts of one complex row, and only columns `0..=W/2` are transformed

@@ -90,36 +90,41 @@ pub(crate) fn bin_radius(q: usize, r: usize, h: usize, w: usize) -> f64 {
     (signed_index(q, h) as f64).hypot(signed_index(r, w) as f64)
 }
 
-/// Finds candidates in `power` against background `bg`; `taken` marks bins already used.
+/// Finds candidates in the notched power `power·gain²` against background `bg`.
+/// `threshold(k)` gives the (error-corrected) threshold of flat bin index `k`; it is
+/// only called for bins above `t0`, its lower bound. `taken` marks bins already used.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn find_candidates(
     power: &Array2<f64>,
+    gain: &Array2<f64>,
     bg: &Array2<f64>,
     total_ac: f64,
-    threshold: &Array2<f64>,
+    t0: f64,
+    threshold: &dyn Fn(usize) -> f64,
     dc_exclusion: f64,
     min_fraction: f64,
     taken: &Array2<bool>,
 ) -> Vec<Candidate> {
     let (h, w) = power.dim();
-    let white = |q: usize, r: usize| power[[q, r]] / bg[[q, r]];
-    let (ps, bs, ts) = (power.as_slice().unwrap(), bg.as_slice().unwrap(), threshold.as_slice().unwrap());
+    let (ps, gs, bs) = (power.as_slice().unwrap(), gain.as_slice().unwrap(), bg.as_slice().unwrap());
+    let white = |k: usize| ps[k] * gs[k] * gs[k] / bs[k];
     let mut out = Vec::new();
     // The half plane lies in rows 0..=h/2.
     for q in 0..=(h / 2).min(h - 1) {
         for r in 0..w {
             let k = q * w + r;
-            let wv = ps[k] / bs[k];
-            if !(wv > ts[k]) {
+            let wv = white(k);
+            if !(wv > t0) {
                 continue;
             }
-            if !in_half_plane(q, r, h, w) || taken[[q, r]] {
+            if !in_half_plane(q, r, h, w) || taken[[q, r]] || !(wv > threshold(k)) {
                 continue;
             }
             if bin_radius(q, r, h, w) <= dc_exclusion {
                 continue;
             }
-            let excess = 2.0 * (power[[q, r]] - bg[[q, r]]);
+            let pk = ps[k] * gs[k] * gs[k];
+            let excess = 2.0 * (pk - bs[k]);
             if !(excess >= min_fraction * total_ac) {
                 continue;
             }
@@ -136,7 +141,7 @@ pub(crate) fn find_candidates(
                     if (nq, nr) == (q, r) {
                         continue;
                     }
-                    let nv = white(nq, nr);
+                    let nv = white(nq * w + nr);
                     // Ties broken by position so a flat-topped peak yields one candidate.
                     if nv > wv || (nv == wv && (nq, nr) < (q, r)) {
                         is_max = false;
@@ -145,7 +150,7 @@ pub(crate) fn find_candidates(
                 }
             }
             if is_max {
-                out.push(Candidate { q, r, w: wv, power: power[[q, r]], bg: bg[[q, r]] });
+                out.push(Candidate { q, r, w: wv, power: pk, bg: bs[k] });
             }
         }
     }
@@ -165,12 +170,15 @@ pub(crate) fn sub_bin_offset(m_minus: f64, m0: f64, m_plus: f64) -> f64 {
     if d.is_finite() { d.clamp(-0.5, 0.5) } else { 0.0 }
 }
 
-/// Refined signed (v, u) position of the peak at storage bin (q, r) of `spec`.
-pub(crate) fn refine(spec: &Array2<Complex64>, q: usize, r: usize) -> (f64, f64) {
+/// Refined signed (v, u) position of the peak at storage bin (q, r) of `spec·gain`.
+pub(crate) fn refine(spec: &Array2<Complex64>, gain: &Array2<f64>, q: usize, r: usize) -> (f64, f64) {
     let (h, w) = spec.dim();
     let sq = signed_index(q, h);
     let sr = signed_index(r, w);
-    let m = |dq: isize, dr: isize| spec[[wrap_index(sq + dq, h), wrap_index(sr + dr, w)]].norm();
+    let m = |dq: isize, dr: isize| {
+        let (a, b) = (wrap_index(sq + dq, h), wrap_index(sr + dr, w));
+        spec[[a, b]].norm() * gain[[a, b]]
+    };
     let dv = if h >= 3 { sub_bin_offset(m(-1, 0), m(0, 0), m(1, 0)) } else { 0.0 };
     let du = if w >= 3 { sub_bin_offset(m(0, -1), m(0, 0), m(0, 1)) } else { 0.0 };
     (sq as f64 + dv, sr as f64 + du)

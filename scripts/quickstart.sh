@@ -9,6 +9,9 @@ cargo build --release --quiet
 echo
 ./target/release/laydown ls results/quickstart.h5
 echo
+echo "figures:"
+./target/release/laydown plot results/quickstart.h5
+echo
 echo "archive: $(pwd)/results/quickstart.h5"
 echo "inspect: ./target/release/laydown show results/quickstart.h5 ideal"
 echo "python:  xarray.open_dataset('results/quickstart.h5', group='/ideal/latest', engine='h5netcdf')"

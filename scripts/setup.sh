@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs the system packages laydown builds against (Debian/Ubuntu): HDF5 1.10+
-# with its high-level library (dimension scales) and pkg-config. Uses sudo when not root.
+# with its high-level library (dimension scales), pkg-config, and a TrueType font for
+# the labels of `laydown plot` (DejaVu). Uses sudo when not root.
 set -euo pipefail
 need=()
-for pkg in libhdf5-dev pkg-config; do
+for pkg in libhdf5-dev pkg-config fonts-dejavu-core; do
   dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -eq 0 ]; then

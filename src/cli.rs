@@ -57,6 +57,17 @@ pub enum Command {
     Stages { kind: Option<String> },
     /// Print the JSON schema of pipeline files (schemas/pipeline.schema.json).
     Schema,
+    /// Draw a stage version's figures (PNG or SVG) and print their paths.
+    Plot {
+        archive: PathBuf,
+        /// `STAGE` or `STAGE@vN`; several may be given. Default: every stage's latest version.
+        stages: Vec<String>,
+        /// Directory for the figures (default: `<archive stem>_figures/<stage>/vN/` beside the archive).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        #[arg(long, value_enum, default_value = "png")]
+        format: crate::plot::figure::Format,
+    },
 }
 
 /// Run the CLI; returns the process exit code.
@@ -99,6 +110,7 @@ pub fn main_with(cli: Cli) -> i32 {
         Command::Ls { archive } => report(ls(&archive)),
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
         Command::Stages { kind } => report(describe_stages(kind.as_deref())),
+        Command::Plot { archive, stages, out, format } => report(plot(&archive, &stages, out.as_deref(), format)),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&crate::schema::pipeline_schema()).unwrap());
             0
@@ -204,6 +216,18 @@ fn show(path: &PathBuf, stage_ref: &str, json: bool) -> Result<()> {
     println!("datasets:");
     for (n, shape, u, l) in datasets {
         println!("  {n:<36} {:<20} [{u}] {l}", format!("{shape:?}"));
+    }
+    Ok(())
+}
+
+fn plot(archive: &std::path::Path, stage_refs: &[String], out: Option<&std::path::Path>, format: crate::plot::figure::Format) -> Result<()> {
+    let refs = if stage_refs.is_empty() { Archive::open_read(archive)?.stages()? } else { stage_refs.to_vec() };
+    for r in &refs {
+        // Each stage in its own subdirectory when several go to one --out.
+        let dir = out.map(|o| if refs.len() > 1 { o.join(r.replace('@', "_")) } else { o.to_path_buf() });
+        for path in crate::plot::plot_stage(archive, r, dir.as_deref(), format).with_context(|| format!("plotting {r}"))? {
+            println!("{}", path.display());
+        }
     }
     Ok(())
 }

@@ -13,6 +13,7 @@ pub mod cli;
 pub mod geometry;
 pub mod params;
 pub mod pipeline;
+pub mod plot;
 pub mod progress;
 pub mod runner;
 pub mod schema;

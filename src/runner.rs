@@ -253,28 +253,21 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         let complete: Vec<&VersionInfo> = versions.iter().filter(|v| v.is_complete()).collect();
 
         // Inputs: the versions chosen for upstream stages in this run.
-        let mut inputs = vec![];
-        for inp in &decl.inputs {
-            match chosen.get(inp) {
-                Some(v) => inputs.push(v.clone()),
-                None => {
-                    return Err(RunError::BadInput(format!(
-                        "stage `{name}` needs input `{inp}`, which has no complete version in {}; run it first (without --only)",
-                        pipeline.archive.display()
-                    )))
-                }
-            }
-        }
-        let input_hashes: Vec<(String, String)> = inputs
-            .iter()
-            .map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string()))
-            .collect();
-        let fp = fingerprint(decl, stage.cache_version(), seed, &input_hashes);
-        let cached = complete.iter().rev().find(|v| v.attr_str("fingerprint") == Some(fp.as_str())).copied();
+        let inputs: Option<Vec<VersionInfo>> = decl.inputs.iter().map(|inp| chosen.get(inp).cloned()).collect();
+        let fp = inputs.as_ref().map(|inputs| {
+            let input_hashes: Vec<(String, String)> = inputs
+                .iter()
+                .map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string()))
+                .collect();
+            fingerprint(decl, stage.cache_version(), seed, &input_hashes)
+        });
+        let cached = fp
+            .as_ref()
+            .and_then(|fp| complete.iter().rev().find(|v| v.attr_str("fingerprint") == Some(fp.as_str())).copied());
 
         if !selected.contains(&name) {
-            let v = cached.or(complete.last().copied());
-            match v {
+            // A stage outside the selection keeps the version matching its inputs, else its latest.
+            match cached.or(complete.last().copied()) {
                 Some(v) => {
                     println!("{name}: not selected, using v{}", v.number);
                     chosen.insert(name.clone(), v.clone());
@@ -283,6 +276,13 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
             }
             continue;
         }
+        let (Some(inputs), Some(fp)) = (inputs, fp) else {
+            let missing = decl.inputs.iter().find(|i| !chosen.contains_key(*i)).cloned().unwrap_or_default();
+            return Err(RunError::BadInput(format!(
+                "stage `{name}` needs input `{missing}`, which has no complete version in {}; run it first (without --only)",
+                pipeline.archive.display()
+            )));
+        };
         let forced = opts.force.contains(&name);
         if let (Some(v), false) = (cached, forced) {
             println!("{name}: up to date (v{})", v.number);

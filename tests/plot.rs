@@ -1,0 +1,72 @@
+//! `laydown plot` draws every stage of a small pipeline as PNG and SVG, and says
+//! clearly when it cannot.
+mod common;
+use common::*;
+
+const PIPELINE: &str = "\
+pipeline: plots
+archive: plots.h5
+seed: 3
+stages:
+  - name: fibre
+    kind: laydown
+    params: {length: 0.08, elements: 80}
+    sweep:
+      friction_coefficient: [0.5, 1.0]
+    replicates: 2
+  - name: spectra
+    kind: spectra
+    input: fibre
+  - name: ideal
+    kind: spectra
+    params: {preset: spectrum1}
+    replicates: 2
+";
+
+/// Distinct colours in a PNG: a blank or single-colour figure has one or two.
+fn colours(path: &std::path::Path) -> usize {
+    let img = image::open(path).unwrap().to_rgb8();
+    let mut seen = std::collections::HashSet::new();
+    for p in img.pixels() {
+        seen.insert(p.0);
+    }
+    seen.len()
+}
+
+#[test]
+fn every_stage_plots_as_png_and_svg() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", PIPELINE);
+    let o = run_in(dir.path(), &["run", "p.yaml"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+
+    let o = run_in(dir.path(), &["plot", "plots.h5"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let paths: Vec<&str> = out.lines().collect();
+    for expected in ["fibre/v1/fibre.png", "fibre/v1/sweep_fibres.png", "fibre/v1/radius_of_gyration_bending_energy.png", "spectra/v1/energy_spectrum.png", "ideal/v1/curvature.png"] {
+        let p = paths.iter().find(|p| p.ends_with(expected)).unwrap_or_else(|| panic!("{expected} missing from {out}"));
+        let p = dir.path().join(p);
+        assert!(p.starts_with(dir.path().join("plots_figures")), "{}", p.display());
+        assert!(colours(&p) > 20, "{} looks blank", p.display());
+    }
+
+    let o = run_in(dir.path(), &["plot", "plots.h5", "fibre@v1", "--format", "svg", "--out", "svg"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let svg = std::fs::read_to_string(dir.path().join("svg/radius_of_gyration_bending_energy.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("friction_coefficient") && svg.contains("<polyline"), "{out}");
+}
+
+#[test]
+fn unknown_stage_or_version_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", PIPELINE);
+    assert!(run_in(dir.path(), &["run", "p.yaml", "--only", "ideal"]).status.success());
+    for (stage, message) in [("nope", "nope"), ("ideal@v7", "v7"), ("ideal@7", "STAGE@vN")] {
+        let o = run_in(dir.path(), &["plot", "plots.h5", stage]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(message), "{stage}: {err}");
+    }
+}

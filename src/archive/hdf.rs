@@ -211,3 +211,46 @@ mod tests {
         assert_eq!(c[3], 3);
     }
 }
+
+/// A swept parameter of a stage version: a coordinate along `point` carrying a
+/// `parameter` attribute (written by the runner).
+#[derive(Debug, Clone)]
+pub struct Swept {
+    /// Dataset name (the parameter with dots as underscores).
+    pub name: String,
+    /// Parameter name as in the pipeline (`effects.drag`).
+    pub parameter: String,
+    /// Value at each point (NaN for non-numeric values).
+    pub values: Vec<f64>,
+    /// Value at each point as text.
+    pub labels: Vec<String>,
+    pub units: String,
+}
+
+/// The swept parameters of a version group, in dataset-name order.
+pub fn swept_coordinates(group: &hdf5::Group) -> Vec<Swept> {
+    let mut out = vec![];
+    for name in group.member_names().unwrap_or_default() {
+        let Ok(ds) = group.dataset(&name) else { continue };
+        let Ok(attrs) = read_attrs(&ds) else { continue };
+        let Some(Attr::Str(parameter)) = attrs.get("parameter") else { continue };
+        let units = match attrs.get("units") {
+            Some(Attr::Str(u)) => u.clone(),
+            _ => String::new(),
+        };
+        let (values, labels) = match read_f64(group, &name) {
+            Ok(v) => (v.iter().copied().collect::<Vec<_>>(), v.iter().map(|x| crate::params::format_float(*x)).collect()),
+            Err(_) => {
+                let s = read_strings(group, &name).unwrap_or_default();
+                (vec![f64::NAN; s.len()], s)
+            }
+        };
+        out.push(Swept { name, parameter: parameter.clone(), values, labels, units });
+    }
+    out
+}
+
+/// `param = value, ...` naming point `p` of a version from its swept coordinates.
+pub fn point_label(swept: &[Swept], p: usize) -> String {
+    swept.iter().map(|s| format!("{} = {}", s.parameter, s.labels.get(p).map(String::as_str).unwrap_or("?"))).collect::<Vec<_>>().join(", ")
+}

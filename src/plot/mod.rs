@@ -27,13 +27,7 @@ pub struct StageData {
     group: hdf5::Group,
 }
 
-/// A swept parameter: its dataset name, parameter name and value per point.
-pub struct Swept {
-    pub name: String,
-    pub parameter: String,
-    pub values: Vec<f64>,
-    pub units: String,
-}
+pub use crate::archive::hdf::Swept;
 
 impl StageData {
     pub fn kind(&self) -> &str {
@@ -74,35 +68,13 @@ impl StageData {
             _ => None,
         }
     }
-    /// Numeric swept parameters (coordinates along `point` carrying a `parameter` attribute).
+    /// Swept parameters (coordinates along `point` carrying a `parameter` attribute).
     pub fn swept(&self) -> Vec<Swept> {
-        let mut out = vec![];
-        for name in self.group.member_names().unwrap_or_default() {
-            let Ok(ds) = self.group.dataset(&name) else { continue };
-            let Ok(attrs) = hdf::read_attrs(&ds) else { continue };
-            let Some(Attr::Str(parameter)) = attrs.get("parameter") else { continue };
-            let Ok(values) = hdf::read_f64(&self.group, &name) else { continue };
-            out.push(Swept {
-                name: name.clone(),
-                parameter: parameter.clone(),
-                values: values.iter().copied().collect(),
-                units: match attrs.get("units") {
-                    Some(Attr::Str(u)) => u.clone(),
-                    _ => String::new(),
-                },
-            });
-        }
-        out
+        hdf::swept_coordinates(&self.group)
     }
     /// Short text naming sweep point `p` (e.g. `friction_coefficient = 0.5`).
     pub fn point_label(&self, p: usize) -> String {
-        let parts: Vec<String> =
-            self.swept().iter().map(|s| format!("{} = {}", s.parameter, figure::tick(s.values[p]))).collect();
-        if parts.is_empty() {
-            String::new()
-        } else {
-            parts.join(", ")
-        }
+        hdf::point_label(&self.swept(), p)
     }
 }
 

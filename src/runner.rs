@@ -173,15 +173,18 @@ fn figure_dir(archive: &std::path::Path, stage: &str, number: u32) -> std::path:
     archive.with_file_name(format!("{stem}_figures")).join(stage).join(format!("v{number}"))
 }
 
-/// (path, blake3 of the content) of each file, in the given order.
-fn hash_files(files: &[std::path::PathBuf]) -> Result<Vec<(String, String)>> {
+/// (path, blake3 of the content) of each file, in the given order. Paths are shown
+/// relative to the pipeline's directory, so the fingerprint does not depend on the
+/// working directory the pipeline is run from.
+fn hash_files(files: &[std::path::PathBuf], dir: &std::path::Path) -> Result<Vec<(String, String)>> {
     files
         .iter()
         .map(|p| {
             let mut h = blake3::Hasher::new();
             let f = std::fs::File::open(p).map_err(|e| anyhow!("cannot read {}: {e}", p.display()))?;
             h.update_reader(f).map_err(|e| anyhow!("cannot read {}: {e}", p.display()))?;
-            Ok((p.display().to_string(), h.finalize().to_hex()[..32].to_string()))
+            let shown = p.strip_prefix(dir).unwrap_or(p);
+            Ok((shown.display().to_string(), h.finalize().to_hex()[..32].to_string()))
         })
         .collect()
 }
@@ -328,7 +331,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         // Files outside the archive (image scans): their content hashes join the inputs.
         let pipeline_dir = pipeline_dir(pipeline);
         let files = match stage.input_files(&decl.params, &pipeline_dir) {
-            Ok(f) => hash_files(&f).map_err(|e| RunError::BadInput(format!("stage `{name}`: {e:#}"))),
+            Ok(f) => hash_files(&f, &pipeline_dir).map_err(|e| RunError::BadInput(format!("stage `{name}`: {e:#}"))),
             Err(e) => Err(match classify(e) {
                 RunError::BadInput(m) => RunError::BadInput(format!("stage `{name}`: {m}")),
                 RunError::Runtime(e) => RunError::Runtime(e.context(format!("stage `{name}`"))),

@@ -381,7 +381,13 @@ fn cli_bond_free_and_bonded_files_in_groups() {
     let out = run_in(d, &["run", p.to_str().unwrap()]);
     let (o, e) = text(&out);
     assert_eq!(out.status.code(), Some(0), "{e}");
-    assert!(o.contains("scans: runs: input files:") && o.contains("plain/w1.png changed"), "{o}");
+    assert!(o.contains("scans: runs: input files: plain/w1.png changed"), "{o}");
+    // The same pipeline run from another working directory is up to date: file paths
+    // enter the fingerprint relative to the pipeline file.
+    let sub = d.join("elsewhere");
+    std::fs::create_dir_all(&sub).unwrap();
+    let out = run_in(&sub, &["run", "../p.yaml", "--archive", d.join("out/study.h5").to_str().unwrap()]);
+    assert!(text(&out).0.contains("scans: up to date (v2)"), "{:?}", text(&out));
     // Constant grey: a documented result (CV 0, no notches, a warning), not an error.
     assert_eq!(read(&archive, "scans", "cv_raw")[1], 0.0);
     assert_eq!(read(&archive, "scans", "cv_corr")[1], 0.0);

@@ -292,7 +292,8 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
             let img = read_grey(path).map_err(|e| BadInput(e.to_string()))?;
             Ok(Sample {
                 group: group.clone(),
-                file: path.display().to_string(),
+                // Relative to the pipeline file: results do not depend on the working directory.
+                file: path.strip_prefix(&ctx.pipeline_dir).unwrap_or(path).display().to_string(),
                 image: img.data,
                 pixel: ip.pixel_size_m(),
                 cv_web: f64::NAN,

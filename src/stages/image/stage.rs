@@ -35,22 +35,52 @@ const SHAPES: &[&str] = &["none", "circle", "ellipse", "rectangle"];
 /// Spectrum range of the PNG panels (decades below the largest non-DC value).
 const PANEL_DECADES: f64 = 6.0;
 
-/// One image to analyse, with where it came from.
+/// One image to analyse, with where it came from. Images are read or rendered only
+/// when analysed, so a batch never holds more than a few images at a time.
 struct Sample {
     group: String,
     file: String,
-    image: Array2<f64>,
+    source: Source,
     pixel: f64,
-    /// Grid source: CV of the bond-free rendering; NaN for files.
-    cv_web: f64,
     grid_point: i64,
     realisation: i64,
+}
+
+enum Source {
+    File(PathBuf),
+    /// (point, realisation) of the grid input.
+    Grid(usize, usize),
+}
+
+/// The grid input, read once, and how its maps become images.
+struct GridData {
+    from: String,
+    density: ndarray::ArrayD<f64>,
+    cell: f64,
+    bonded: RenderParams,
+    plain: RenderParams,
+}
+
+impl GridData {
+    /// The bonded rendering of one map and the CV of the bond-free one (the truth).
+    fn render(&self, pt: usize, r: usize) -> Result<(Array2<f64>, f64)> {
+        let map: Array2<f64> =
+            self.density.index_axis(Axis(0), pt).index_axis(Axis(0), r).to_owned().into_dimensionality().map_err(|e| anyhow!("{e}"))?;
+        let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("grid {} point {pt} realisation {r}: {e}", self.from)));
+        let image = render(&map, self.cell, &self.bonded).map_err(bad)?.grey;
+        let web = render(&map, self.cell, &self.plain).map_err(bad)?.grey;
+        Ok((image, crate::uniformity::coefficient_of_variation(web.iter().copied())))
+    }
 }
 
 /// What is kept of one analysis (images only for the first `max_stored_images`).
 struct Kept {
     a: ImageAnalysis,
     store: bool,
+    rows: usize,
+    cols: usize,
+    /// Grid source: CV of the bond-free rendering; NaN for files.
+    cv_web: f64,
 }
 
 impl Stage for ImageStage {
@@ -124,6 +154,12 @@ impl Stage for ImageStage {
                 format!("{} group labels for {} `files` entries; allowed: one label per entry, or none", groups.len(), files.len()),
             ));
         }
+        if !files.is_empty() && p.text("bonds.shape") != "none" {
+            return Err((
+                "bonds.shape".into(),
+                "bonds.* overlay the images rendered from a grid input; image files are analysed as they are; allowed with `files`: none".into(),
+            ));
+        }
         if p.f64("zone_max") < p.f64("zone_min") {
             return Err(("zone_max".into(), format!("zone_max is below zone_min = {}", p.f64("zone_min"))));
         }
@@ -143,7 +179,7 @@ impl Stage for ImageStage {
         let p = &ctx.points[0];
         let ip = image_params(p);
         ip.validate().map_err(|e| BadInput(e.to_string()))?;
-        let (samples, sweep) = match ctx.inputs.first() {
+        let (samples, sweep, grid) = match ctx.inputs.first() {
             Some(input) => {
                 if !p.text_list("files").is_empty() {
                     return Err(BadInput("give `files` or a grid `input`, not both".into()).into());
@@ -160,7 +196,7 @@ impl Stage for ImageStage {
                 if p.text("bonds.shape") != "none" {
                     return Err(BadInput("bonds.* overlay rendered grid images; image files are analysed as they are (set bonds.shape: none)".into()).into());
                 }
-                (file_samples(ctx, p)?, vec![])
+                (file_samples(ctx, p)?, vec![], None)
             }
         };
         let max_store = p.usize("max_stored_images");
@@ -169,13 +205,20 @@ impl Stage for ImageStage {
             .par_iter()
             .enumerate()
             .map(|(i, smp)| {
-                let a = analyze(&smp.image, smp.pixel, &ip).map_err(|e| {
+                let (image, cv_web) = match (&smp.source, &grid) {
+                    (Source::File(path), _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
+                    (Source::Grid(pt, r), Some(g)) => g.render(*pt, *r)?,
+                    (Source::Grid(..), None) => unreachable!("grid samples come with the grid"),
+                };
+                let (rows, cols) = image.dim();
+                let a = analyze(&image, smp.pixel, &ip).map_err(|e| {
                     let what = if smp.file.is_empty() { format!("group {} sample {i}", smp.group) } else { smp.file.clone() };
                     anyhow::Error::new(BadInput(format!("{what}: {e}")))
                 })?;
+                drop(image);
                 let store = i < max_store;
                 let a = if store { a } else { strip(a) };
-                Ok(Kept { a, store })
+                Ok(Kept { a, store, rows, cols, cv_web })
             })
             .collect();
         let kept: Vec<Kept> = results.into_iter().collect::<Result<_>>()?;
@@ -187,7 +230,7 @@ impl Stage for ImageStage {
         }
         let mut out = assemble(&samples, &kept, &ip, p, &sweep);
         let groups = group_stats(&samples, &kept);
-        eprint!("{}", table(&ctx.stage_name, &groups, &samples));
+        eprint!("{}", table(&ctx.stage_name, &groups, &kept));
         if p.bool("panels") && kept.iter().any(|k| k.store) {
             std::fs::create_dir_all(&ctx.figure_dir).map_err(|e| anyhow!("creating {}: {e}", ctx.figure_dir.display()))?;
             for (i, (smp, k)) in samples.iter().zip(&kept).enumerate().filter(|(_, (_, k))| k.store) {
@@ -286,22 +329,18 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
             ip.pixel_size_m() * 1e3
         );
     }
-    files
-        .par_iter()
-        .map(|(path, group)| {
-            let img = read_grey(path).map_err(|e| BadInput(e.to_string()))?;
-            Ok(Sample {
-                group: group.clone(),
-                // Relative to the pipeline file: results do not depend on the working directory.
-                file: path.strip_prefix(&ctx.pipeline_dir).unwrap_or(path).display().to_string(),
-                image: img.data,
-                pixel: ip.pixel_size_m(),
-                cv_web: f64::NAN,
-                grid_point: -1,
-                realisation: -1,
-            })
+    Ok(files
+        .into_iter()
+        .map(|(path, group)| Sample {
+            group,
+            // Relative to the pipeline file: results do not depend on the working directory.
+            file: path.strip_prefix(&ctx.pipeline_dir).unwrap_or(&path).display().to_string(),
+            source: Source::File(path),
+            pixel: ip.pixel_size_m(),
+            grid_point: -1,
+            realisation: -1,
         })
-        .collect()
+        .collect())
 }
 
 /// A grid point's swept parameters, read from the grid version (1-D variables along
@@ -327,7 +366,7 @@ fn grid_sweep(input: &Input, npoints: usize) -> Result<Sweep> {
     Ok(out)
 }
 
-fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep)> {
+fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep, Option<GridData>)> {
     let from = input.version.group_path();
     let need = |name: &str| {
         if input.has(name) {
@@ -348,44 +387,30 @@ fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep)> {
     }
     let (npoints, nreal) = (density.shape()[0], density.shape()[1]);
     let sweep = grid_sweep(input, npoints)?;
-    let rp = RenderParams {
+    let bonded = RenderParams {
         attenuation: p.f64("render.attenuation"),
         white: p.f64("render.white"),
         black: p.f64("render.black"),
         bits: p.usize("render.bits") as u8,
         bonds: bond_pattern(p),
     };
-    let plain = RenderParams { bonds: None, ..rp.clone() };
-    let units: Vec<(usize, usize)> = (0..npoints).flat_map(|pt| (0..nreal).map(move |r| (pt, r))).collect();
-    let samples = units
-        .par_iter()
-        .map(|&(pt, r)| {
-            let map: Array2<f64> = density
-                .index_axis(Axis(0), pt)
-                .index_axis(Axis(0), r)
-                .to_owned()
-                .into_dimensionality()
-                .map_err(|e| anyhow!("{e}"))?;
-            let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("grid {from} point {pt} realisation {r}: {e}")));
-            let image = render(&map, cell, &rp).map_err(bad)?.grey;
-            let web = render(&map, cell, &plain).map_err(bad)?.grey;
-            let label = if sweep.is_empty() {
+    let plain = RenderParams { bonds: None, ..bonded.clone() };
+    let samples = (0..npoints)
+        .flat_map(|pt| (0..nreal).map(move |r| (pt, r)))
+        .map(|(pt, r)| Sample {
+            group: if sweep.is_empty() {
                 format!("point {pt}")
             } else {
                 sweep.iter().map(|(n, _, v)| format!("{n}={}", crate::params::format_float(v[pt]))).collect::<Vec<_>>().join(", ")
-            };
-            Ok(Sample {
-                group: label,
-                file: String::new(),
-                image,
-                pixel: cell,
-                cv_web: crate::uniformity::coefficient_of_variation(web.iter().copied()),
-                grid_point: pt as i64,
-                realisation: r as i64,
-            })
+            },
+            file: String::new(),
+            source: Source::Grid(pt, r),
+            pixel: cell,
+            grid_point: pt as i64,
+            realisation: r as i64,
         })
-        .collect::<Result<Vec<_>>>()?;
-    Ok((samples, sweep))
+        .collect();
+    Ok((samples, sweep, Some(GridData { from, density, cell, bonded, plain })))
 }
 
 fn group_stats(samples: &[Sample], kept: &[Kept]) -> Vec<(GroupStats, MeanStd)> {
@@ -394,7 +419,8 @@ fn group_stats(samples: &[Sample], kept: &[Kept]) -> Vec<(GroupStats, MeanStd)> 
     stats
         .into_iter()
         .map(|g| {
-            let web: Vec<f64> = samples.iter().filter(|s| s.group == g.group && s.cv_web.is_finite()).map(|s| s.cv_web).collect();
+            let web: Vec<f64> =
+                samples.iter().zip(kept).filter(|(s, k)| s.group == g.group && k.cv_web.is_finite()).map(|(_, k)| k.cv_web).collect();
             let w = if web.is_empty() { MeanStd { mean: f64::NAN, std: f64::NAN } } else { MeanStd::of(&web) };
             (g, w)
         })
@@ -402,8 +428,8 @@ fn group_stats(samples: &[Sample], kept: &[Kept]) -> Vec<(GroupStats, MeanStd)> 
 }
 
 /// The Table-4-like summary: per group n, CV raw and CV_corr as mean ± std (per cent).
-fn table(stage: &str, groups: &[(GroupStats, MeanStd)], samples: &[Sample]) -> String {
-    let has_web = samples.iter().any(|s| s.cv_web.is_finite());
+fn table(stage: &str, groups: &[(GroupStats, MeanStd)], kept: &[Kept]) -> String {
+    let has_web = kept.iter().any(|k| k.cv_web.is_finite());
     let width = groups.iter().map(|(g, _)| g.group.chars().count()).max().unwrap_or(5).max(5);
     let mut t = format!("{stage}: CV of grey levels, mean ± std over the samples of each group (per cent)\n");
     t += &format!("{stage}: {:<width$}  {:>3}  {:>14}  {:>14}  {:>14}  {:>7}", "group", "n", "CV raw", "CV_corr", "CV_corr comp.", "notches");
@@ -445,15 +471,15 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point index of a rendered sample (−1 for files)");
     out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "grid realisation of a rendered sample (−1 for files)");
     out.f64("pixel_size", &["sample"], Array1::from_iter(samples.iter().map(|s| s.pixel)), "m", "pixel size");
-    out.i64("rows", &["sample"], Array1::from_iter(samples.iter().map(|s| s.image.nrows() as i64)), "1", "image height (pixels; rows = MD for grid samples)");
-    out.i64("cols", &["sample"], Array1::from_iter(samples.iter().map(|s| s.image.ncols() as i64)), "1", "image width (pixels)");
+    out.i64("rows", &["sample"], Array1::from_iter(kept.iter().map(|k| k.rows as i64)), "1", "image height (pixels; rows = MD for grid samples)");
+    out.i64("cols", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cols as i64)), "1", "image width (pixels)");
     out.f64("mean_grey", &["sample"], col(&|a| a.mean), "1", "mean grey level (full scale 1; kept by the filter)");
     out.f64("cv_raw", &["sample"], col(&|a| a.cv_raw), "1", "CV of the raw grey levels (population std / mean)");
     out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr: CV of the notch-filtered image, mean kept, interior only (the paper's quantity)");
     out.f64("cv_corr_compensated", &["sample"], col(&|a| a.cv_corr_compensated), "1", "CV_corr with the web variance removed under the notches added back (background model)");
     out.f64("cv_corr_one_sided", &["sample"], col(&|a| nan_if_none(a.cv_corr_one_sided)), "1", "compensated CV about the mean without an estimated one-sided bond brightening (NaN when undefined)");
     out.f64("bond_mean_estimate", &["sample"], col(&|a| a.bond_mean_estimate), "1", "grey level the bonds add on average if they are one-sided");
-    out.f64("cv_web", &["sample"], Array1::from_iter(samples.iter().map(|s| s.cv_web)), "1", "CV of the same rendering without bonds: the truth (grid samples; NaN for files)");
+    out.f64("cv_web", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cv_web)), "1", "CV of the same rendering without bonds: the truth (grid samples; NaN for files)");
     out.i64("notches", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.notch_count as i64)), "1", "Gaussian notches applied (2 per peak: peak and conjugate)");
     out.i64("peak_count", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.peaks.len() as i64)), "1", "detected bond peaks (half plane)");
     out.f64("variance_removed_fraction", &["sample"], col(&|a| a.fraction_variance_removed), "1", "1 − Var(filtered)/Var(raw), whole images");

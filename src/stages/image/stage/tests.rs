@@ -111,3 +111,25 @@ fn grid_input_without_bonds_changes_nothing_and_files_are_refused_alongside() {
     let e = ImageStage.run(&ctx(dir.path(), vec![input], &[("files", ParamValue::List(vec!["x.png".into()]))])).unwrap_err();
     assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("not both"), "{e}");
 }
+
+#[test]
+fn a_grid_version_without_density_or_with_nan_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let archive = Archive::open_write(&dir.path().join("bad.h5")).unwrap();
+    let mut attrs = BTreeMap::new();
+    attrs.insert("status".to_string(), Attr::Str("complete".into()));
+    let mut out = Output::new();
+    out.f64("cell_size", &[], Array0::from_elem((), CELL), "m", "grid cell side");
+    let n = archive.commit_version("fixture", "grid", &out, &attrs, "fixture").unwrap();
+    let input = Input { name: "grid".into(), kind: "grid".into(), version: archive.version("grid", Some(n)).unwrap() };
+    let e = ImageStage.run(&ctx(dir.path(), vec![input], &[])).unwrap_err();
+    assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("has no `density`"), "{e}");
+
+    let mut density = Array4::from_elem((1, 1, 32, 32), 20.0);
+    density[[0, 0, 3, 4]] = f64::NAN;
+    out.f64("density", &["point", "realisation", "md", "cd"], density, "g m-2", "areal density");
+    let n = archive.commit_version("fixture", "grid", &out, &attrs, "fixture").unwrap();
+    let input = Input { name: "grid".into(), kind: "grid".into(), version: archive.version("grid", Some(n)).unwrap() };
+    let e = ImageStage.run(&ctx(dir.path(), vec![input], &[])).unwrap_err();
+    assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("point 0 realisation 0"), "{e}");
+}

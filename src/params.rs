@@ -13,6 +13,8 @@ pub enum ParamValue {
     Int(i64),
     Bool(bool),
     Text(String),
+    /// A list of texts (file names, globs, labels).
+    List(Vec<String>),
     /// No value: the parameter is derived automatically (documented per parameter).
     Auto,
 }
@@ -24,6 +26,7 @@ impl fmt::Display for ParamValue {
             ParamValue::Int(v) => write!(f, "{v}"),
             ParamValue::Bool(v) => write!(f, "{v}"),
             ParamValue::Text(v) => write!(f, "{v}"),
+            ParamValue::List(v) => write!(f, "[{}]", v.join(", ")),
             ParamValue::Auto => write!(f, "auto"),
         }
     }
@@ -58,6 +61,8 @@ pub enum ParamKind {
     Choice(&'static [&'static str]),
     /// Free text (file names, globs, labels).
     Text,
+    /// A list of texts; a single text is accepted as a list of one.
+    TextList,
 }
 
 /// One entry of a stage's parameter table.
@@ -90,6 +95,10 @@ impl ParamSpec {
     pub fn text(name: &'static str, default: &'static str, doc: &'static str) -> Self {
         ParamSpec { name, unit: "", kind: ParamKind::Text, default: ParamValue::Text(default.into()), auto: false, doc }
     }
+    /// A list of texts, empty by default.
+    pub fn text_list(name: &'static str, doc: &'static str) -> Self {
+        ParamSpec { name, unit: "", kind: ParamKind::TextList, default: ParamValue::List(vec![]), auto: false, doc }
+    }
     /// Allow `auto` (YAML `null` or the word `auto`), and make it the default.
     pub fn auto_default(mut self) -> Self {
         self.auto = true;
@@ -113,6 +122,7 @@ impl ParamSpec {
             ParamKind::Bool => "true or false".into(),
             ParamKind::Choice(c) => format!("one of {}", c.join(", ")),
             ParamKind::Text => "text".into(),
+            ParamKind::TextList => "a list of texts".into(),
         };
         if self.auto { format!("{base}, or auto") } else { base }
     }
@@ -148,6 +158,8 @@ impl ParamSpec {
                 }
             }
             (ParamKind::Text, ParamValue::Text(_)) => Ok(value.clone()),
+            (ParamKind::TextList, ParamValue::List(_)) => Ok(value.clone()),
+            (ParamKind::TextList, ParamValue::Text(s)) => Ok(ParamValue::List(vec![s.clone()])),
             _ => bad(),
         }
     }
@@ -159,6 +171,7 @@ fn describe(v: &ParamValue) -> String {
         ParamValue::Int(x) => format!("the number {x}"),
         ParamValue::Bool(b) => format!("the boolean {b}"),
         ParamValue::Text(s) => format!("the text `{s}`"),
+        ParamValue::List(v) => format!("the list [{}]", v.join(", ")),
         ParamValue::Auto => "null".into(),
     }
 }
@@ -216,6 +229,13 @@ impl ParamSet {
         }
     }
 
+    pub fn text_list(&self, name: &str) -> &[String] {
+        match self.get(name) {
+            ParamValue::List(v) => v,
+            other => panic!("parameter `{name}` is {other:?}, not a list of texts"),
+        }
+    }
+
     /// Canonical YAML: nested maps from dotted names, keys sorted, floats in shortest
     /// round-trip form. Equal parameter sets give byte-identical text.
     pub fn canonical_yaml(&self) -> String {
@@ -238,6 +258,7 @@ fn to_yaml(v: &ParamValue) -> serde_yaml_ng::Value {
         ParamValue::Int(x) => Value::Number((*x).into()),
         ParamValue::Bool(b) => Value::Bool(*b),
         ParamValue::Text(s) => Value::String(s.clone()),
+        ParamValue::List(v) => Value::Sequence(v.iter().map(|s| Value::String(s.clone())).collect()),
         ParamValue::Auto => Value::Null,
     }
 }
@@ -277,6 +298,16 @@ mod tests {
         m.insert("elements".to_string(), ParamValue::Int(1000));
         let y = ParamSet(m).canonical_yaml();
         assert_eq!(y, "diameter: 0.00005\neffects:\n  drag: false\nelements: 1000\n");
+    }
+
+    #[test]
+    fn text_lists_accept_one_text_and_serialise_as_sequences() {
+        let s = ParamSpec::text_list("files", "image files");
+        assert_eq!(s.check(&ParamValue::Text("a.png".into())).unwrap(), ParamValue::List(vec!["a.png".into()]));
+        assert!(s.check(&ParamValue::Int(3)).unwrap_err().contains("expected a list of texts"));
+        let mut m = BTreeMap::new();
+        m.insert("files".to_string(), ParamValue::List(vec!["b/*.png".into(), "a.tif".into()]));
+        assert_eq!(ParamSet(m).canonical_yaml(), "files:\n- b/*.png\n- a.tif\n");
     }
 
     #[test]

@@ -84,7 +84,14 @@ pub fn fingerprint(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(S
 }
 
 /// Human reason why `decl` differs from the previous version `prev`.
-fn reason(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(String, u32)], prev: Option<&VersionInfo>) -> String {
+fn reason(
+    decl: &StageDecl,
+    cache_version: u32,
+    seed: u64,
+    inputs: &[(String, u32)],
+    files: &[(String, String)],
+    prev: Option<&VersionInfo>,
+) -> String {
     let Some(prev) = prev else { return "new stage".into() };
     let mut why = vec![];
     if prev.attr_str("stage_kind") != Some(decl.kind.as_str()) {
@@ -128,10 +135,62 @@ fn reason(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(String, u3
             None => why.push(format!("input {name} is new (v{v})")),
         }
     }
+    let old_files: BTreeMap<&str, &str> =
+        prev.attr_str("input_files").unwrap_or("").lines().filter_map(|l| l.rsplit_once(" blake3=")).collect();
+    let mut changed = vec![];
+    for (path, hash) in files {
+        match old_files.get(path.as_str()) {
+            Some(o) if o != hash => changed.push(format!("{path} changed")),
+            Some(_) => {}
+            None => changed.push(format!("{path} is new")),
+        }
+    }
+    let now: Vec<&str> = files.iter().map(|(p, _)| p.as_str()).collect();
+    changed.extend(old_files.keys().filter(|p| !now.contains(p)).map(|p| format!("{p} removed")));
+    if !changed.is_empty() {
+        let n = changed.len();
+        changed.truncate(3);
+        let more = if n > 3 { format!(" and {} more", n - 3) } else { String::new() };
+        why.push(format!("input files: {}{more}", changed.join(", ")));
+    }
     if why.is_empty() {
         why.push("no complete version with this fingerprint".into());
     }
     why.join(", ")
+}
+
+/// The directory of the pipeline file (relative parameter paths are relative to it).
+fn pipeline_dir(pipeline: &Pipeline) -> std::path::PathBuf {
+    match pipeline.file.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    }
+}
+
+/// `<archive dir>/<archive stem>_figures/<stage>/v<number>`.
+fn figure_dir(archive: &std::path::Path, stage: &str, number: u32) -> std::path::PathBuf {
+    let stem = archive.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "archive".into());
+    archive.with_file_name(format!("{stem}_figures")).join(stage).join(format!("v{number}"))
+}
+
+/// (path, blake3 of the content) of each file, in the given order. Paths are shown
+/// relative to the pipeline's directory, so the fingerprint does not depend on the
+/// working directory the pipeline is run from.
+fn hash_files(files: &[std::path::PathBuf], dir: &std::path::Path) -> Result<Vec<(String, String)>> {
+    files
+        .iter()
+        .map(|p| {
+            let mut h = blake3::Hasher::new();
+            let f = std::fs::File::open(p).map_err(|e| anyhow!("cannot read {}: {e}", p.display()))?;
+            h.update_reader(f).map_err(|e| anyhow!("cannot read {}: {e}", p.display()))?;
+            let shown = p.strip_prefix(dir).unwrap_or(p);
+            Ok((shown.display().to_string(), h.finalize().to_hex()[..32].to_string()))
+        })
+        .collect()
+}
+
+fn files_attr(files: &[(String, String)]) -> String {
+    files.iter().map(|(p, h)| format!("{p} blake3={h}")).collect::<Vec<_>>().join("\n")
 }
 
 /// `a: {b: 1}` → {"a.b": "1"}, for comparing canonical parameter YAML.
@@ -254,12 +313,28 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
 
         // Inputs: the versions chosen for upstream stages in this run.
         let inputs: Option<Vec<VersionInfo>> = decl.inputs.iter().map(|inp| chosen.get(inp).cloned()).collect();
+        // Files outside the archive (image scans): their content hashes join the inputs.
+        let pipeline_dir = pipeline_dir(pipeline);
+        let files = match stage.input_files(&decl.params, &pipeline_dir) {
+            Ok(f) => hash_files(&f, &pipeline_dir).map_err(|e| RunError::BadInput(format!("stage `{name}`: {e:#}"))),
+            Err(e) => Err(match classify(e) {
+                RunError::BadInput(m) => RunError::BadInput(format!("stage `{name}`: {m}")),
+                RunError::Runtime(e) => RunError::Runtime(e.context(format!("stage `{name}`"))),
+            }),
+        };
+        let files = match files {
+            Ok(f) => f,
+            // A stage that is not run does not need its files.
+            Err(_) if !selected.contains(&name) => vec![],
+            Err(e) => return Err(e),
+        };
         let fp = inputs.as_ref().map(|inputs| {
-            let input_hashes: Vec<(String, String)> = inputs
+            let mut fp_inputs: Vec<(String, String)> = inputs
                 .iter()
                 .map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string()))
                 .collect();
-            fingerprint(decl, stage.cache_version(), seed, &input_hashes)
+            fp_inputs.extend(files.iter().map(|(p, h)| (format!("file:{p}"), h.clone())));
+            fingerprint(decl, stage.cache_version(), seed, &fp_inputs)
         });
         let cached = fp
             .as_ref()
@@ -294,7 +369,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         let why = if forced && cached.is_some() {
             "forced (--force)".to_string()
         } else {
-            reason(decl, stage.cache_version(), seed, &input_versions, complete.last().copied())
+            reason(decl, stage.cache_version(), seed, &input_versions, &files, complete.last().copied())
         };
         println!("{name}: runs: {why}");
 
@@ -312,6 +387,8 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
                 .map(|(n, v)| Input { name: n.clone(), kind: pipeline.stage(n).unwrap().kind.clone(), version: v.clone() })
                 .collect(),
             progress: opts.progress,
+            pipeline_dir: pipeline_dir.clone(),
+            figure_dir: figure_dir(&pipeline.archive, &name, versions.last().map(|v| v.number + 1).unwrap_or(1)),
         };
         let start_utc = provenance::utc_now();
         let cpu0 = provenance::cpu_seconds();
@@ -365,6 +442,9 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
                     .join("\n"),
             ),
         );
+        if !files.is_empty() {
+            put("input_files", Attr::Str(files_attr(&files)));
+        }
         put("fingerprint", Attr::Str(fp.clone()));
         put("content_hash", Attr::Str(content_hash));
         put("pipeline_name", Attr::Str(pipeline.name.clone()));

@@ -24,6 +24,7 @@ fn value_schema(p: &ParamSpec) -> Value {
         ParamKind::Bool => json!({"type": "boolean"}),
         ParamKind::Choice(c) => json!({"type": "string", "enum": c}),
         ParamKind::Text => json!({"type": "string"}),
+        ParamKind::TextList => json!({"anyOf": [{"type": "string"}, {"type": "array", "items": {"type": "string"}}]}),
     };
     if p.auto {
         s = json!({"anyOf": [s, {"type": "null"}, {"const": "auto"}]});

@@ -278,3 +278,175 @@ fn timing_871x617() {
     times.sort_by(|a, b| a.total_cmp(b));
     println!("871×617 analyze: min {:.1} ms, median {:.1} ms", times[0], times[2]);
 }
+
+// ---------------------------------------------------------------------------------
+// `kind: image` as a pipeline stage, through the `laydown` binary.
+// ---------------------------------------------------------------------------------
+mod common;
+use common::{run_in, text, write_pipeline};
+use laydown::stages::image::io::write_grey_png;
+use std::path::Path;
+
+fn read(archive: &Path, stage: &str, name: &str) -> Vec<f64> {
+    let a = laydown::archive::Archive::open_read(archive).unwrap();
+    let g = a.version(stage, None).unwrap().open().unwrap();
+    if let Ok(v) = laydown::archive::hdf::read_f64(&g, name) {
+        return v.iter().copied().collect();
+    }
+    laydown::archive::hdf::read_i64(&g, name).unwrap().iter().map(|&v| v as f64).collect()
+}
+
+fn read_strings(archive: &Path, stage: &str, name: &str) -> Vec<String> {
+    let a = laydown::archive::Archive::open_read(archive).unwrap();
+    let g = a.version(stage, None).unwrap().open().unwrap();
+    laydown::archive::hdf::read_strings(&g, name).unwrap()
+}
+
+fn png(dir: &Path, name: &str, img: &Array2<f64>) {
+    std::fs::create_dir_all(dir.join(name).parent().unwrap()).unwrap();
+    write_grey_png(&dir.join(name), img, 0.0, 1.0, 16).unwrap();
+}
+
+const PIPE: &str = "pipeline: img\narchive: out/study.h5\nstages:\n  - name: scans\n    kind: image\n    params:\n";
+
+fn pipeline(dir: &Path, params: &str) -> std::path::PathBuf {
+    write_pipeline(dir, "p.yaml", &format!("{PIPE}{params}"))
+}
+
+#[test]
+fn cli_bond_free_and_bonded_files_in_groups() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // Group "plain": bond-free webs. Group "bonded": the same webs with lattices at
+    // several periods and angles, one period (4.1 mm = 12.06 px) not dividing the image.
+    let lattices = [
+        BondPattern { period1: 4.1e-3, period2: 4.1e-3, contrast: 0.45, shape: BondShape::Circle { diameter: 1.5e-3 }, ..Default::default() },
+        BondPattern { period1: 3.4e-3, period2: 5e-3, angle_deg: 30.0, contrast: 0.45, shape: BondShape::Circle { diameter: 1.4e-3 }, ..Default::default() },
+        BondPattern {
+            period1: 4e-3,
+            period2: 4e-3,
+            angle_between_deg: 60.0,
+            contrast: 0.4,
+            shape: BondShape::Rectangle { width: 1.5e-3, height: 0.8e-3, angle_deg: 45.0 },
+            ..Default::default()
+        },
+    ];
+    let mut truth = vec![];
+    for (i, b) in lattices.iter().enumerate() {
+        let density = web(160, 200, 40 + i as u64);
+        let (t, img) = bonded(&density, b.clone());
+        png(d, &format!("plain/w{i}.png"), &t);
+        png(d, &format!("bonded/w{i}.png"), &img);
+        truth.push(cv(&t));
+    }
+    let p = pipeline(d, "      files: [plain/*.png, bonded/*.png]\n      groups: [plain, bonded]\n      pixel_size: 0.00034\n      max_stored_images: 2\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (o, e) = text(&out);
+    println!("{o}\n{e}");
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    assert!(e.contains("scans: group") && e.contains("CV_corr"), "Table-4-like summary on stderr: {e}");
+    let archive = d.join("out/study.h5");
+    let (raw, corr, comp) = (read(&archive, "scans", "cv_raw"), read(&archive, "scans", "cv_corr"), read(&archive, "scans", "cv_corr_compensated"));
+    let notches = read(&archive, "scans", "notches");
+    assert_eq!(read_strings(&archive, "scans", "group"), ["plain", "plain", "plain", "bonded", "bonded", "bonded"]);
+    assert!(read_strings(&archive, "scans", "file")[3].ends_with("bonded/w0.png"));
+    for i in 0..3 {
+        // Bond-free: no false notches, CV changed by less than 0.5 %.
+        assert!((raw[i] / truth[i] - 1.0).abs() < 1e-3, "16-bit PNG round trip");
+        assert!((corr[i] / raw[i] - 1.0).abs() < 0.005 && notches[i] == 0.0, "plain {i}: {} -> {}, {} notches", raw[i], corr[i], notches[i]);
+        // Bonded: raw far off, the corrected CV within 5 % of the web's own.
+        let j = i + 3;
+        println!("lattice {i}: truth {:.4} raw {:.4} corr {:.4} comp {:.4}", truth[i], raw[j], corr[j], comp[j]);
+        assert!(raw[j] > 1.3 * truth[i], "lattice {i}: raw {} truth {}", raw[j], truth[i]);
+        assert!((comp[j] / truth[i] - 1.0).abs() < 0.05, "lattice {i}: compensated {} truth {}", comp[j], truth[i]);
+        assert!(notches[j] >= 4.0);
+    }
+    let p1 = read(&archive, "scans", "lattice_period1");
+    assert!(p1[3..].iter().all(|p| p.is_finite()) && p1[..3].iter().all(|p| p.is_nan()), "{p1:?}");
+    assert_eq!(read_strings(&archive, "scans", "condition"), ["plain", "bonded"]);
+    assert_eq!(read(&archive, "scans", "condition_samples"), [3.0, 3.0]);
+    let m = read(&archive, "scans", "cv_raw_mean");
+    assert!((m[1] - raw[3..].iter().sum::<f64>() / 3.0).abs() < 1e-12);
+    assert_eq!(read(&archive, "scans", "stored_sample"), [0.0, 1.0]);
+    assert_eq!(read(&archive, "scans", "raw_image").len(), 2 * 160 * 200);
+    for i in 0..2 {
+        let rel = format!("out/study_figures/scans/v1/sample{i:03}_plain.png");
+        assert!(d.join(&rel).is_file() && e.contains(&rel), "{rel}");
+    }
+
+    // Unchanged files: cached. A changed file: rerun, and the reason names it.
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert!(text(&out).0.contains("scans: up to date (v1)"), "{:?}", text(&out));
+    png(d, "plain/w1.png", &Array2::from_elem((160, 200), 0.5));
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    assert!(o.contains("scans: runs: input files: plain/w1.png changed"), "{o}");
+    // The same pipeline run from another working directory is up to date: file paths
+    // enter the fingerprint relative to the pipeline file.
+    let sub = d.join("elsewhere");
+    std::fs::create_dir_all(&sub).unwrap();
+    let out = run_in(&sub, &["run", "../p.yaml", "--archive", d.join("out/study.h5").to_str().unwrap()]);
+    assert!(text(&out).0.contains("scans: up to date (v2)"), "{:?}", text(&out));
+    // Constant grey: a documented result (CV 0, no notches, a warning), not an error.
+    assert_eq!(read(&archive, "scans", "cv_raw")[1], 0.0);
+    assert_eq!(read(&archive, "scans", "cv_corr")[1], 0.0);
+    assert!(e.contains("constant image"), "{e}");
+}
+
+#[test]
+fn cli_bad_files_exit_2_and_leave_the_archive_byte_identical() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    png(d, "good.png", &render(&web(64, 64, 9), PX, &RenderParams::default()).unwrap().grey);
+    let p = pipeline(d, "      files: [good.png]\n      dpi: 600\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    let archive = d.join("out/study.h5");
+    let before = std::fs::read(&archive).unwrap();
+    std::fs::write(d.join("corrupt.png"), b"\x89PNG\r\n\x1a\n this is not an image").unwrap();
+    let bytes = std::fs::read(d.join("good.png")).unwrap();
+    std::fs::write(d.join("truncated.png"), &bytes[..bytes.len() / 2]).unwrap();
+    png(d, "tiny.png", &Array2::from_elem((8, 40), 0.5));
+    png(d, "black.png", &Array2::from_elem((32, 32), 0.0));
+    let cases = [
+        ("[good.png, corrupt.png]", "corrupt.png"),
+        ("[truncated.png]", "truncated.png"),
+        ("[missing.png]", "missing.png"),
+        ("['nothing/*.tif']", "no files match"),
+        ("[tiny.png]", "8×40 pixels; at least 16×16"),
+        ("[black.png]", "needs a positive mean"),
+    ];
+    for (files, expect) in cases {
+        let p = pipeline(d, &format!("      files: {files}\n      dpi: 600\n"));
+        let out = run_in(d, &["run", p.to_str().unwrap()]);
+        let (_, e) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{files}: {e}");
+        assert!(e.contains(expect) && e.contains("stage `scans`"), "{files}: expected `{expect}` in {e}");
+        assert_eq!(std::fs::read(&archive).unwrap(), before, "{files} changed the archive");
+    }
+    assert!(!d.join("out/study_figures/scans/v2").exists());
+    // Neither files nor input: bad input too.
+    let p = pipeline(d, "      dpi: 600\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out).1.contains("needs `files`"));
+}
+
+#[test]
+fn cli_image_smaller_than_the_bond_period_is_returned_unchanged() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // 40×40 px of 0.34 mm = 13.6 mm; bonds every 20 mm: at most one bond in view, no lattice.
+    let b = BondPattern { period1: 20e-3, period2: 20e-3, offset: [6e-3, 6e-3], contrast: 0.3, shape: BondShape::Circle { diameter: 3e-3 }, ..Default::default() };
+    let (_, img) = bonded(&web(40, 40, 3), b);
+    png(d, "big_bonds.png", &img);
+    let p = pipeline(d, "      files: big_bonds.png\n      pixel_size: 0.00034\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    let archive = d.join("out/study.h5");
+    assert_eq!(read(&archive, "scans", "notches"), [0.0]);
+    assert_eq!(read(&archive, "scans", "cv_corr"), read(&archive, "scans", "cv_raw"));
+    assert!(read(&archive, "scans", "lattice_period1")[0].is_nan());
+    assert!(!d.join("out/study_figures").exists());
+}

@@ -536,6 +536,19 @@ impl Checker {
             Kind::Scalar(Scalar::Int(i)) => ParamValue::Int(*i),
             Kind::Scalar(Scalar::Float(f)) => ParamValue::Float(*f),
             Kind::Scalar(Scalar::Str(s)) => ParamValue::Text(s.clone()),
+            Kind::Seq(items) if spec.kind == crate::params::ParamKind::TextList => {
+                let mut texts = vec![];
+                for (i, it) in items.iter().enumerate() {
+                    match &it.kind {
+                        Kind::Scalar(Scalar::Str(s)) => texts.push(s.clone()),
+                        _ => {
+                            self.err(it.pos, &format!("{key}[{i}]"), format!("expected text, found {}; quote numbers used as labels, e.g. \"0.020\"", it.type_name()));
+                            return None;
+                        }
+                    }
+                }
+                ParamValue::List(texts)
+            }
             _ => {
                 self.err(node.pos, key, format!("expected {}, found {}", spec.allowed(), node.type_name()));
                 return None;

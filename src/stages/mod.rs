@@ -50,6 +50,13 @@ pub trait Stage: Send + Sync {
         Ok(())
     }
     fn run(&self, ctx: &RunContext) -> Result<Output>;
+    /// Files outside the archive that the run of one resolved parameter set reads
+    /// (paths relative to `pipeline_dir` resolved). The runner hashes their contents
+    /// into the fingerprint, so editing a file reruns the stage. A missing file or an
+    /// empty glob is a [`BadInput`].
+    fn input_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
+        Ok(vec![])
+    }
 }
 
 /// An upstream stage version a stage reads from.
@@ -93,6 +100,11 @@ pub struct RunContext {
     pub inputs: Vec<Input>,
     /// Show progress bars (stderr is a terminal).
     pub progress: bool,
+    /// Directory of the pipeline file: relative paths in parameters are relative to it.
+    pub pipeline_dir: std::path::PathBuf,
+    /// Where this run may write figures: `<archive dir>/<archive stem>_figures/<stage>/v<N>`
+    /// with N the version this run will become. Not created by the runner.
+    pub figure_dir: std::path::PathBuf,
 }
 
 impl RunContext {
@@ -137,7 +149,7 @@ pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
 
 /// Every stage kind the pipeline knows.
 pub fn registry() -> Vec<&'static dyn Stage> {
-    vec![&laydown::LaydownStage, &spectra::SpectraStage]
+    vec![&laydown::LaydownStage, &spectra::SpectraStage, &image::stage::ImageStage]
 }
 
 pub fn find(kind: &str) -> Option<&'static dyn Stage> {

@@ -97,6 +97,7 @@ pub mod panel;
 pub mod peaks;
 pub mod periodic;
 pub mod render;
+pub mod stage;
 
 use std::path::{Path, PathBuf};
 

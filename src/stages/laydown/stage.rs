@@ -23,6 +23,7 @@ pub fn scene(p: &ParamSet) -> Result<LaydownParams, String> {
             ParamValue::Int(i) => serde_json::json!(i),
             ParamValue::Bool(b) => serde_json::json!(b),
             ParamValue::Text(s) => serde_json::json!(s),
+            ParamValue::List(v) => serde_json::json!(v),
             ParamValue::Auto => serde_json::Value::Null,
         };
         match name.strip_prefix("effects.") {

@@ -1,0 +1,576 @@
+//! `kind: image` — the pipeline stage around the image numerics (§3.4, Table 4, Figs 11-12):
+//! CV of a bonded nonwoven's grey levels, raw and after notching the bond lattice.
+//!
+//! Two sources, exactly one per stage:
+//! * **files**: `files:` lists paths or globs (relative to the pipeline file), read as
+//!   grey levels (PNG/TIFF/JPEG, 8/16 bit, RGB → BT.601 luma). `groups:` (optional, same
+//!   length) labels each entry with its condition, e.g. one glob of 8 scans per belt speed;
+//!   without it every entry is its own group. Pixel size from `pixel_size` (m) or `dpi`;
+//!   neither: 297/871 mm (A4 at 871 px, the paper's scans), with a warning.
+//! * **a grid stage** (`input:`): its `density` (point, realisation, md, cd) in g/m² with
+//!   scalar `cell_size` (m) is rendered per (point, realisation) as a transmission image
+//!   (`render.*`: Beer–Lambert, rows = MD, columns = CD) with the bond lattice `bonds.*`
+//!   overlaid; the group is the grid point (labelled by the grid's swept parameters).
+//!   `cv_web` is then the CV of the same rendering without bonds: the truth the filter
+//!   should recover.
+//!
+//! Bad input (exit 2, nothing written): missing/unreadable/corrupt files, empty globs,
+//! images under 16 px, an image with a non-positive mean (black), NaN density.
+//! Documented results: a constant grey image gives CV 0 and no notches (warning on
+//! stderr); a lattice whose period exceeds the image is not detected and the image is
+//! returned unchanged (`notches` = 0, `cv_corr` = `cv_raw`).
+use super::render::{render, BondPattern, BondShape, RenderParams};
+use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PARAMETERS};
+use crate::archive::data::{Attr, Output};
+use crate::params::{ParamKind, ParamSet, ParamSpec, ParamValue};
+use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
+use anyhow::{anyhow, Result};
+use ndarray::{s, Array1, Array2, Array3, Axis};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+pub struct ImageStage;
+
+const SHAPES: &[&str] = &["none", "circle", "ellipse", "rectangle"];
+/// Spectrum range of the PNG panels (decades below the largest non-DC value).
+const PANEL_DECADES: f64 = 6.0;
+
+/// One image to analyse, with where it came from. Images are read or rendered only
+/// when analysed, so a batch never holds more than a few images at a time.
+struct Sample {
+    group: String,
+    file: String,
+    source: Source,
+    pixel: f64,
+    grid_point: i64,
+    realisation: i64,
+}
+
+enum Source {
+    File(PathBuf),
+    /// (point, realisation) of the grid input.
+    Grid(usize, usize),
+}
+
+/// The grid input, read once, and how its maps become images.
+struct GridData {
+    from: String,
+    density: ndarray::ArrayD<f64>,
+    cell: f64,
+    bonded: RenderParams,
+    plain: RenderParams,
+}
+
+impl GridData {
+    /// The bonded rendering of one map and the CV of the bond-free one (the truth).
+    fn render(&self, pt: usize, r: usize) -> Result<(Array2<f64>, f64)> {
+        let map: Array2<f64> =
+            self.density.index_axis(Axis(0), pt).index_axis(Axis(0), r).to_owned().into_dimensionality().map_err(|e| anyhow!("{e}"))?;
+        let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("grid {} point {pt} realisation {r}: {e}", self.from)));
+        let image = render(&map, self.cell, &self.bonded).map_err(bad)?.grey;
+        let web = render(&map, self.cell, &self.plain).map_err(bad)?.grey;
+        Ok((image, crate::uniformity::coefficient_of_variation(web.iter().copied())))
+    }
+}
+
+/// What is kept of one analysis (images only for the first `max_stored_images`).
+struct Kept {
+    a: ImageAnalysis,
+    store: bool,
+    rows: usize,
+    cols: usize,
+    /// Grid source: CV of the bond-free rendering; NaN for files.
+    cv_web: f64,
+}
+
+impl Stage for ImageStage {
+    fn kind(&self) -> &'static str {
+        "image"
+    }
+    fn summary(&self) -> &'static str {
+        "CV of a bonded nonwoven image, raw and after FFT notch removal of the bond lattice (§3.4, Table 4, Figs 11-12)"
+    }
+    fn cache_version(&self) -> u32 {
+        1
+    }
+    fn inputs(&self) -> InputRule {
+        InputRule { kinds: &["grid"], min: 0, max: 1 }
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        let mut v = vec![
+            ParamSpec::text_list("files", "image files or glob patterns (PNG, TIFF, JPEG; 8/16 bit; grey or RGB), relative to the pipeline file; empty with a grid input"),
+            ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group"),
+            ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files; give this or dpi; neither: 297/871 mm (A4 at 871 px); grid input: the grid's cell_size").auto_default(),
+            ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m); give this or pixel_size").auto_default(),
+            ParamSpec::float("zone_min", "m", 0.5e-3, 1e-7, 1.0, "smallest zone side of the CV-per-zone-size curves"),
+            ParamSpec::float("zone_max", "m", 16e-3, 1e-7, 1.0, "largest zone side of the CV-per-zone-size curves (≥ zone_min)"),
+            ParamSpec::int("max_stored_images", "1", 4, 0, 10_000, "images (raw, filtered, log spectra) stored in the archive and drawn as PNG panels: the first N samples"),
+            ParamSpec::flag("panels", true, "write Fig-12-like PNG panels (raw, filtered, spectrum, notched spectrum) to <archive stem>_figures/<stage>/v<N>/"),
+            ParamSpec::float("render.attenuation", "m2 g-1", 0.02, 0.0, 10.0, "grid input: mass attenuation k of the transmission T = exp(−k ρ)"),
+            ParamSpec::float("render.white", "1", 1.0, 0.0, 1.0, "grid input: grey level of an empty pixel"),
+            ParamSpec::float("render.black", "1", 0.0, 0.0, 1.0, "grid input: grey level of an opaque pixel"),
+            ParamSpec::int("render.bits", "1", 0, 0, 16, "grid input: quantisation bits (0 = none)"),
+            ParamSpec::choice("bonds.shape", SHAPES, "none", "grid input: bond shape of the overlaid lattice; none = no bonds"),
+            ParamSpec::float("bonds.period1", "m", 4e-3, 1e-6, 1.0, "|a1|, first bond repeat distance"),
+            ParamSpec::float("bonds.period2", "m", 4e-3, 1e-6, 1.0, "|a2|, second bond repeat distance"),
+            ParamSpec::float("bonds.angle", "degree", 0.0, -360.0, 360.0, "direction of a1 from +CD (image columns) towards +MD (rows)"),
+            ParamSpec::float("bonds.angle_between", "degree", 90.0, 1.0, 179.0, "angle from a1 to a2 (90 rectangular, 60 staggered)"),
+            ParamSpec::float("bonds.size1", "m", 1e-3, 1e-6, 1.0, "bond diameter (circle), major axis (ellipse) or width (rectangle)"),
+            ParamSpec::float("bonds.size2", "m", 0.5e-3, 1e-6, 1.0, "minor axis (ellipse) or height (rectangle)"),
+            ParamSpec::float("bonds.shape_angle", "degree", 0.0, -360.0, 360.0, "orientation of an ellipse or rectangle"),
+            ParamSpec::float("bonds.offset_cd", "m", 0.0, -1.0, 1.0, "CD position of one bond centre from the image corner"),
+            ParamSpec::float("bonds.offset_md", "m", 0.0, -1.0, 1.0, "MD position of one bond centre from the image corner"),
+            ParamSpec::float("bonds.contrast", "1", 0.2, -1.0, 1.0, "grey-level change inside a bond (fraction of full scale; > 0 brighter)"),
+            ParamSpec::flag("bonds.zero_mean", true, "subtract the pattern's mean so it adds no mean grey level (a one-sided pattern biases CV_corr low)"),
+            ParamSpec::int("bonds.supersample", "1", 4, 1, 16, "point samples per pixel side for the bond area fraction"),
+        ];
+        for p in PARAMETERS {
+            if matches!(p.name, "pixel_size_mm" | "dpi" | "zone_min_mm" | "zone_max_mm") {
+                continue;
+            }
+            let (kind, default) = match p.default {
+                ParamDefault::Float(x) => (ParamKind::Float { min: p.min, max: p.max }, ParamValue::Float(x)),
+                ParamDefault::Int(i) => (ParamKind::Int { min: p.min as i64, max: p.max as i64 }, ParamValue::Int(i)),
+                ParamDefault::Bool(b) => (ParamKind::Bool, ParamValue::Bool(b)),
+                ParamDefault::Unset => continue,
+            };
+            let unit = match p.unit {
+                "bool" => "",
+                "count" | "bins" | "annuli" | "peaks/image" | "bond periods" => "1",
+                u => u,
+            };
+            v.push(ParamSpec { name: p.name, unit, kind, default, auto: false, doc: p.doc });
+        }
+        v
+    }
+    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
+        if p.f64_or_auto("pixel_size").is_some() && p.f64_or_auto("dpi").is_some() {
+            return Err(("dpi".into(), "give pixel_size or dpi, not both".into()));
+        }
+        let (files, groups) = (p.text_list("files"), p.text_list("groups"));
+        if !groups.is_empty() && groups.len() != files.len() {
+            return Err((
+                "groups".into(),
+                format!("{} group labels for {} `files` entries; allowed: one label per entry, or none", groups.len(), files.len()),
+            ));
+        }
+        if !files.is_empty() && p.text("bonds.shape") != "none" {
+            return Err((
+                "bonds.shape".into(),
+                "bonds.* overlay the images rendered from a grid input; image files are analysed as they are; allowed with `files`: none".into(),
+            ));
+        }
+        if p.f64("zone_max") < p.f64("zone_min") {
+            return Err(("zone_max".into(), format!("zone_max is below zone_min = {}", p.f64("zone_min"))));
+        }
+        Ok(())
+    }
+    fn input_files(&self, p: &ParamSet, dir: &Path) -> Result<Vec<PathBuf>> {
+        Ok(expand(p, dir)?.into_iter().map(|(f, _)| f).collect())
+    }
+
+    fn run(&self, ctx: &RunContext) -> Result<Output> {
+        if !ctx.sweep.is_empty() {
+            return Err(BadInput("an image stage has no sweep: list the files (with groups), or sweep the grid stage it reads".into()).into());
+        }
+        if ctx.replicates != 1 {
+            return Err(BadInput(format!("an image stage is deterministic; replicates must be 1, not {}", ctx.replicates)).into());
+        }
+        let p = &ctx.points[0];
+        let ip = image_params(p);
+        ip.validate().map_err(|e| BadInput(e.to_string()))?;
+        let (samples, sweep, grid) = match ctx.inputs.first() {
+            Some(input) => {
+                if !p.text_list("files").is_empty() {
+                    return Err(BadInput("give `files` or a grid `input`, not both".into()).into());
+                }
+                if p.f64_or_auto("pixel_size").is_some() || p.f64_or_auto("dpi").is_some() {
+                    return Err(BadInput("with a grid input the pixel size is the grid's cell_size; remove pixel_size/dpi".into()).into());
+                }
+                grid_samples(input, p)?
+            }
+            None => {
+                if p.text_list("files").is_empty() {
+                    return Err(BadInput("an image stage needs `files` (paths or globs) or an `input` grid stage".into()).into());
+                }
+                if p.text("bonds.shape") != "none" {
+                    return Err(BadInput("bonds.* overlay rendered grid images; image files are analysed as they are (set bonds.shape: none)".into()).into());
+                }
+                (file_samples(ctx, p)?, vec![], None)
+            }
+        };
+        let max_store = p.usize("max_stored_images");
+        // Analyse in parallel; only the first `max_store` keep their images.
+        let results: Vec<Result<Kept>> = samples
+            .par_iter()
+            .enumerate()
+            .map(|(i, smp)| {
+                let (image, cv_web) = match (&smp.source, &grid) {
+                    (Source::File(path), _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
+                    (Source::Grid(pt, r), Some(g)) => g.render(*pt, *r)?,
+                    (Source::Grid(..), None) => unreachable!("grid samples come with the grid"),
+                };
+                let (rows, cols) = image.dim();
+                let a = analyze(&image, smp.pixel, &ip).map_err(|e| {
+                    let what = if smp.file.is_empty() { format!("group {} sample {i}", smp.group) } else { smp.file.clone() };
+                    anyhow::Error::new(BadInput(format!("{what}: {e}")))
+                })?;
+                drop(image);
+                let store = i < max_store;
+                let a = if store { a } else { strip(a) };
+                Ok(Kept { a, store, rows, cols, cv_web })
+            })
+            .collect();
+        let kept: Vec<Kept> = results.into_iter().collect::<Result<_>>()?;
+        for (smp, k) in samples.iter().zip(&kept) {
+            for w in &k.a.warnings {
+                let what = if smp.file.is_empty() { format!("group {}", smp.group) } else { smp.file.clone() };
+                eprintln!("{}: warning: {what}: {w}", ctx.stage_name);
+            }
+        }
+        let mut out = assemble(&samples, &kept, &ip, p, &sweep);
+        let groups = group_stats(&samples, &kept);
+        eprint!("{}", table(&ctx.stage_name, &groups, &kept));
+        if p.bool("panels") && kept.iter().any(|k| k.store) {
+            std::fs::create_dir_all(&ctx.figure_dir).map_err(|e| anyhow!("creating {}: {e}", ctx.figure_dir.display()))?;
+            for (i, (smp, k)) in samples.iter().zip(&kept).enumerate().filter(|(_, (_, k))| k.store) {
+                let path = ctx.figure_dir.join(format!("sample{i:03}_{}.png", sanitise(&smp.group)));
+                super::panel::write_panel_png(&path, &k.a, PANEL_DECADES).map_err(|e| anyhow!("{e}"))?;
+                eprintln!("{}: panel {}", ctx.stage_name, path.display());
+            }
+            out.set_attr("figure_dir", ctx.figure_dir.display().to_string());
+        }
+        Ok(out)
+    }
+}
+
+/// Drops the large arrays of an analysis that is not stored.
+fn strip(mut a: ImageAnalysis) -> ImageAnalysis {
+    let e = Array2::zeros((0, 0));
+    a.raw = e.clone();
+    a.filtered = e.clone();
+    a.log_spectrum_raw = e.clone();
+    a.log_spectrum_notched = e;
+    a
+}
+
+fn sanitise(s: &str) -> String {
+    let t: String = s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' || c == '-' { c } else { '_' }).collect();
+    t.chars().take(40).collect()
+}
+
+/// The numerics' parameters from the stage's (SI) parameters.
+pub fn image_params(p: &ParamSet) -> ImageParams {
+    ImageParams {
+        pixel_size_mm: p.f64_or_auto("pixel_size").map(|m| m * 1e3),
+        dpi: p.f64_or_auto("dpi"),
+        false_alarm_rate: p.f64("false_alarm_rate"),
+        notch_sigma_bins: p.f64("notch_sigma_bins"),
+        off_grid_widening: p.f64("off_grid_widening"),
+        dc_exclusion_bins: p.f64("dc_exclusion_bins"),
+        min_peak_fraction: p.f64("min_peak_fraction"),
+        background_sectors: p.usize("background_sectors"),
+        background_smoothing: p.usize("background_smoothing"),
+        background_pool: p.usize("background_pool"),
+        max_passes: p.usize("max_passes"),
+        max_peaks: p.usize("max_peaks"),
+        periodic_decomposition: p.bool("periodic_decomposition"),
+        zone_min_mm: p.f64("zone_min") * 1e3,
+        zone_max_mm: p.f64("zone_max") * 1e3,
+        zones_per_octave: p.usize("zones_per_octave"),
+        edge_margin_periods: p.f64("edge_margin_periods"),
+    }
+}
+
+/// The bond lattice of the `bonds.*` parameters (None for `bonds.shape: none`).
+pub fn bond_pattern(p: &ParamSet) -> Option<BondPattern> {
+    let (a, b, t) = (p.f64("bonds.size1"), p.f64("bonds.size2"), p.f64("bonds.shape_angle"));
+    let shape = match p.text("bonds.shape") {
+        "circle" => BondShape::Circle { diameter: a },
+        "ellipse" => BondShape::Ellipse { major: a, minor: b, angle_deg: t },
+        "rectangle" => BondShape::Rectangle { width: a, height: b, angle_deg: t },
+        _ => return None,
+    };
+    Some(BondPattern {
+        period1: p.f64("bonds.period1"),
+        period2: p.f64("bonds.period2"),
+        angle_deg: p.f64("bonds.angle"),
+        angle_between_deg: p.f64("bonds.angle_between"),
+        offset: [p.f64("bonds.offset_cd"), p.f64("bonds.offset_md")],
+        shape,
+        contrast: p.f64("bonds.contrast"),
+        zero_mean: p.bool("bonds.zero_mean"),
+        supersample: p.usize("bonds.supersample"),
+    })
+}
+
+/// (file, group) of every `files` entry, globs expanded (sorted within a pattern),
+/// relative paths taken from `dir`. Missing files and empty globs are bad input.
+fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
+    let (files, groups) = (p.text_list("files"), p.text_list("groups"));
+    let specs: Vec<super::InputSpec> = files
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let path = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
+            super::InputSpec { pattern: path.display().to_string(), group: groups.get(i).cloned().unwrap_or_else(|| f.clone()) }
+        })
+        .collect();
+    super::expand_inputs(&specs).map_err(|e| BadInput(e.to_string()).into())
+}
+
+fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
+    let files = expand(p, &ctx.pipeline_dir)?;
+    let ip = image_params(p);
+    if ip.pixel_size_mm.is_none() && ip.dpi.is_none() {
+        eprintln!(
+            "{}: warning: neither pixel_size nor dpi given; assuming {:.4} mm per pixel (A4 at 871 px, the paper's scans)",
+            ctx.stage_name,
+            ip.pixel_size_m() * 1e3
+        );
+    }
+    Ok(files
+        .into_iter()
+        .map(|(path, group)| Sample {
+            group,
+            // Relative to the pipeline file: results do not depend on the working directory.
+            file: path.strip_prefix(&ctx.pipeline_dir).unwrap_or(&path).display().to_string(),
+            source: Source::File(path),
+            pixel: ip.pixel_size_m(),
+            grid_point: -1,
+            realisation: -1,
+        })
+        .collect())
+}
+
+/// A grid point's swept parameters, read from the grid version (1-D variables along
+/// `point` with a `parameter` attribute): (name, unit, values).
+type Sweep = Vec<(String, String, Vec<f64>)>;
+
+fn grid_sweep(input: &Input, npoints: usize) -> Result<Sweep> {
+    let g = input.version.open()?;
+    let mut out = vec![];
+    for name in g.member_names()? {
+        let Ok(ds) = g.dataset(&name) else { continue };
+        if ds.shape() != [npoints] || !ds.attr_names()?.iter().any(|a| a == "parameter") {
+            continue;
+        }
+        let Ok(values) = ds.read_raw::<f64>() else { continue };
+        let attrs = crate::archive::hdf::read_attrs(&ds)?;
+        let unit = match attrs.get("units") {
+            Some(Attr::Str(u)) => u.clone(),
+            _ => String::new(),
+        };
+        out.push((name, unit, values));
+    }
+    Ok(out)
+}
+
+fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep, Option<GridData>)> {
+    let from = input.version.group_path();
+    let need = |name: &str| {
+        if input.has(name) {
+            Ok(())
+        } else {
+            Err(anyhow::Error::new(BadInput(format!("grid {from} has no `{name}`; an image stage reads `density` (point, realisation, md, cd) and `cell_size`"))))
+        }
+    };
+    need("density")?;
+    need("cell_size")?;
+    let density = input.read_f64("density")?;
+    let cell = input.read_f64("cell_size")?.iter().next().copied().unwrap_or(f64::NAN);
+    if density.ndim() != 4 {
+        return Err(BadInput(format!("grid {from}: `density` has {} dimensions; expected (point, realisation, md, cd)", density.ndim())).into());
+    }
+    if !(cell > 0.0 && cell.is_finite()) {
+        return Err(BadInput(format!("grid {from}: cell_size {cell} is not a positive length")).into());
+    }
+    let (npoints, nreal) = (density.shape()[0], density.shape()[1]);
+    let sweep = grid_sweep(input, npoints)?;
+    let bonded = RenderParams {
+        attenuation: p.f64("render.attenuation"),
+        white: p.f64("render.white"),
+        black: p.f64("render.black"),
+        bits: p.usize("render.bits") as u8,
+        bonds: bond_pattern(p),
+    };
+    let plain = RenderParams { bonds: None, ..bonded.clone() };
+    let samples = (0..npoints)
+        .flat_map(|pt| (0..nreal).map(move |r| (pt, r)))
+        .map(|(pt, r)| Sample {
+            group: if sweep.is_empty() {
+                format!("point {pt}")
+            } else {
+                sweep.iter().map(|(n, _, v)| format!("{n}={}", crate::params::format_float(v[pt]))).collect::<Vec<_>>().join(", ")
+            },
+            file: String::new(),
+            source: Source::Grid(pt, r),
+            pixel: cell,
+            grid_point: pt as i64,
+            realisation: r as i64,
+        })
+        .collect();
+    Ok((samples, sweep, Some(GridData { from, density, cell, bonded, plain })))
+}
+
+fn group_stats(samples: &[Sample], kept: &[Kept]) -> Vec<(GroupStats, MeanStd)> {
+    let sums: Vec<super::Summary> = kept.iter().map(|k| k.a.summary()).collect();
+    let stats = super::group_statistics(samples.iter().zip(&sums).map(|(s, m)| (s.group.as_str(), m)));
+    stats
+        .into_iter()
+        .map(|g| {
+            let web: Vec<f64> =
+                samples.iter().zip(kept).filter(|(s, k)| s.group == g.group && k.cv_web.is_finite()).map(|(_, k)| k.cv_web).collect();
+            let w = if web.is_empty() { MeanStd { mean: f64::NAN, std: f64::NAN } } else { MeanStd::of(&web) };
+            (g, w)
+        })
+        .collect()
+}
+
+/// The Table-4-like summary: per group n, CV raw and CV_corr as mean ± std (per cent).
+fn table(stage: &str, groups: &[(GroupStats, MeanStd)], kept: &[Kept]) -> String {
+    let has_web = kept.iter().any(|k| k.cv_web.is_finite());
+    let width = groups.iter().map(|(g, _)| g.group.chars().count()).max().unwrap_or(5).max(5);
+    let mut t = format!("{stage}: CV of grey levels, mean ± std over the samples of each group (per cent)\n");
+    t += &format!("{stage}: {:<width$}  {:>3}  {:>14}  {:>14}  {:>14}  {:>7}", "group", "n", "CV raw", "CV_corr", "CV_corr comp.", "notches");
+    if has_web {
+        t += &format!("  {:>14}", "CV web (truth)");
+    }
+    t += "\n";
+    let pm = |m: &MeanStd| format!("{:6.2} ± {:5.2}", 100.0 * m.mean, 100.0 * m.std);
+    for (g, w) in groups {
+        t += &format!(
+            "{stage}: {:<width$}  {:>3}  {:>14}  {:>14}  {:>14}  {:>7.1}",
+            g.group,
+            g.n,
+            pm(&g.cv_raw),
+            pm(&g.cv_corr),
+            pm(&g.cv_corr_compensated),
+            g.notch_count.mean
+        );
+        if has_web {
+            t += &format!("  {:>14}", pm(w));
+        }
+        t += "\n";
+    }
+    t
+}
+
+fn nan_if_none(v: Option<f64>) -> f64 {
+    v.unwrap_or(f64::NAN)
+}
+
+fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, sweep: &Sweep) -> Output {
+    let n = samples.len();
+    let nan = f64::NAN;
+    let mut out = Output::new();
+    let col = |f: &dyn Fn(&ImageAnalysis) -> f64| Array1::from_iter(kept.iter().map(|k| f(&k.a)));
+    out.i64("sample", &["sample"], Array1::from_iter(0..n as i64), "1", "sample index (files in list order, globs sorted; or grid point × realisation)");
+    out.strings("group", "sample", samples.iter().map(|s| s.group.clone()).collect(), "condition (group) of each sample");
+    out.strings("file", "sample", samples.iter().map(|s| s.file.clone()).collect(), "image file (empty for rendered grid samples)");
+    out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point index of a rendered sample (−1 for files)");
+    out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "grid realisation of a rendered sample (−1 for files)");
+    out.f64("pixel_size", &["sample"], Array1::from_iter(samples.iter().map(|s| s.pixel)), "m", "pixel size");
+    out.i64("rows", &["sample"], Array1::from_iter(kept.iter().map(|k| k.rows as i64)), "1", "image height (pixels; rows = MD for grid samples)");
+    out.i64("cols", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cols as i64)), "1", "image width (pixels)");
+    out.f64("mean_grey", &["sample"], col(&|a| a.mean), "1", "mean grey level (full scale 1; kept by the filter)");
+    out.f64("cv_raw", &["sample"], col(&|a| a.cv_raw), "1", "CV of the raw grey levels (population std / mean)");
+    out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr: CV of the notch-filtered image, mean kept, interior only (the paper's quantity)");
+    out.f64("cv_corr_compensated", &["sample"], col(&|a| a.cv_corr_compensated), "1", "CV_corr with the web variance removed under the notches added back (background model)");
+    out.f64("cv_corr_one_sided", &["sample"], col(&|a| nan_if_none(a.cv_corr_one_sided)), "1", "compensated CV about the mean without an estimated one-sided bond brightening (NaN when undefined)");
+    out.f64("bond_mean_estimate", &["sample"], col(&|a| a.bond_mean_estimate), "1", "grey level the bonds add on average if they are one-sided");
+    out.f64("cv_web", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cv_web)), "1", "CV of the same rendering without bonds: the truth (grid samples; NaN for files)");
+    out.i64("notches", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.notch_count as i64)), "1", "Gaussian notches applied (2 per peak: peak and conjugate)");
+    out.i64("peak_count", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.peaks.len() as i64)), "1", "detected bond peaks (half plane)");
+    out.f64("variance_removed_fraction", &["sample"], col(&|a| a.fraction_variance_removed), "1", "1 − Var(filtered)/Var(raw), whole images");
+    out.f64("web_variance_notched", &["sample"], col(&|a| a.web_variance_notched), "1", "expected web variance removed by the notches, Σ(1−g²)B/N²");
+    out.f64("threshold", &["sample"], col(&|a| a.threshold), "1", "whitened-power detection threshold ln(M·passes/α)");
+    out.i64("edge_margin", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.margin_px as i64)), "1", "edge band (pixels) left out of the filtered statistics");
+    let lat = |f: &dyn Fn(&super::Lattice) -> Option<f64>| Array1::from_iter(kept.iter().map(|k| k.a.lattice.as_ref().and_then(f).unwrap_or(nan)));
+    out.f64("lattice_period1", &["sample"], lat(&|l| l.periods.first().copied()), "m", "first detected bond repeat distance (NaN: no lattice)");
+    out.f64("lattice_period2", &["sample"], lat(&|l| l.periods.get(1).copied()), "m", "second detected bond repeat distance (NaN: line pattern or none)");
+    out.f64("lattice_angle1", &["sample"], lat(&|l| l.angles_deg.first().copied()), "degree", "direction of the first lattice vector from +x (columns) towards +y (rows)");
+    out.f64("lattice_angle2", &["sample"], lat(&|l| l.angles_deg.get(1).copied()), "degree", "direction of the second lattice vector");
+    out.f64("lattice_angle_between", &["sample"], lat(&|l| l.angle_between_deg), "degree", "angle between the lattice vectors");
+    out.i64("lattice_explained", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.lattice.as_ref().map(|l| l.explained as i64).unwrap_or(0))), "1", "peaks explained by the lattice");
+
+    // Peak table, padded with NaN (pass −1).
+    let np = kept.iter().map(|k| k.a.peaks.len()).max().unwrap_or(0);
+    let peak = |f: &dyn Fn(&super::Peak) -> f64| {
+        Array2::from_shape_fn((n, np), |(i, j)| kept[i].a.peaks.get(j).map(f).unwrap_or(nan))
+    };
+    out.f64("peak_kx", &["sample", "peak"], peak(&|q| q.kx), "m-1", "peak spatial frequency along x (columns), cycles per metre");
+    out.f64("peak_ky", &["sample", "peak"], peak(&|q| q.ky), "m-1", "peak spatial frequency along y (rows), cycles per metre");
+    out.f64("peak_period", &["sample", "peak"], peak(&|q| q.period), "m", "fringe period 1/|k|");
+    out.f64("peak_angle", &["sample", "peak"], peak(&|q| q.angle_deg), "degree", "wave-vector direction from +x towards +y");
+    out.f64("peak_strength", &["sample", "peak"], peak(&|q| q.strength), "1", "whitened power |F|²/B at the peak bin");
+    out.f64("peak_variance_fraction", &["sample", "peak"], peak(&|q| q.variance_fraction), "1", "share of the image variance in the peak and its conjugate above background");
+    out.f64("peak_notch_sigma", &["sample", "peak"], peak(&|q| q.notch_sigma), "1", "notch standard deviation (frequency bins)");
+    out.i64("peak_pass", &["sample", "peak"], Array2::from_shape_fn((n, np), |(i, j)| kept[i].a.peaks.get(j).map(|q| q.pass as i64).unwrap_or(-1)), "1", "detection pass (−1: padding)");
+
+    // Zone curves on the requested zone sizes (NaN where a size was skipped).
+    let zones = crate::uniformity::log_zone_sizes(ip.zone_min_mm * 1e-3, ip.zone_max_mm * 1e-3, ip.zones_per_octave);
+    let zc = |raw: bool| {
+        Array2::from_shape_fn((n, zones.len()), |(i, j)| {
+            let c = if raw { &kept[i].a.zone_cv_raw } else { &kept[i].a.zone_cv_filtered };
+            c.iter().find(|z| z.zone_size == zones[j]).map(|z| z.cv).unwrap_or(nan)
+        })
+    };
+    out.coord("zone_size", zones.clone(), "m", "zone side (requested; rounded to whole pixels)");
+    out.f64("zone_cv_raw", &["sample", "zone_size"], zc(true), "1", "CV of zone means of the raw image (NaN: zone size skipped)");
+    out.f64("zone_cv_filtered", &["sample", "zone_size"], zc(false), "1", "CV of zone means of the filtered image interior");
+
+    // Per-group statistics.
+    let groups = group_stats(samples, kept);
+    let g = groups.len();
+    out.strings("condition", "condition", groups.iter().map(|(s, _)| s.group.clone()).collect(), "group (condition) label");
+    out.i64("condition_samples", &["condition"], Array1::from_iter(groups.iter().map(|(s, _)| s.n as i64)), "1", "samples in the group");
+    let gcol = |f: &dyn Fn(&(GroupStats, MeanStd)) -> f64| Array1::from_iter(groups.iter().map(f));
+    out.f64("cv_raw_mean", &["condition"], gcol(&|s| s.0.cv_raw.mean), "1", "mean of cv_raw over the group");
+    out.f64("cv_raw_std", &["condition"], gcol(&|s| s.0.cv_raw.std), "1", "sample std (n−1) of cv_raw over the group");
+    out.f64("cv_corr_mean", &["condition"], gcol(&|s| s.0.cv_corr.mean), "1", "mean of cv_corr over the group");
+    out.f64("cv_corr_std", &["condition"], gcol(&|s| s.0.cv_corr.std), "1", "sample std (n−1) of cv_corr over the group");
+    out.f64("cv_corr_compensated_mean", &["condition"], gcol(&|s| s.0.cv_corr_compensated.mean), "1", "mean of cv_corr_compensated");
+    out.f64("cv_corr_compensated_std", &["condition"], gcol(&|s| s.0.cv_corr_compensated.std), "1", "sample std of cv_corr_compensated");
+    out.f64("cv_web_mean", &["condition"], gcol(&|s| s.1.mean), "1", "mean of cv_web (NaN for files)");
+    out.f64("cv_web_std", &["condition"], gcol(&|s| s.1.std), "1", "sample std of cv_web");
+    out.f64("variance_removed_fraction_mean", &["condition"], gcol(&|s| s.0.fraction_variance_removed.mean), "1", "mean variance_removed_fraction");
+    out.f64("notches_mean", &["condition"], gcol(&|s| s.0.notch_count.mean), "1", "mean number of notches");
+    // The grid's swept parameters per condition (grid input: one condition per point).
+    if g > 0 {
+        for (name, unit, values) in sweep {
+            let per: Vec<f64> = groups
+                .iter()
+                .map(|(s, _)| samples.iter().find(|x| x.group == s.group).map(|x| values[x.grid_point as usize]).unwrap_or(nan))
+                .collect();
+            let var = out.f64(&format!("condition_{name}"), &["condition"], Array1::from(per), if unit.is_empty() { "1" } else { unit.as_str() }, &format!("grid parameter {name} of the condition"));
+            var.attrs.insert("parameter".into(), Attr::Str(name.clone()));
+        }
+    }
+
+    // Stored images (first max_stored_images samples), padded with NaN to the largest.
+    let stored: Vec<usize> = (0..n).filter(|&i| kept[i].store).collect();
+    if !stored.is_empty() {
+        let h = stored.iter().map(|&i| kept[i].a.raw.nrows()).max().unwrap_or(0);
+        let w = stored.iter().map(|&i| kept[i].a.raw.ncols()).max().unwrap_or(0);
+        let stack = |f: &dyn Fn(&ImageAnalysis) -> &Array2<f64>| {
+            let mut a = Array3::from_elem((stored.len(), h, w), nan);
+            for (k, &i) in stored.iter().enumerate() {
+                let src = f(&kept[i].a);
+                a.slice_mut(s![k, ..src.nrows(), ..src.ncols()]).assign(src);
+            }
+            a
+        };
+        out.i64("stored_sample", &["stored"], Array1::from_iter(stored.iter().map(|&i| i as i64)), "1", "sample index of each stored image");
+        out.f64("raw_image", &["stored", "row", "col"], stack(&|a| &a.raw), "1", "raw grey levels (NaN padding)");
+        out.f64("filtered_image", &["stored", "row", "col"], stack(&|a| &a.filtered), "1", "notch-filtered grey levels (NaN padding)");
+        out.f64("log_spectrum_raw", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_raw), "1", "log10 energy spectrum |F|²/N² before notching, fftshifted (DC at row ⌊H/2⌋, col ⌊W/2⌋)");
+        out.f64("log_spectrum_notched", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_notched), "1", "log10 energy spectrum after notching, fftshifted");
+    }
+    out.set_attr("max_stored_images", p.int("max_stored_images"));
+    out.set_attr("background_model", "median of |F|² in polar cells / ln 2, divided out (whitening), not subtracted");
+    out
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,135 @@
+//! The grid-input path against the grid stage's contract (`density` (point, realisation,
+//! md, cd) in g/m², coordinates `md`, `cd` in m, scalar `cell_size`, swept parameters as
+//! 1-D variables along `point` with a `parameter` attribute), on a fixture version
+//! written through the archive API: the grid stage itself is not on this branch.
+use super::*;
+use crate::archive::Archive;
+use crate::stages::image::render::random_fibre_web;
+use ndarray::{Array0, Array4};
+use std::collections::BTreeMap;
+
+const CELL: f64 = 0.34e-3;
+
+fn fixture(dir: &Path, rows: usize, cols: usize) -> Input {
+    let (np, nr) = (2, 2);
+    let mut density = Array4::zeros((np, nr, rows, cols));
+    for pt in 0..np {
+        for r in 0..nr {
+            let web = random_fibre_web(rows, cols, CELL, 20.0 + 10.0 * pt as f64, 10e-3, 1e-3, Some(35.0), (7 + 10 * pt + r) as u64);
+            density.slice_mut(s![pt, r, .., ..]).assign(&web);
+        }
+    }
+    let mut out = Output::new();
+    out.f64("density", &["point", "realisation", "md", "cd"], density, "g m-2", "areal density");
+    out.coord("md", (0..rows).map(|i| (i as f64 + 0.5) * CELL).collect(), "m", "MD cell centre");
+    out.coord("cd", (0..cols).map(|j| (j as f64 + 0.5) * CELL).collect(), "m", "CD cell centre");
+    out.f64("cell_size", &[], Array0::from_elem((), CELL), "m", "grid cell side");
+    out.f64("belt_speed_ratio", &["point"], Array1::from(vec![0.02, 0.07]), "1", "swept parameter belt_speed_ratio")
+        .attrs
+        .insert("parameter".into(), Attr::Str("belt_speed_ratio".into()));
+    let path = dir.join("fixture.h5");
+    let archive = Archive::open_write(&path).unwrap();
+    let mut attrs = BTreeMap::new();
+    attrs.insert("status".to_string(), Attr::Str("complete".into()));
+    attrs.insert("content_hash".to_string(), Attr::Str("fixture".into()));
+    let n = archive.commit_version("fixture", "grid", &out, &attrs, "fixture").unwrap();
+    Input { name: "grid".into(), kind: "grid".into(), version: archive.version("grid", Some(n)).unwrap() }
+}
+
+fn ctx(dir: &Path, input: Vec<Input>, given: &[(&str, ParamValue)]) -> RunContext {
+    let given: BTreeMap<String, ParamValue> = given.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
+    RunContext {
+        stage_name: "image".into(),
+        points: vec![ParamSet::resolve(&ImageStage.params(), &given)],
+        sweep: vec![],
+        replicates: 1,
+        seed: 0,
+        inputs: input,
+        progress: false,
+        pipeline_dir: dir.to_path_buf(),
+        figure_dir: dir.join("figures"),
+    }
+}
+
+fn get(out: &Output, name: &str) -> Vec<f64> {
+    match &out.get(name).unwrap_or_else(|| panic!("no {name}")).values {
+        crate::archive::data::Values::F64(a) => a.iter().copied().collect(),
+        crate::archive::data::Values::I64(a) => a.iter().map(|&v| v as f64).collect(),
+        other => panic!("{name}: {other:?}"),
+    }
+}
+
+#[test]
+fn grid_input_with_bonds_recovers_the_web_cv() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = fixture(dir.path(), 128, 160);
+    let c = ctx(
+        dir.path(),
+        vec![input],
+        &[
+            ("bonds.shape", ParamValue::Text("circle".into())),
+            ("bonds.size1", ParamValue::Float(1.6e-3)),
+            ("bonds.contrast", ParamValue::Float(0.4)),
+            ("max_stored_images", ParamValue::Int(1)),
+        ],
+    );
+    c.points[0].f64("bonds.period1");
+    ImageStage.check(&c.points[0]).unwrap();
+    let out = ImageStage.run(&c).unwrap();
+    assert!(out.dimensions().is_ok());
+    let (raw, comp, web) = (get(&out, "cv_raw"), get(&out, "cv_corr_compensated"), get(&out, "cv_web"));
+    assert_eq!(raw.len(), 4);
+    for i in 0..4 {
+        println!("sample {i}: web {:.4} raw {:.4} comp {:.4}", web[i], raw[i], comp[i]);
+        assert!(raw[i] > 1.3 * web[i], "bonds must dominate the raw CV");
+        assert!((comp[i] / web[i] - 1.0).abs() < 0.05, "sample {i}: {} vs {}", comp[i], web[i]);
+    }
+    let periods = get(&out, "lattice_period1");
+    assert!(periods.iter().all(|p| (p - 4e-3).abs() < 0.1e-3), "{periods:?}");
+    assert_eq!(get(&out, "condition_belt_speed_ratio"), vec![0.02, 0.07]);
+    assert_eq!(get(&out, "condition_samples"), vec![2.0, 2.0]);
+    match &out.get("condition").unwrap().values {
+        crate::archive::data::Values::Str(v) => assert_eq!(v, &vec!["belt_speed_ratio=0.02".to_string(), "belt_speed_ratio=0.07".into()]),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(out.get("raw_image").unwrap().values.shape(), vec![1, 128, 160]);
+    assert!(dir.path().join("figures").join("sample000_belt_speed_ratio_0.02.png").is_file());
+}
+
+#[test]
+fn grid_input_without_bonds_changes_nothing_and_files_are_refused_alongside() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = fixture(dir.path(), 96, 112);
+    let out = ImageStage.run(&ctx(dir.path(), vec![input], &[("panels", ParamValue::Bool(false))])).unwrap();
+    let (raw, corr, web) = (get(&out, "cv_raw"), get(&out, "cv_corr"), get(&out, "cv_web"));
+    for i in 0..raw.len() {
+        assert!((corr[i] / raw[i] - 1.0).abs() < 0.005, "{} vs {}", corr[i], raw[i]);
+        assert!((raw[i] / web[i] - 1.0).abs() < 1e-12);
+    }
+    assert!(!dir.path().join("figures").exists());
+    let input = fixture(&dir.path().join("b"), 96, 112);
+    let e = ImageStage.run(&ctx(dir.path(), vec![input], &[("files", ParamValue::List(vec!["x.png".into()]))])).unwrap_err();
+    assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("not both"), "{e}");
+}
+
+#[test]
+fn a_grid_version_without_density_or_with_nan_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let archive = Archive::open_write(&dir.path().join("bad.h5")).unwrap();
+    let mut attrs = BTreeMap::new();
+    attrs.insert("status".to_string(), Attr::Str("complete".into()));
+    let mut out = Output::new();
+    out.f64("cell_size", &[], Array0::from_elem((), CELL), "m", "grid cell side");
+    let n = archive.commit_version("fixture", "grid", &out, &attrs, "fixture").unwrap();
+    let input = Input { name: "grid".into(), kind: "grid".into(), version: archive.version("grid", Some(n)).unwrap() };
+    let e = ImageStage.run(&ctx(dir.path(), vec![input], &[])).unwrap_err();
+    assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("has no `density`"), "{e}");
+
+    let mut density = Array4::from_elem((1, 1, 32, 32), 20.0);
+    density[[0, 0, 3, 4]] = f64::NAN;
+    out.f64("density", &["point", "realisation", "md", "cd"], density, "g m-2", "areal density");
+    let n = archive.commit_version("fixture", "grid", &out, &attrs, "fixture").unwrap();
+    let input = Input { name: "grid".into(), kind: "grid".into(), version: archive.version("grid", Some(n)).unwrap() };
+    let e = ImageStage.run(&ctx(dir.path(), vec![input], &[])).unwrap_err();
+    assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("point 0 realisation 0"), "{e}");
+}

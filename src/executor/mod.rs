@@ -101,3 +101,50 @@ pub fn committed(cfg: &ExecutorConfig, job: &StageJob) {
         slurm::cleanup(&job.pipeline.archive, job.stage_name, job.fingerprint);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn parse(executor: &str) -> Result<crate::pipeline::Pipeline, crate::pipeline::Diagnostics> {
+        let text = format!("pipeline: p\narchive: a.h5\n{executor}stages:\n  - {{name: s, kind: spectra}}\n");
+        crate::pipeline::parse(&text, Path::new("p.yaml"))
+    }
+
+    #[test]
+    fn default_is_local() {
+        assert_eq!(parse("").unwrap().executor, ExecutorConfig::default());
+        assert_eq!(ExecutorConfig::default().kind, ExecutorKind::Local);
+    }
+
+    #[test]
+    fn executor_block_and_shorthand() {
+        assert_eq!(parse("executor: slurm\n").unwrap().executor.kind, ExecutorKind::Slurm);
+        let e = parse("executor:\n  kind: slurm\n  partition: short\n  max_parallel: 3\n  sbatch_args: [--time=00:10:00, --mem=1G]\n")
+            .unwrap()
+            .executor;
+        assert_eq!(
+            e,
+            ExecutorConfig {
+                kind: ExecutorKind::Slurm,
+                partition: Some("short".into()),
+                max_parallel: Some(3),
+                sbatch_args: vec!["--time=00:10:00".into(), "--mem=1G".into()],
+            }
+        );
+    }
+
+    #[test]
+    fn bad_executor_blocks_are_located() {
+        let d = parse("executor:\n  kind: slurm\n  max_paralel: 3\n").unwrap_err().to_string();
+        assert!(d.contains("p.yaml:5:3: executor.max_paralel: unknown key in the executor"), "{d}");
+        assert!(d.contains("did you mean `max_parallel`?"), "{d}");
+        let d = parse("executor:\n  kind: slurm\n  max_parallel: 0\n").unwrap_err().to_string();
+        assert!(d.contains("p.yaml:5:17: executor.max_parallel: 0 is out of range"), "{d}");
+        let d = parse("executor:\n  partition: x\n").unwrap_err().to_string();
+        assert!(d.contains("executor.kind: required key is missing; allowed: local, slurm"), "{d}");
+        let d = parse("executor: 3\n").unwrap_err().to_string();
+        assert!(d.contains("p.yaml:3:11: executor: expected text"), "{d}");
+    }
+}

@@ -9,8 +9,9 @@
 //!
 //! What it checks: a 4-point × 2-replicate laydown sweep with ragged node counts runs
 //! as a job array of 4 tasks; a task failed on purpose (the worker's LAYDOWN_FAIL_TASK
-//! test hook) fails the stage naming that task's log and writes nothing; the rerun
-//! submits only that task; and every gathered dataset is bit-identical to the local
+//! test hook) and a task killed with `scancel` while running (LAYDOWN_STALL_TASK keeps
+//! it running) fail the stage naming both logs and write nothing; the rerun submits
+//! only those two tasks; and every gathered dataset is bit-identical to the local
 //! executor's, except `wall_seconds` (the measured wall time of each replicate, which
 //! differs between any two runs), with each task's Slurm IDs and host in the provenance.
 mod common;
@@ -71,7 +72,7 @@ fn attr_text(file: &Path, name: &str) -> String {
 
 #[test]
 #[ignore = "needs root and apt for a real Slurm; run by scripts/test.sh with --ignored"]
-fn job_array_matches_local_and_rerun_submits_only_the_failed_task() {
+fn job_array_matches_local_and_rerun_submits_only_the_failed_tasks() {
     let t0 = std::time::Instant::now();
     let tmp = tempfile::Builder::new().prefix("laydown-slurm-").tempdir_in("/tmp").unwrap();
     let work = tmp.path();
@@ -96,40 +97,63 @@ fn job_array_matches_local_and_rerun_submits_only_the_failed_task() {
     assert!(local.status.success(), "local run: {:?}", text(&local));
     println!("slurm: local run done after {:.1} s", t0.elapsed().as_secs_f64());
 
-    // One task fails on purpose: the stage fails naming its log, nothing is committed.
-    let slurm = |fail: Option<&str>| {
+    // Task 2 fails on purpose and task 1 is killed with scancel while it runs: the stage
+    // fails naming both logs, and nothing is committed.
+    let slurm = |fail: bool| {
         let mut c = laydown();
-        c.current_dir(work).env("SLURM_CONF", &conf).env_remove("LAYDOWN_FAIL_TASK");
-        if let Some(t) = fail {
-            c.env("LAYDOWN_FAIL_TASK", t);
+        c.current_dir(work).env("SLURM_CONF", &conf).env_remove("LAYDOWN_FAIL_TASK").env_remove("LAYDOWN_STALL_TASK");
+        if fail {
+            c.env("LAYDOWN_FAIL_TASK", "2").env("LAYDOWN_STALL_TASK", "1");
         }
         c.args(["run", "sweep.yaml", "--archive", "slurm.h5", "--executor", "slurm", "--max-parallel", "2"]);
-        c.output().unwrap()
+        c.stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped());
+        c.spawn().unwrap()
     };
-    let failed = slurm(Some("2"));
+    let driver = slurm(true);
+    let squeue = |state: &str| {
+        let out = Command::new("squeue").env("SLURM_CONF", &conf).args(["-h", "-t", state, "-o", "%i"]).output().unwrap();
+        String::from_utf8_lossy(&out.stdout).lines().map(|l| l.trim().to_string()).collect::<Vec<_>>()
+    };
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    let stalled = loop {
+        if let Some(id) = squeue("R").into_iter().find(|id| id.ends_with("_1")) {
+            break id;
+        }
+        assert!(std::time::Instant::now() < deadline, "task 1 never ran");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    };
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let cancel = Command::new("scancel").env("SLURM_CONF", &conf).arg(&stalled).status().unwrap();
+    assert!(cancel.success(), "scancel {stalled}");
+    println!("slurm: killed array task {stalled} with scancel after {:.1} s", t0.elapsed().as_secs_f64());
+    let failed = driver.wait_with_output().unwrap();
     let (so, se) = text(&failed);
-    println!("slurm: run with task 2 failing done after {:.1} s:\n{so}{se}", t0.elapsed().as_secs_f64());
+    println!("slurm: run with task 2 failing and task 1 killed done after {:.1} s:\n{so}{se}", t0.elapsed().as_secs_f64());
     assert_eq!(failed.status.code(), Some(1), "{so}{se}");
     assert!(so.contains("submitting 4 of 4 Slurm array tasks (4 points);"), "{so}");
     let dirs: Vec<PathBuf> = std::fs::read_dir(work.join("slurm.h5.slurm/fibre")).unwrap().map(|e| e.unwrap().path()).collect();
     assert_eq!(dirs.len(), 1);
     let task_dir = &dirs[0];
-    let log2 = task_dir.join("task-2.log");
+    let (log1, log2) = (task_dir.join("task-1.log"), task_dir.join("task-2.log"));
+    assert!(se.contains("2 of 4 Slurm array tasks failed or were killed"), "{se}");
+    assert!(se.contains(&format!("task 1 (points 1..2): see its log {}", log1.display())), "{se}");
     assert!(se.contains(&format!("task 2 (points 2..3): see its log {}", log2.display())), "{se}");
     assert!(std::fs::read_to_string(&log2).unwrap().contains("LAYDOWN_FAIL_TASK=2"));
-    for i in [0, 1, 3] {
+    let log1_text = std::fs::read_to_string(&log1).unwrap();
+    assert!(log1_text.contains("CANCELLED"), "task 1's log: {log1_text}");
+    for i in [0, 3] {
         assert!(task_dir.join(format!("task-{i}.h5")).exists(), "task {i} kept");
     }
-    assert!(!task_dir.join("task-2.h5").exists());
+    assert!(!task_dir.join("task-1.h5").exists() && !task_dir.join("task-2.h5").exists());
     let ls = run_in(work, &["ls", "slurm.h5"]);
     assert!(!text(&ls).0.contains("fibre"), "nothing committed: {:?}", text(&ls));
 
-    // The rerun submits only the missing task.
-    let rerun = slurm(None);
+    // The rerun submits only the missing tasks.
+    let rerun = slurm(false).wait_with_output().unwrap();
     let (so, se) = text(&rerun);
     println!("slurm: rerun done after {:.1} s:\n{so}{se}", t0.elapsed().as_secs_f64());
     assert!(rerun.status.success(), "{so}{se}");
-    assert!(so.contains("submitting 1 of 4 Slurm array tasks (4 points); 3 complete from an earlier run kept"), "{so}");
+    assert!(so.contains("submitting 2 of 4 Slurm array tasks (4 points); 2 complete from an earlier run kept"), "{so}");
     assert!(!work.join("slurm.h5.slurm").exists(), "work directory removed after the commit");
 
     // Bit-identical to the local executor, except the measured wall times.
@@ -164,9 +188,9 @@ fn job_array_matches_local_and_rerun_submits_only_the_failed_task() {
     assert_eq!(tasks.len(), 4);
     let job = |i: usize| tasks[i]["slurm_array_job_id"].as_str().unwrap().to_string();
     assert!(!job(0).is_empty());
-    assert_eq!(job(0), job(1));
     assert_eq!(job(0), job(3));
-    assert_ne!(job(0), job(2), "task 2 ran in the rerun's job");
+    assert_eq!(job(1), job(2), "tasks 1 and 2 ran in the rerun's job");
+    assert_ne!(job(0), job(1), "tasks 1 and 2 ran in the rerun's job");
     for (i, t) in tasks.iter().enumerate() {
         assert_eq!(t["slurm_array_task_id"].as_str().unwrap(), i.to_string());
         assert!(!t["host"].as_str().unwrap().is_empty());

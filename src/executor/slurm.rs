@@ -21,9 +21,10 @@
 //! the same command submits only the tasks without a partial. The directory is removed
 //! once the stage's version is committed.
 //!
-//! Test hook: `LAYDOWN_FAIL_TASK=I` in the environment of `laydown run` (sbatch passes
-//! the environment on) makes worker task I fail before computing; tests/slurm.rs uses
-//! it to check the failure message and the rerun.
+//! Test hooks: `LAYDOWN_FAIL_TASK=I` in the environment of `laydown run` (sbatch passes
+//! the environment on) makes worker task I fail before computing, and
+//! `LAYDOWN_STALL_TASK=I` makes it wait (up to 600 s) to be killed, e.g. by `scancel`;
+//! tests/slurm.rs uses them to check the failure message and the rerun.
 //!
 //! # Running on a real multi-node cluster
 //! - The archive's directory must be on a file system shared by the login node and
@@ -257,8 +258,16 @@ pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
         env("SLURM_ARRAY_JOB_ID"),
         env("SLURM_ARRAY_TASK_ID")
     );
-    if std::env::var("LAYDOWN_FAIL_TASK").ok().and_then(|v| v.trim().parse::<usize>().ok()) == Some(task) {
+    let hook = |k: &str| std::env::var(k).ok().and_then(|v| v.trim().parse::<usize>().ok()) == Some(task);
+    if hook("LAYDOWN_FAIL_TASK") {
         bail!("LAYDOWN_FAIL_TASK={task}: failing this task on purpose (test hook)");
+    }
+    if hook("LAYDOWN_STALL_TASK") {
+        println!("LAYDOWN_STALL_TASK={task}: waiting to be killed (test hook)");
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        std::thread::sleep(std::time::Duration::from_secs(600));
+        bail!("LAYDOWN_STALL_TASK={task}: not killed within 600 s");
     }
     let mut p = pipeline::load(&plan.pipeline).map_err(|d| anyhow!("{d}"))?;
     p.archive = plan.archive.clone();

@@ -43,6 +43,11 @@
 //!   [--time=04:00:00]}`. A task uses `SLURM_CPUS_PER_TASK` threads when set.
 //! - Each task takes one or more whole sweep points (at most 1000 tasks per stage):
 //!   sweeps with more points give more parallelism; replicates of a point stay together.
+//!   Stages that cannot be split (today every kind but `laydown`) run in the driver.
+//! - Where the shared file system has no POSIX locks (some NFS, Lustre mounts), set
+//!   `HDF5_USE_FILE_LOCKING=FALSE` in the environment of `laydown run` (it is passed on).
+//! - The gathered datasets are bit-identical to `--executor local`'s (only measured
+//!   times differ); a failed or killed task is resubmitted alone by the next run.
 use super::{partial, ExecutorConfig, StageJob};
 use crate::archive::data::{Attr, Output};
 use crate::archive::{provenance, Archive};

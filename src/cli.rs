@@ -39,6 +39,29 @@ pub enum Command {
         /// Write to this archive instead of the pipeline's `archive:`.
         #[arg(long, value_name = "PATH")]
         archive: Option<PathBuf>,
+        /// Where stages run: `local` (this process, all cores; the default) or `slurm`
+        /// (one job array per stage; overrides the pipeline's `executor:`).
+        #[arg(long, value_name = "EXECUTOR", value_parser = ["local", "slurm"])]
+        executor: Option<String>,
+        /// Slurm partition for the job arrays.
+        #[arg(long, value_name = "PARTITION")]
+        partition: Option<String>,
+        /// Run at most this many Slurm array tasks at once.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+        max_parallel: Option<u32>,
+        /// Extra argument for sbatch, e.g. `--sbatch-arg=--time=01:00:00` (repeatable).
+        #[arg(long, value_name = "ARG", allow_hyphen_values = true)]
+        sbatch_arg: Vec<String>,
+    },
+    /// Run one Slurm array task of a stage (used by `--executor slurm`).
+    #[command(hide = true)]
+    Worker {
+        /// The stage's plan.json, written by the driver.
+        #[arg(long)]
+        plan: PathBuf,
+        /// The array task (SLURM_ARRAY_TASK_ID).
+        #[arg(long)]
+        task: usize,
     },
     /// Parse and check a pipeline without computing anything.
     Validate { pipeline: PathBuf },
@@ -73,7 +96,7 @@ pub enum Command {
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
     match cli.command {
-        Command::Run { pipeline: path, only, from, force, archive } => {
+        Command::Run { pipeline: path, only, from, force, archive, executor, partition, max_parallel, sbatch_arg } => {
             let mut p = match pipeline::load(&path) {
                 Ok(p) => p,
                 Err(d) => {
@@ -84,7 +107,19 @@ pub fn main_with(cli: Cli) -> i32 {
             if let Some(a) = archive {
                 p.archive = a;
             }
-            let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal() };
+            if let Some(e) = executor {
+                p.executor.kind = crate::executor::ExecutorKind::parse(&e).expect("checked by clap");
+            }
+            if partition.is_some() {
+                p.executor.partition = partition;
+            }
+            if let Some(m) = max_parallel {
+                p.executor.max_parallel = Some(m as usize);
+            }
+            if !sbatch_arg.is_empty() {
+                p.executor.sbatch_args = sbatch_arg;
+            }
+            let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal(), executor: None };
             match runner::run(&p, &opts) {
                 Ok(_) => {
                     println!("archive: {}", p.archive.display());
@@ -96,6 +131,13 @@ pub fn main_with(cli: Cli) -> i32 {
                 }
             }
         }
+        Command::Worker { plan, task } => match crate::executor::slurm::worker(&plan, task) {
+            Ok(()) => 0,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                1
+            }
+        },
         Command::Validate { pipeline: path } => match pipeline::load(&path) {
             Ok(p) => {
                 let n: usize = p.stages.iter().map(|s| s.points().0.len() * s.replicates).sum();

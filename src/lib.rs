@@ -7,9 +7,11 @@
 //! - [`stages`]: one module per pipeline stage behind the [`stages::Stage`] contract;
 //! - [`archive`]: the versioned HDF5 archive with provenance;
 //! - [`runner`]: decides what to (re)run and records it;
+//! - [`executor`]: where a stage's units run (local threads or a Slurm job array);
 //! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation).
 pub mod archive;
 pub mod cli;
+pub mod executor;
 pub mod geometry;
 pub mod params;
 pub mod pipeline;

@@ -25,6 +25,8 @@ pub struct RunOptions {
     /// Ignore the cache for these stages.
     pub force: Vec<String>,
     pub progress: bool,
+    /// Where stages run; `None`: the pipeline file's `executor:` (local by default).
+    pub executor: Option<crate::executor::ExecutorConfig>,
 }
 
 /// Why a run failed: bad input (exit 2) or a runtime failure (exit 1).
@@ -167,12 +169,6 @@ fn pipeline_dir(pipeline: &Pipeline) -> std::path::PathBuf {
     }
 }
 
-/// `<archive dir>/<archive stem>_figures/<stage>/v<number>`.
-fn figure_dir(archive: &std::path::Path, stage: &str, number: u32) -> std::path::PathBuf {
-    let stem = archive.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "archive".into());
-    archive.with_file_name(format!("{stem}_figures")).join(stage).join(format!("v{number}"))
-}
-
 /// (path, blake3 of the content) of each file, in the given order. Paths are shown
 /// relative to the pipeline's directory, so the fingerprint does not depend on the
 /// working directory the pipeline is run from.
@@ -283,6 +279,29 @@ fn units_of_sweep(out: &mut Output, sweep: &[(String, Vec<ParamValue>)], specs: 
     }
 }
 
+/// The context of a whole stage run (all its sweep points) on the given input versions.
+/// The context of one stage run; `version` is the number the run will commit as.
+pub fn stage_context(pipeline: &Pipeline, decl: &StageDecl, inputs: &[VersionInfo], progress: bool, version: u32) -> RunContext {
+    let (points, sweep) = decl.points();
+    RunContext {
+        stage_name: decl.name.clone(),
+        points,
+        sweep,
+        replicates: decl.replicates,
+        seed: decl.seed.unwrap_or(pipeline.seed),
+        inputs: decl
+            .inputs
+            .iter()
+            .zip(inputs)
+            .map(|(n, v)| Input { name: n.clone(), kind: pipeline.stage(n).unwrap().kind.clone(), version: v.clone() })
+            .collect(),
+        progress,
+        pipeline_dir: pipeline_dir(pipeline),
+        figure_dir: crate::archive::figure_dir(&pipeline.archive, &decl.name, version),
+        point_offset: 0,
+    }
+}
+
 /// Run the pipeline; prints one line per stage to stdout.
 pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, RunError> {
     for name in opts.only.iter().chain(opts.from.iter()).chain(opts.force.iter()) {
@@ -373,29 +392,17 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         };
         println!("{name}: runs: {why}");
 
-        let (points, sweep) = decl.points();
-        let ctx = RunContext {
-            stage_name: name.clone(),
-            points,
-            sweep: sweep.clone(),
-            replicates: decl.replicates,
-            seed,
-            inputs: decl
-                .inputs
-                .iter()
-                .zip(&inputs)
-                .map(|(n, v)| Input { name: n.clone(), kind: pipeline.stage(n).unwrap().kind.clone(), version: v.clone() })
-                .collect(),
-            progress: opts.progress,
-            pipeline_dir: pipeline_dir.clone(),
-            figure_dir: figure_dir(&pipeline.archive, &name, versions.last().map(|v| v.number + 1).unwrap_or(1)),
-        };
+        let next_version = versions.last().map(|v| v.number + 1).unwrap_or(1);
+        let ctx = stage_context(pipeline, decl, &inputs, opts.progress, next_version);
+        let sweep = ctx.sweep.clone();
+        let executor = opts.executor.clone().unwrap_or_else(|| pipeline.executor.clone());
+        let job = crate::executor::StageJob { pipeline, stage_name: &name, fingerprint: &fp, inputs: &inputs };
         let start_utc = provenance::utc_now();
         let cpu0 = provenance::cpu_seconds();
         let t0 = Instant::now();
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| stage.run(&ctx)));
-        let mut out = match result {
-            Ok(Ok(out)) => out,
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| crate::executor::run_stage(&executor, stage, &ctx, &job)));
+        let (mut out, executor_attrs) = match result {
+            Ok(Ok(r)) => r,
             Ok(Err(e)) => {
                 let e = classify(e);
                 eprintln!("{name}: failed; nothing was written for this stage");
@@ -456,6 +463,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         put("cpu_seconds", Attr::F64(cpu));
         put("status", Attr::Str("complete".into()));
         put("layout_version", Attr::I64(crate::archive::LAYOUT_VERSION));
+        attrs.extend(executor_attrs);
 
         let number = archive
             .commit_version(
@@ -471,6 +479,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
             )
             .map_err(RunError::Runtime)?;
         let v = archive.version(&name, Some(number)).map_err(RunError::Runtime)?;
+        crate::executor::committed(&executor, &job);
         println!("{name}: wrote v{number} in {wall:.2} s");
         chosen.insert(name.clone(), v);
         reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });

@@ -105,6 +105,23 @@ pub fn pipeline_schema() -> Value {
             "archive": {"type": "string", "minLength": 1, "pattern": "\\S", "description": "Path of the HDF5 archive (relative to the working directory)"},
             "seed": {"type": "integer", "minimum": 0, "maximum": i64::MAX, "description": "Base seed of every random stream; default 0"},
             "description": {"type": "string"},
+            "executor": {
+                "description": "Where stages run: local (this process, all cores; the default) or slurm (one job array per stage)",
+                "anyOf": [
+                    {"enum": crate::executor::ExecutorKind::NAMES},
+                    {
+                        "type": "object",
+                        "additionalProperties": false,
+                        "required": ["kind"],
+                        "properties": {
+                            "kind": {"enum": crate::executor::ExecutorKind::NAMES},
+                            "partition": {"type": "string", "description": "Slurm partition (sbatch --partition)"},
+                            "max_parallel": {"type": "integer", "minimum": 1, "maximum": 1000000, "description": "At most this many array tasks at once"},
+                            "sbatch_args": {"type": "array", "items": {"type": "string"}, "description": "Extra sbatch arguments, e.g. --time=01:00:00"}
+                        }
+                    }
+                ]
+            },
             "stages": {
                 "type": "array",
                 "minItems": 1,

@@ -42,14 +42,22 @@ pub fn read_attrs(loc: &hdf5::Location) -> Result<BTreeMap<String, Attr>> {
     let mut out = BTreeMap::new();
     for name in loc.attr_names()? {
         let a = loc.attr(&name)?;
-        let value = if let Ok(s) = a.read_scalar::<VarLenUnicode>() {
-            Attr::Str(s.as_str().to_string())
-        } else if let Ok(v) = a.read_scalar::<i64>() {
-            Attr::I64(v)
-        } else if let Ok(v) = a.read_scalar::<f64>() {
-            Attr::F64(v)
-        } else {
-            continue;
+        // Dispatch on the stored type: HDF5 would happily convert a float attribute
+        // to an integer (truncating it) if asked for i64 first.
+        use hdf5::types::TypeDescriptor as T;
+        let value = match a.dtype().and_then(|t| t.to_descriptor()) {
+            Ok(T::Float(_)) => match a.read_scalar::<f64>() {
+                Ok(v) => Attr::F64(v),
+                Err(_) => continue,
+            },
+            Ok(T::Integer(_) | T::Unsigned(_)) => match a.read_scalar::<i64>() {
+                Ok(v) => Attr::I64(v),
+                Err(_) => continue,
+            },
+            _ => match a.read_scalar::<VarLenUnicode>() {
+                Ok(s) => Attr::Str(s.as_str().to_string()),
+                Err(_) => continue,
+            },
         };
         out.insert(name, value);
     }

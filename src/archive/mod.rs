@@ -28,6 +28,13 @@ use std::path::{Path, PathBuf};
 /// Version of the archive layout described in schemas/archive_layout.md.
 pub const LAYOUT_VERSION: i64 = 1;
 
+/// Where the figures of `stage` version `number` go: `<archive stem>_figures/<stage>/v<number>/`
+/// beside the archive (used by stages that draw while they run and by `laydown plot`).
+pub fn figure_dir(archive: &Path, stage: &str, number: u32) -> PathBuf {
+    let stem = archive.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "archive".into());
+    archive.with_file_name(format!("{stem}_figures")).join(stage).join(format!("v{number}"))
+}
+
 /// One complete version of a stage, as found in the archive.
 #[derive(Debug, Clone)]
 pub struct VersionInfo {

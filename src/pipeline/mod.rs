@@ -16,6 +16,7 @@
 //! checking collects all problems rather than stopping at the first.
 pub mod yaml;
 
+use crate::executor::{ExecutorConfig, ExecutorKind};
 use crate::params::{ParamSet, ParamSpec, ParamValue};
 use crate::stages;
 use std::collections::{BTreeMap, HashMap};
@@ -146,6 +147,8 @@ pub struct Pipeline {
     pub seed: u64,
     pub description: String,
     pub stages: Vec<StageDecl>,
+    /// Where stages run (`executor:`; local by default).
+    pub executor: ExecutorConfig,
 }
 
 impl Pipeline {
@@ -218,7 +221,8 @@ struct Checker {
     diags: Vec<Diagnostic>,
 }
 
-const TOP_KEYS: &[&str] = &["pipeline", "archive", "seed", "description", "stages"];
+const TOP_KEYS: &[&str] = &["pipeline", "archive", "seed", "description", "executor", "stages"];
+const EXECUTOR_KEYS: &[&str] = &["kind", "partition", "max_parallel", "sbatch_args"];
 const STAGE_KEYS: &[&str] = &["name", "kind", "input", "params", "sweep", "sweep_mode", "replicates", "seed", "description"];
 const MAX_SWEEP_POINTS: usize = 100_000;
 
@@ -314,6 +318,10 @@ impl Checker {
             None => Some(0),
         };
         let description = get("description").and_then(|n| self.string(n, "description")).unwrap_or_default();
+        let executor = match get("executor") {
+            Some(n) => self.executor(n),
+            None => Some(ExecutorConfig::default()),
+        };
         let stages = match get("stages") {
             Some(n) => self.stages(n),
             None => {
@@ -328,7 +336,57 @@ impl Checker {
             seed: seed?,
             description,
             stages: stages?,
+            executor: executor?,
         })
+    }
+
+    /// `executor: slurm` or `executor: {kind: slurm, partition: P, max_parallel: N, sbatch_args: [...]}`.
+    fn executor(&mut self, node: &Node) -> Option<ExecutorConfig> {
+        let kind = |c: &mut Self, n: &Node, key: &str| -> Option<ExecutorKind> {
+            let s = c.string(n, key)?;
+            match ExecutorKind::parse(&s) {
+                Some(k) => Some(k),
+                None => {
+                    let hint = suggest(&s, ExecutorKind::NAMES.iter().copied()).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
+                    c.err(n.pos, key, format!("unknown executor `{s}`; allowed: {}{hint}", ExecutorKind::NAMES.join(", ")));
+                    None
+                }
+            }
+        };
+        if let Kind::Scalar(_) = &node.kind {
+            return Some(ExecutorConfig { kind: kind(self, node, "executor")?, ..Default::default() });
+        }
+        let entries = self.map(node, "executor", "an executor name or an executor")?;
+        self.unknown_keys(entries, EXECUTOR_KEYS, "executor", "the executor");
+        let before = self.diags.len();
+        let get = |k: &str| entries.iter().find(|(n, _, _)| n == k).map(|(_, _, v)| v);
+        let mut cfg = ExecutorConfig::default();
+        match get("kind") {
+            Some(n) => cfg.kind = kind(self, n, "executor.kind").unwrap_or_default(),
+            None => self.err(node.pos, "executor.kind", format!("required key is missing; allowed: {}", ExecutorKind::NAMES.join(", "))),
+        }
+        if let Some(n) = get("partition") {
+            cfg.partition = self.string(n, "executor.partition");
+        }
+        if let Some(n) = get("max_parallel") {
+            cfg.max_parallel = self.uint(n, "executor.max_parallel", 1, 1_000_000).map(|m| m as usize);
+        }
+        if let Some(n) = get("sbatch_args") {
+            match &n.kind {
+                Kind::Seq(items) => {
+                    for (i, item) in items.iter().enumerate() {
+                        if let Some(a) = self.string(item, &format!("executor.sbatch_args[{i}]")) {
+                            cfg.sbatch_args.push(a);
+                        }
+                    }
+                }
+                _ => self.err(n.pos, "executor.sbatch_args", format!("expected a list of sbatch arguments such as [--time=01:00:00], found {}", n.type_name())),
+            }
+        }
+        if self.diags.len() > before {
+            return None;
+        }
+        Some(cfg)
     }
 
     fn stages(&mut self, node: &Node) -> Option<Vec<StageDecl>> {

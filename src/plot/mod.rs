@@ -104,21 +104,10 @@ pub fn figures(data: &StageData) -> Result<Vec<Figure>> {
     }
 }
 
-/// Where figures go by default: `<archive stem>_figures/<stage>/v<N>/` beside the archive.
-pub fn default_dir(archive: &Path, info: &VersionInfo) -> PathBuf {
-    let stem = archive.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "archive".into());
-    archive
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(format!("{stem}_figures"))
-        .join(&info.stage)
-        .join(format!("v{}", info.number))
-}
-
-/// Plot a stage version into `dir` (default: [`default_dir`]); returns the files written.
+/// Plot a stage version into `dir` (default: [`crate::archive::figure_dir`]); returns the files written.
 pub fn plot_stage(archive: &Path, stage_ref: &str, dir: Option<&Path>, format: Format) -> Result<Vec<PathBuf>> {
     let data = open(archive, stage_ref)?;
-    let dir = dir.map(Path::to_path_buf).unwrap_or_else(|| default_dir(archive, &data.info));
+    let dir = dir.map(Path::to_path_buf).unwrap_or_else(|| crate::archive::figure_dir(archive, &data.info.stage, data.info.number));
     let figs = figures(&data)?;
     if figs.is_empty() {
         return Err(anyhow!("{}: nothing to plot", data.info.group_path()));

@@ -57,6 +57,14 @@ pub trait Stage: Send + Sync {
     fn input_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
         Ok(vec![])
     }
+    /// Dimensions of this stage's output that stack the sweep points (a variable whose
+    /// first dimension is one of them holds one slice per point, in point order), when
+    /// the stage's points can be computed separately and concatenated: that is what
+    /// lets an executor split the stage over processes (e.g. a Slurm job array). Empty
+    /// (the default): the stage runs as a whole.
+    fn point_dims(&self) -> &'static [&'static str] {
+        &[]
+    }
 }
 
 /// An upstream stage version a stage reads from.
@@ -105,6 +113,10 @@ pub struct RunContext {
     /// Where this run may write figures: `<archive dir>/<archive stem>_figures/<stage>/v<N>`
     /// with N the version this run will become. Not created by the runner.
     pub figure_dir: std::path::PathBuf,
+    /// Global index of `points[0]` in the stage's whole sweep: non-zero when an
+    /// executor runs a share of the points ([`RunContext::restrict`]). Anything keyed
+    /// by the point (random streams, file names) must use [`RunContext::point_index`].
+    pub point_offset: usize,
 }
 
 impl RunContext {
@@ -112,6 +124,23 @@ impl RunContext {
     /// independent of thread count and of the order in which items are computed.
     pub fn rng(&self, replicate: usize, item: u64) -> ChaCha8Rng {
         stream_rng(self.seed, replicate as u64, item)
+    }
+
+    /// Global sweep index of the local point `local` (`points[local]`).
+    pub fn point_index(&self, local: usize) -> usize {
+        self.point_offset + local
+    }
+
+    /// The same run restricted to the global points `a..b` (their indices kept).
+    pub fn restrict(mut self, a: usize, b: usize) -> Self {
+        let a0 = a - self.point_offset;
+        let b0 = b - self.point_offset;
+        self.points = self.points[a0..b0].to_vec();
+        for (_, values) in self.sweep.iter_mut() {
+            *values = values[a0..b0].to_vec();
+        }
+        self.point_offset = a;
+        self
     }
 
     pub fn input(&self, index: usize) -> &Input {

@@ -99,6 +99,12 @@ impl Stage for LaydownStage {
         });
         Ok(assemble(&scenes, &results, ctx.points.len(), ctx.replicates))
     }
+    /// Points are independent (every replicate's random stream is keyed by seed and
+    /// replicate only, not by the point), and `assemble` stacks them along `point` and
+    /// `run` (point * replicates + replicate), padding ragged node counts with NaN.
+    fn point_dims(&self) -> &'static [&'static str] {
+        &["point", "run"]
+    }
 }
 
 fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {

@@ -48,6 +48,7 @@ fn ctx(dir: &Path, input: Vec<Input>, given: &[(&str, ParamValue)]) -> RunContex
         progress: false,
         pipeline_dir: dir.to_path_buf(),
         figure_dir: dir.join("figures"),
+        point_offset: 0,
     }
 }
 

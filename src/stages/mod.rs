@@ -137,7 +137,7 @@ pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
 
 /// Every stage kind the pipeline knows.
 pub fn registry() -> Vec<&'static dyn Stage> {
-    vec![&laydown::LaydownStage, &spectra::SpectraStage, &web::WebStage]
+    vec![&laydown::LaydownStage, &spectra::SpectraStage, &web::WebStage, &grid::GridStage]
 }
 
 pub fn find(kind: &str) -> Option<&'static dyn Stage> {

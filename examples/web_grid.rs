@@ -1,4 +1,5 @@
-//! Timing and results of web generation + density grid (no file I/O).
+//! Benchmark: timing (wall, nodes/s), peak RSS and results of web generation + density
+//! grid (no file I/O). Paper size: `cargo run --release --example web_grid -- spectrum1 0.04 1500 100 1000 point_mass 3 2 0`
 //!
 //! cargo run --release --example web_grid -- [preset] [c] [n_w] [n_l] [N] [deposit] [realisations] [threads] [margin] [boundary]
 //! defaults:                                  spectrum1 0.05 1500 100 1000 point_mass 1 2 3 open
@@ -76,5 +77,9 @@ fn main() {
         let (rm, rs) = stats(&rhos);
         let (cm, cs) = stats(&cvs);
         println!("  mean over {}: rho_av {rm:.3}({rs:.3}) g/m2, CV {cm:.4}({cs:.4})", cvs.len());
+    }
+    // Peak resident memory of the whole run (Linux).
+    if let Some(line) = std::fs::read_to_string("/proc/self/status").ok().and_then(|s| s.lines().find(|l| l.starts_with("VmHWM")).map(str::to_string)) {
+        println!("  peak RSS: {}", line.trim_start_matches("VmHWM:").trim());
     }
 }

@@ -178,7 +178,7 @@ pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
 
 /// Every stage kind the pipeline knows.
 pub fn registry() -> Vec<&'static dyn Stage> {
-    vec![&laydown::LaydownStage, &spectra::SpectraStage, &image::stage::ImageStage]
+    vec![&laydown::LaydownStage, &spectra::SpectraStage, &web::WebStage, &grid::GridStage, &image::stage::ImageStage]
 }
 
 pub fn find(kind: &str) -> Option<&'static dyn Stage> {

@@ -37,6 +37,9 @@
 //! assert!((r.mean_areal_density_gsm / 2.388 - 1.0).abs() < 0.15, "{}", r.mean_areal_density_gsm);
 //! ```
 mod deposit;
+mod stage;
+
+pub use stage::{grid_params, GridStage, TABLE4, TABLE4_SOURCE};
 
 pub use deposit::{Boundary, DensityGrid, Deposit, Period, QUANTA_PER_POINT};
 

@@ -40,7 +40,10 @@
 //! assert_eq!(nodes.into_inner(), 4 * 3001);
 //! ```
 mod generate;
+mod stage;
 pub mod trig;
+
+pub use stage::{web_from_input, WebStage};
 
 pub use generate::{fibre_rng, FibreScratch, Web};
 

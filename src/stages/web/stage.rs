@@ -1,0 +1,272 @@
+//! `kind: web` — the pipeline stage around the web numerics (§3.1 eqs 11-15, §3.2).
+//!
+//! A web is *defined*, not stored: per sweep point the stage records its resolved
+//! parameters, the exact curvature spectrum coefficients it uses and the random seed.
+//! With [`web_from_input`] a downstream stage rebuilds the same [`Web`] from those
+//! datasets and regenerates any fibre of any realisation bit for bit (the fibre's
+//! random stream is fixed by (seed, realisation, fibre), see [`super::fibre_rng`]).
+//!
+//! **Spectrum source.** Either `input: <spectra stage>` (the spectrum of one of its
+//! points, chosen with `input_point`; `spectrum_selection: single` uses that point's
+//! energy-averaged mean spectrum, `per_segment` keeps every valid fibre's spectrum and
+//! each segment draws one uniformly, the draw being part of the fibre's random stream),
+//! or `preset: spectrum1|2|3` (the paper's idealised square waves, N = `points_per_segment`).
+//!
+//! **Seed.** Every point uses the stage's seed (pipeline `seed`, or the stage's own):
+//! sweep points share their fibres' random phases (common random numbers), as the other
+//! stages do. Realisation k of a web is fibre streams (seed, k, ·).
+//!
+//! **Stored fibres.** For each replicate k (`replicates:`, realisation k) the stage
+//! stores all fibres when n_w·(n_l·N + 1) ≤ `store_all_max_points`, otherwise
+//! `sample_fibres` fibres evenly spread across the web: fibre indices
+//! ⌊(2i + 1)·n_w / (2k)⌋, i = 0..k (centred strips, away from the edges).
+use super::{SpectrumSelection, Web, WebParams, WEB_PARAMS};
+use crate::archive::data::Output;
+use crate::params::{ParamSet, ParamSpec};
+use crate::stages::spectra::{CurvatureSpectrum, SquareWaveParams};
+use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
+use anyhow::{anyhow, Result};
+use ndarray::{Array1, Array2, Array3, Array5, Axis};
+use num_complex::Complex64;
+use rayon::prelude::*;
+
+pub struct WebStage;
+
+const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
+
+/// One sweep point's web with where its spectrum came from.
+struct PointWeb {
+    web: Web,
+    spectra: Vec<CurvatureSpectrum>,
+    source: String,
+    sample: Vec<usize>,
+}
+
+impl Stage for WebStage {
+    fn kind(&self) -> &'static str {
+        "web"
+    }
+    fn summary(&self) -> &'static str {
+        "stochastic fibres from a curvature spectrum (random phases, eqs 11-13) laid with belt drift (eqs 14-15), n_w across, n_l segments long"
+    }
+    fn cache_version(&self) -> u32 {
+        1
+    }
+    fn inputs(&self) -> InputRule {
+        InputRule { kinds: &["spectra"], min: 0, max: 1 }
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        let mut v = vec![
+            ParamSpec::choice("preset", PRESETS, "none", "idealised spectrum instead of an input: the paper's Fig 10 square waves (L = 1 m)"),
+            ParamSpec::int("points_per_segment", "1", 1000, 4, 1_000_000, "N, samples per segment of a preset spectrum (Δs = L/N); ignored with an input"),
+            ParamSpec::int("input_point", "1", 0, 0, i64::MAX, "which point of the input spectra stage to use (auto: its only point)").auto_default(),
+        ];
+        for p in WEB_PARAMS {
+            if p.name != "seed" {
+                v.push(p.into());
+            }
+        }
+        v.push(ParamSpec::int("store_all_max_points", "1", 2_000_000, 0, i64::MAX, "store every fibre when the web has at most this many nodes; otherwise a sample"));
+        v.push(ParamSpec::int("sample_fibres", "1", 8, 1, 1_000_000, "fibres stored for a larger web, evenly spread across it"));
+        v
+    }
+
+    fn run(&self, ctx: &RunContext) -> Result<Output> {
+        let webs: Vec<PointWeb> = ctx.points.iter().enumerate().map(|(i, p)| point_web(ctx, i, p)).collect::<Result<_>>()?;
+        let reps = ctx.replicates;
+        // Generate the stored fibres in parallel; positions are per (point, realisation, sample).
+        let jobs: Vec<(usize, usize, usize)> = webs
+            .iter()
+            .enumerate()
+            .flat_map(|(p, w)| (0..reps).flat_map(move |r| (0..w.sample.len()).map(move |i| (p, r, i))))
+            .collect();
+        let fibres: Vec<Vec<[f64; 2]>> = jobs.par_iter().map(|&(p, r, i)| webs[p].web.generate_fibre(r as u32, webs[p].sample[i])).collect();
+        Ok(assemble(&webs, reps, &jobs, &fibres))
+    }
+}
+
+fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
+    let selection = SpectrumSelection::from_name(p.text("spectrum_selection")).map_err(|e| BadInput(e.to_string()))?;
+    let (spectra, source) = spectra_for(ctx, p, selection)?;
+    let params = WebParams {
+        fibres_across: p.usize("fibres_across"),
+        segments_per_fibre: p.usize("segments_per_fibre"),
+        fibre_spacing: p.f64("fibre_spacing"),
+        belt_speed_ratio: p.f64("belt_speed_ratio"),
+        fibre_diameter: p.f64("fibre_diameter"),
+        fibre_density: p.f64("fibre_density"),
+        spectrum_selection: selection,
+        seed: ctx.seed,
+    };
+    let web = Web::new(params, spectra.clone()).map_err(|e| BadInput(format!("point {index}: {e}")))?;
+    let n_w = params.fibres_across;
+    let total = n_w as u128 * web.nodes_per_fibre() as u128;
+    let sample = if total <= p.int("store_all_max_points") as u128 {
+        (0..n_w).collect()
+    } else {
+        let k = p.usize("sample_fibres").min(n_w);
+        (0..k).map(|i| (2 * i + 1) * n_w / (2 * k)).collect()
+    };
+    Ok(PointWeb { web, spectra, source, sample })
+}
+
+fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> Result<(Vec<CurvatureSpectrum>, String)> {
+    let preset = p.text("preset");
+    if ctx.inputs.is_empty() {
+        if preset == "none" {
+            return Err(BadInput("a web needs a spectrum: give `input: <spectra stage>` or `preset: spectrum1|spectrum2|spectrum3`".into()).into());
+        }
+        let sq = SquareWaveParams { points_per_segment: p.usize("points_per_segment"), ..SquareWaveParams::preset(preset).ok_or_else(|| anyhow!("unknown preset {preset}"))? };
+        let s = sq.spectrum().map_err(|e| BadInput(format!("preset {preset}: {e}")))?;
+        return Ok((vec![s], format!("preset {preset}, N = {}", sq.points_per_segment)));
+    }
+    if preset != "none" {
+        return Err(BadInput(format!("give either an input spectra stage or `preset`, not both (preset: {preset})")).into());
+    }
+    let input = ctx.input(0);
+    let lengths = input.read_f64("segment_length")?;
+    let npoints = lengths.len();
+    let point = match p.0.get("input_point") {
+        Some(crate::params::ParamValue::Int(i)) => *i as usize,
+        _ if npoints == 1 => 0,
+        _ => {
+            return Err(BadInput(format!(
+                "input {} has {npoints} points; choose one with `input_point: 0..{}` (one web stage per spectrum)",
+                input.version.group_path(),
+                npoints - 1
+            ))
+            .into())
+        }
+    };
+    if point >= npoints {
+        return Err(BadInput(format!("input_point {point} is beyond the {npoints} points of {}", input.version.group_path())).into());
+    }
+    let length = lengths[[point]];
+    let row = |re: &ndarray::ArrayViewD<f64>, im: &ndarray::ArrayViewD<f64>| -> Vec<Complex64> {
+        re.iter().zip(im.iter()).take_while(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| Complex64::new(*a, *b)).collect()
+    };
+    let bad = |e: crate::stages::spectra::SpectraError| BadInput(format!("{} point {point}: {e}", input.version.group_path()));
+    match selection {
+        SpectrumSelection::Single => {
+            let re = input.read_f64("mean_curvature_spectrum_real")?;
+            let im = input.read_f64("mean_curvature_spectrum_imag")?;
+            let c = row(&re.index_axis(Axis(0), point), &im.index_axis(Axis(0), point));
+            let s = CurvatureSpectrum::new(length, c).map_err(bad)?;
+            Ok((vec![s], format!("{} point {point}: mean spectrum", input.version.group_path())))
+        }
+        SpectrumSelection::PerSegment => {
+            let re = input.read_f64("curvature_spectrum_real")?;
+            let im = input.read_f64("curvature_spectrum_imag")?;
+            let valid = input.read_u8("valid")?;
+            let (re, im) = (re.index_axis(Axis(0), point), im.index_axis(Axis(0), point));
+            let mut out = vec![];
+            let mut which = vec![];
+            for f in 0..re.shape()[0] {
+                if valid[[point, f]] == 0 {
+                    continue;
+                }
+                let c = row(&re.index_axis(Axis(0), f), &im.index_axis(Axis(0), f));
+                out.push(CurvatureSpectrum::new(length, c).map_err(bad)?);
+                which.push(f.to_string());
+            }
+            if out.is_empty() {
+                return Err(BadInput(format!("{} point {point} has no valid spectrum", input.version.group_path())).into());
+            }
+            Ok((out, format!("{} point {point}: fibre spectra {} drawn per segment", input.version.group_path(), which.join(","))))
+        }
+    }
+}
+
+fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibres: &[Vec<[f64; 2]>]) -> Output {
+    let np = webs.len();
+    let nan = f64::NAN;
+    let nspec = webs.iter().map(|w| w.spectra.len()).max().unwrap_or(0);
+    let nbins = webs.iter().map(|w| w.web.points_per_segment()).max().unwrap_or(0);
+    let nsample = webs.iter().map(|w| w.sample.len()).max().unwrap_or(0);
+    let nnodes = webs.iter().map(|w| w.web.nodes_per_fibre()).max().unwrap_or(0);
+    let mut re = Array3::from_elem((np, nspec, nbins), nan);
+    let mut im = re.clone();
+    let mut index = Array2::from_elem((np, nsample), -1i64);
+    for (p, w) in webs.iter().enumerate() {
+        for (s, spec) in w.spectra.iter().enumerate() {
+            for (r, c) in spec.coefficients().iter().enumerate() {
+                re[[p, s, r]] = c.re;
+                im[[p, s, r]] = c.im;
+            }
+        }
+        for (i, &j) in w.sample.iter().enumerate() {
+            index[[p, i]] = j as i64;
+        }
+    }
+    let mut positions = Array5::from_elem((np, reps, nsample, nnodes, 2), nan);
+    for (&(p, r, i), nodes) in jobs.iter().zip(fibres) {
+        for (k, n) in nodes.iter().enumerate() {
+            positions[[p, r, i, k, 0]] = n[0];
+            positions[[p, r, i, k, 1]] = n[1];
+        }
+    }
+    let per = |f: &dyn Fn(&Web) -> f64| Array1::from_iter(webs.iter().map(|w| f(&w.web)));
+    let per_i = |f: &dyn Fn(&Web) -> i64| Array1::from_iter(webs.iter().map(|w| f(&w.web)));
+    let mut out = Output::new();
+    out.i64("fibres_across", &["point"], per_i(&|w| w.params().fibres_across as i64), "1", "n_w, fibres started across the machine");
+    out.i64("segments_per_fibre", &["point"], per_i(&|w| w.params().segments_per_fibre as i64), "1", "n_l, random segments per fibre");
+    out.f64("fibre_spacing", &["point"], per(&|w| w.params().fibre_spacing), "m", "Δw, CD spacing of the fibres' starting points");
+    out.f64("belt_speed_ratio", &["point"], per(&|w| w.params().belt_speed_ratio), "1", "c = v_b/v_f (eqs 14-15)");
+    out.f64("fibre_diameter", &["point"], per(&|w| w.params().fibre_diameter), "m", "d, fibre diameter");
+    out.f64("fibre_density", &["point"], per(&|w| w.params().fibre_density), "kg m-3", "ρ, fibre material density");
+    out.strings("spectrum_selection", "point", webs.iter().map(|w| w.web.params().spectrum_selection.name().to_string()).collect(), "single: first spectrum for every segment; per_segment: each segment draws one of the set");
+    out.strings("rng_seed", "point", webs.iter().map(|w| w.web.params().seed.to_string()).collect(), "master seed of the fibre streams (decimal u64): fibre j of realisation k uses ChaCha8 stream k·2^32 + j");
+    out.strings("spectrum_source", "point", webs.iter().map(|w| w.source.clone()).collect(), "where the spectrum came from");
+    out.i64("points_per_segment", &["point"], per_i(&|w| w.points_per_segment() as i64), "1", "N, samples per segment");
+    out.f64("segment_length", &["point"], per(&|w| w.segment_length()), "m", "L, segment length");
+    out.f64("node_spacing", &["point"], per(&|w| w.spacing()), "m", "Δs = L/N, arc length between nodes");
+    out.i64("nodes_per_fibre", &["point"], per_i(&|w| w.nodes_per_fibre() as i64), "1", "n_l·N + 1 nodes per fibre");
+    out.f64("point_mass", &["point"], per(&|w| w.point_mass()), "kg", "Δm = ρ(πd²/4)Δs carried by every node but the last");
+    out.f64("drift_length", &["point"], per(&|w| w.drift_length()), "m", "c·n_l·L, nominal MD extent of the web");
+    out.f64("interior_areal_density", &["point"], per(&|w| w.params().interior_areal_density() * 1e3), "g m-2", "ρ(πd²/4)/(Δw·c), areal density far from edges and drift ends");
+    out.i64("spectrum_count", &["point"], Array1::from_iter(webs.iter().map(|w| w.spectra.len() as i64)), "1", "spectra in the set (entries beyond are NaN padding)");
+    out.f64("spectrum_real", &["point", "spectrum", "bin"], re, "m-1", "real part of the K_r the fibres use (magnitudes kept, phases randomised; eq 11)");
+    out.f64("spectrum_imag", &["point", "spectrum", "bin"], im, "m-1", "imaginary part of the K_r the fibres use");
+    out.i64("sample_fibre_index", &["point", "sample_fibre"], index, "1", "index j of each stored fibre (-1: padding)");
+    out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis: x machine direction (belt motion), y cross direction");
+    out.f64("fibre_positions", &["point", "realisation", "sample_fibre", "node", "xy"], positions, "m", "nodes of the stored fibres (realisation = replicate), s = node·Δs; NaN padding");
+    out.attrs.insert(
+        "fibre_sample_rule".into(),
+        "all fibres when n_w·(n_l·N+1) <= store_all_max_points, else sample_fibres fibres j_i = floor((2i+1)·n_w/(2k))".into(),
+    );
+    out
+}
+
+/// The webs of a web stage version, one per point, rebuilt bit-exactly from its
+/// stored parameters, seed and spectrum coefficients.
+pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
+    let g = input.version.open()?;
+    let f = |n: &str| crate::archive::hdf::read_f64(&g, n);
+    let i = |n: &str| crate::archive::hdf::read_i64(&g, n);
+    let (n_w, n_l, nn, count) = (i("fibres_across")?, i("segments_per_fibre")?, i("points_per_segment")?, i("spectrum_count")?);
+    let (dw, c, d, rho, length) = (f("fibre_spacing")?, f("belt_speed_ratio")?, f("fibre_diameter")?, f("fibre_density")?, f("segment_length")?);
+    let (re, im) = (f("spectrum_real")?, f("spectrum_imag")?);
+    let selection = crate::archive::hdf::read_strings(&g, "spectrum_selection")?;
+    let seeds = crate::archive::hdf::read_strings(&g, "rng_seed")?;
+    (0..n_w.len())
+        .map(|p| {
+            let spectra = (0..count[[p]] as usize)
+                .map(|s| {
+                    let coeffs = (0..nn[[p]] as usize).map(|r| Complex64::new(re[[p, s, r]], im[[p, s, r]])).collect();
+                    CurvatureSpectrum::new(length[[p]], coeffs)
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let params = WebParams {
+                fibres_across: n_w[[p]] as usize,
+                segments_per_fibre: n_l[[p]] as usize,
+                fibre_spacing: dw[[p]],
+                belt_speed_ratio: c[[p]],
+                fibre_diameter: d[[p]],
+                fibre_density: rho[[p]],
+                spectrum_selection: SpectrumSelection::from_name(&selection[p])?,
+                seed: seeds[p].parse()?,
+            };
+            Ok(Web::new(params, spectra)?)
+        })
+        .collect()
+}

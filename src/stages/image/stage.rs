@@ -349,21 +349,11 @@ type Sweep = Vec<(String, String, Vec<f64>)>;
 
 fn grid_sweep(input: &Input, npoints: usize) -> Result<Sweep> {
     let g = input.version.open()?;
-    let mut out = vec![];
-    for name in g.member_names()? {
-        let Ok(ds) = g.dataset(&name) else { continue };
-        if ds.shape() != [npoints] || !ds.attr_names()?.iter().any(|a| a == "parameter") {
-            continue;
-        }
-        let Ok(values) = ds.read_raw::<f64>() else { continue };
-        let attrs = crate::archive::hdf::read_attrs(&ds)?;
-        let unit = match attrs.get("units") {
-            Some(Attr::Str(u)) => u.clone(),
-            _ => String::new(),
-        };
-        out.push((name, unit, values));
-    }
-    Ok(out)
+    Ok(crate::archive::hdf::swept_coordinates(&g)
+        .into_iter()
+        .filter(|s| s.values.len() == npoints && s.values.iter().all(|v| v.is_finite()))
+        .map(|s| (s.parameter.replace('.', "_"), s.units, s.values))
+        .collect())
 }
 
 fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep, Option<GridData>)> {

@@ -21,6 +21,21 @@ stages:
     kind: spectra
     params: {preset: spectrum1}
     replicates: 2
+  - name: web
+    kind: web
+    params: {preset: spectrum1, points_per_segment: 250, fibres_across: 100, fibre_spacing: 0.001, segments_per_fibre: 5}
+    sweep:
+      belt_speed_ratio: [0.05, 0.1]
+  - name: grid
+    kind: grid
+    input: web
+    params: {cell_size: 0.002, window_side: 0.1, boundary: periodic}
+    replicates: 2
+  - name: scans
+    kind: image
+    input: grid
+    params:
+      bonds: {shape: circle, size1: 0.003, period1: 0.009, period2: 0.009, angle: 45.0, angle_between: 90.0, contrast: 0.15, zero_mean: true}
 ";
 
 /// Distinct colours in a PNG: a blank or single-colour figure has one or two.
@@ -44,7 +59,9 @@ fn every_stage_plots_as_png_and_svg() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let paths: Vec<&str> = out.lines().collect();
-    for expected in ["fibre/v1/fibre.png", "fibre/v1/sweep_fibres.png", "fibre/v1/radius_of_gyration_bending_energy.png", "spectra/v1/energy_spectrum.png", "ideal/v1/curvature.png"] {
+    for expected in ["fibre/v1/fibre.png", "fibre/v1/sweep_fibres.png", "fibre/v1/radius_of_gyration_bending_energy.png", "spectra/v1/energy_spectrum.png", "ideal/v1/curvature.png",
+        "web/v1/fibres.png", "grid/v1/density.png", "grid/v1/zone_size.png", "grid/v1/uniformity_vs_sweep_belt_speed_ratio.png",
+        "scans/v1/sample000.png", "scans/v1/cv.png"] {
         let p = paths.iter().find(|p| p.ends_with(expected)).unwrap_or_else(|| panic!("{expected} missing from {out}"));
         let p = dir.path().join(p);
         assert!(p.starts_with(dir.path().join("plots_figures")), "{}", p.display());

@@ -241,7 +241,7 @@ fn padded_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 /// Engineering-style tick label.
 pub fn tick(v: f64) -> String {
     let a = v.abs();
-    if a == 0.0 {
+    if a < 1e-12 {
         "0".into()
     } else if !(1e-3..1e4).contains(&a) {
         format!("{v:.1e}")
@@ -408,7 +408,7 @@ fn downsample(values: &Array2<f64>, max_side: usize) -> Array2<f64> {
 fn draw_map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &MapPanel, format: Format) -> Result<()> {
     use plotters::style::colors::colormaps::ViridisRGB;
     let (w, _) = area.dim_in_pixel();
-    let (main, bar) = area.split_horizontally(w.saturating_sub(90));
+    let (main, bar) = area.split_horizontally(w.saturating_sub(110));
     // SVG gets at most 160 cells a side (file size); PNG at most one cell per pixel.
     let max_side = match format {
         Format::Svg => 160,
@@ -463,7 +463,7 @@ fn draw_map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &MapPanel, for
         .margin_top(36)
         .margin_bottom(50)
         .margin_right(6)
-        .y_label_area_size(58)
+        .y_label_area_size(78)
         .build_cartesian_2d(0.0..1.0, vmin..vmax)
         .map_err(plot_err)?;
     cb.configure_mesh()

@@ -11,8 +11,11 @@
 //! for p in paths { println!("{}", p.display()); }
 //! ```
 pub mod figure;
+mod grid;
+mod image;
 mod laydown;
 mod spectra;
+mod web;
 
 use crate::archive::data::Attr;
 use crate::archive::{hdf, Archive, VersionInfo};
@@ -72,6 +75,12 @@ impl StageData {
     pub fn swept(&self) -> Vec<Swept> {
         hdf::swept_coordinates(&self.group)
     }
+    /// An image version's first numeric `condition_<param>` coordinate: (parameter, value per condition).
+    pub fn swept_conditions(&self) -> Option<(String, Vec<f64>)> {
+        let name = self.group.member_names().ok()?.into_iter().find(|n| n.starts_with("condition_") && n != "condition_samples")?;
+        let values = self.f64(&name).ok()?;
+        Some((name.trim_start_matches("condition_").to_string(), values.iter().copied().collect()))
+    }
     /// Short text naming sweep point `p` (e.g. `friction_coefficient = 0.5`).
     pub fn point_label(&self, p: usize) -> String {
         hdf::point_label(&self.swept(), p)
@@ -100,6 +109,9 @@ pub fn figures(data: &StageData) -> Result<Vec<Figure>> {
     match data.kind() {
         "laydown" => laydown::figures(data),
         "spectra" => spectra::figures(data),
+        "web" => web::figures(data),
+        "grid" => grid::figures(data),
+        "image" => image::figures(data),
         other => bail!("no plots for stage kind `{other}` yet"),
     }
 }

@@ -157,7 +157,7 @@ mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, LaydownResult};
-pub use params::{parameter_table_markdown, Effects, Integrator, LaydownParams, ParamError, ParamKind, ParamSpec, PARAMETERS};
+pub use params::{parameter_table_markdown, BounceCheck, Effects, Integrator, LaydownParams, ParamError, ParamKind, ParamSpec, PARAMETERS};
 pub use scene::{replicate_rng, run_jobs, simulate, LaydownJob};
 
 mod stage;

@@ -234,11 +234,10 @@ impl Simulator {
     }
 
     /// Advance one step. On failure the state is left as it was after the failing step.
-    pub fn step(&mut self) -> Result<(), StepFailure> {
-        let dt = self.dt;
-        let t = self.t;
-        let n = self.rod.nodes();
-        self.max_compression = 0.0;
+    /// Step 1 alone: segment geometry, explicit forces and implicit node matrices of
+    /// every enabled term at the current state (the hot kernel, exposed for benches).
+    pub fn evaluate_forces(&mut self) {
+        let (dt, t, n) = (self.dt, self.t, self.rod.nodes());
         self.ws.update_geometry(&self.rod);
         for i in 0..n {
             self.ws.force[i] = [0.0; 3];
@@ -249,6 +248,14 @@ impl Simulator {
         for term in &self.terms {
             term.accumulate(&self.rod, &mut self.ws, t, dt);
         }
+    }
+
+    pub fn step(&mut self) -> Result<(), StepFailure> {
+        let dt = self.dt;
+        let t = self.t;
+        let n = self.rod.nodes();
+        self.max_compression = 0.0;
+        self.evaluate_forces();
         // 2. node-wise implicit velocity update
         let need_w = self.integrator != Integrator::Explicit;
         let driven = if self.driven_top.is_some() { n - 1 } else { usize::MAX };

@@ -161,6 +161,18 @@ pub fn simulate<R: Rng + ?Sized>(params: &LaydownParams, rng: &mut R) -> Laydown
     result
 }
 
+/// A simulator of the paper's scene advanced (adaptive stepping) to time `t`, with its
+/// step reset to the largest allowed one: the state a bench times single steps on.
+pub fn prepared_simulator<R: Rng + ?Sized>(params: &LaydownParams, rng: &mut R, t: f64) -> Simulator {
+    let start = paper_start(params, params.resolved_elements(), rng);
+    let mut sim = build(params, start);
+    if t > 0.0 {
+        let _ = run(&mut sim, params, t);
+    }
+    sim.dt = sim.limits.chosen;
+    sim
+}
+
 /// Integrate `sim` up to `end_time` and assemble the result.
 pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> LaydownResult {
     let clock = Instant::now();

@@ -184,7 +184,7 @@
 //! (16.5 → 14.2 mm from 5 to 20 m/s). Without air (V_air = 0) every replicate (30 of 30)
 //! ends with fibre 2-7 cm above the belt: nothing holds the coils down, the paper's
 //! validity rule rejects them and `valid_shortfall` records it. The whole pipeline
-//! took 320 s of CPU (sum of the stages' `cpu_seconds` 317 s; 26 points, 280 replicates),
+//! took 320 s of CPU (sum of the stages' `cpu_seconds` 317 s; 26 points, 282 replicates attempted),
 //! 22 min 41 s wall at load 8-12 on the shared 2-core VM (23 % of the CPU); on two
 //! idle cores that is about 160 s wall, within the 5-minute target (extrapolated).
 //!

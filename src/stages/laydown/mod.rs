@@ -184,9 +184,11 @@
 //! (16.5 → 14.2 mm from 5 to 20 m/s). Without air (V_air = 0) every replicate (30 of 30)
 //! ends with fibre 2-7 cm above the belt: nothing holds the coils down, the paper's
 //! validity rule rejects them and `valid_shortfall` records it. The whole pipeline
-//! took 320 s of CPU (sum of the stages' `cpu_seconds` 317 s; 26 points, 282 replicates attempted),
-//! 22 min 41 s wall at load 8-12 on the shared 2-core VM (23 % of the CPU); on two
-//! idle cores that is about 160 s wall, within the 5-minute target (extrapolated).
+//! takes 317-320 s of CPU (26 points, 282 replicates attempted; the 20 extra ones are the
+//! V_air = 0 point hitting `max_replicates`): 306 s wall at load 3.2-4.0 on the shared
+//! 2-core VM, 22 min 41 s at load 8-12; on two idle cores that is about 160 s
+//! (extrapolated from the CPU time), within the 5-minute target. Two runs gave
+//! identical results.
 //!
 //! Hard cases at full size (`pipelines/stability/hard_cases.yaml`, 1 replicate each,
 //! 68 s CPU in all): all 11 complete without a numerical error. Valid: μ 0 and 5,
@@ -198,14 +200,15 @@
 //! Benchmarks (`cargo bench --bench laydown`, criterion; load 9.5-11 on 2 cores, so
 //! wall times are 3-5 times the idle ones): `forces_1000` 193 µs, `step_1000` 853 µs,
 //! `replicate_baseline_fast` 5.8 s. `examples/laydown_timing.rs`
-//! (RAYON_NUM_THREADS=1, seed 2024, one replicate, load 10-13): explicit 344 709 steps,
-//! 314-321 s wall; fast 8 786 steps, 10-12 s wall; speed-up 27-32 times; S −1.1 %,
-//! e −3.9 % (a single chaotic replicate: the ensemble comparison above is the accuracy
+//! (RAYON_NUM_THREADS=1, seed 2024, one replicate): at load 3.4 explicit 344 709 steps
+//! in 26.4 s wall, fast 8 786 steps in 1.10 s, speed-up 23.9 times (at load 10-13:
+//! 314-321 s against 10-12 s); S −1.1 %, e −3.9 % (a single chaotic replicate: the
+//! ensemble comparison above, +0.8 % in S and +2.2 % in e pooled, is the accuracy
 //! measure). perf on one fast replicate: force terms 34 %, length projection 31 %, node
 //! solves in `step` 20 %, contact 4 %, work diagnostics 4 %: about 8.8 million
 //! node-steps at ~115 ns each, the step count being set by the bending limit
 //! Δs²/2·√(ρA/EI) (22 µs) and the µs steps of the start-up impact. The ≤ 1 s target
-//! is met only on an idle core (1.02-1.08 s CPU measured before), not under load.
+//! is not quite met: 1.02-1.10 s on a lightly loaded core.
 //!
 //! Tests: `cargo test --release --lib stages::laydown` runs 17 tests in about 13-16 s
 //! on this VM (about 25 s with the build of the test binary). Manual benches:

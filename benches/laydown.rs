@@ -5,6 +5,7 @@
 //!   projection) from the same state (restoring a snapshot first, included in the time);
 //! - `replicate_baseline_fast`: one whole Table 1 replicate with the default
 //!   `trapezoidal_axial` scheme (0.19 s simulated), sample size 10.
+//!
 //! The explicit reference (about 40 s per replicate) is timed by
 //! `examples/laydown_timing.rs` instead.
 //!

@@ -7,9 +7,11 @@ use laydown::stages::laydown::{replicate_rng, run_jobs, LaydownJob, LaydownParam
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num: Vec<&String> = args.iter().filter(|a| !a.contains('=')).collect();
-    let mut p = LaydownParams::default();
-    p.length = num.first().map_or(0.3, |s| s.parse().unwrap());
-    p.elements = num.get(1).map_or(300, |s| s.parse().unwrap());
+    let mut p = LaydownParams {
+        length: num.first().map_or(0.3, |s| s.parse().unwrap()),
+        elements: num.get(1).map_or(300, |s| s.parse().unwrap()),
+        ..Default::default()
+    };
     let reps: u64 = num.get(2).map_or(8, |s| s.parse().unwrap());
     let seed: u64 = num.get(3).map_or(2024, |s| s.parse().unwrap());
     for kv in args.iter().filter(|a| a.contains('=')) {

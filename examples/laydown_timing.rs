@@ -15,8 +15,7 @@ fn main() {
     let n: u64 = args.first().map_or(1, |s| s.parse().unwrap());
     let seed: u64 = args.get(1).map_or(2024, |s| s.parse().unwrap());
     let run = |integ: Integrator| -> (Vec<LaydownResult>, f64) {
-        let mut p = LaydownParams::default();
-        p.integrator = integ;
+        let p = LaydownParams { integrator: integ, ..Default::default() };
         let t0 = Instant::now();
         let res: Vec<LaydownResult> = (0..n).map(|r| simulate(&p, &mut replicate_rng(seed, r))).collect();
         (res, t0.elapsed().as_secs_f64())

@@ -197,9 +197,9 @@
 //! end, no error): v_f 50 m/s (5 514 elements, 22 s CPU; 17 mm), V_air 0 (31 mm),
 //! f 200 Hz (9.7 mm).
 //!
-//! Benchmarks (`cargo bench --bench laydown`, criterion; load 9.5-11 on 2 cores, so
-//! wall times are 3-5 times the idle ones): `forces_1000` 193 µs, `step_1000` 853 µs,
-//! `replicate_baseline_fast` 5.8 s. `examples/laydown_timing.rs`
+//! Benchmarks (`cargo bench --bench laydown`, criterion, load 2.5-3.3 on 2 cores):
+//! `forces_1000` 37.8 µs (38 ns per element), `step_1000` 108 µs (with the snapshot
+//! restore), `replicate_baseline_fast` 1.09 s (at load 9.5-11: 193 µs, 853 µs, 5.8 s). `examples/laydown_timing.rs`
 //! (RAYON_NUM_THREADS=1, seed 2024, one replicate): at load 3.4 explicit 344 709 steps
 //! in 26.4 s wall, fast 8 786 steps in 1.10 s, speed-up 23.9 times (at load 10-13:
 //! 314-321 s against 10-12 s); S −1.1 %, e −3.9 % (a single chaotic replicate: the

@@ -42,8 +42,9 @@ fn presets_sweep_gives_the_paper_energies() {
 #[test]
 fn laydown_with_no_valid_replicate_is_bad_input() {
     let tmp = tempfile::tempdir().unwrap();
-    // bounce_tolerance 0: any lift of a landed node invalidates the replicate.
-    write_pipeline(tmp.path(), "p.yaml", &LAID.replace("BOUNCE", "bounce_tolerance: 0.0").replace("SPECTRA", ""));
+    // bounce_tolerance 0 on the transient lift: any rise of a landed node at any time
+    // invalidates the replicate (the default final-profile test may find none).
+    write_pipeline(tmp.path(), "p.yaml", &LAID.replace("BOUNCE", "bounce_tolerance: 0.0, bounce_check: transient").replace("SPECTRA", ""));
     let out = run_in(tmp.path(), &["run", "p.yaml"]);
     let (o, e) = text(&out);
     let a = Archive::open_read(&tmp.path().join("study.h5")).unwrap();

@@ -141,6 +141,8 @@ pub struct Simulator {
     pub landing_time: Vec<f64>,
     /// Highest z of each node after its landing.
     pub max_lift: Vec<f64>,
+    /// Time at which each node reached its `max_lift` (NaN: never rose).
+    pub lift_time: Vec<f64>,
     /// Deepest belt penetration seen (m, ≥ 0).
     pub max_penetration: f64,
     pub penetration_tolerance: f64,
@@ -172,6 +174,7 @@ pub struct Snapshot {
     v: Vec<[f64; 3]>,
     landing_time: Vec<f64>,
     max_lift: Vec<f64>,
+    lift_time: Vec<f64>,
     segment_force: Vec<f64>,
     t: f64,
     work: Work,
@@ -190,6 +193,7 @@ impl Simulator {
         s.landing_time.clone_from(&self.landing_time);
         s.segment_force.clone_from(&self.segment_force);
         s.max_lift.clone_from(&self.max_lift);
+        s.lift_time.clone_from(&self.lift_time);
         s.t = self.t;
         s.work = self.work;
         s.max_penetration = self.max_penetration;
@@ -203,6 +207,7 @@ impl Simulator {
         self.landing_time.copy_from_slice(&s.landing_time);
         self.segment_force.copy_from_slice(&s.segment_force);
         self.max_lift.copy_from_slice(&s.max_lift);
+        self.lift_time.copy_from_slice(&s.lift_time);
         self.t = s.t;
         self.work = s.work;
         self.max_penetration = s.max_penetration;
@@ -229,11 +234,10 @@ impl Simulator {
     }
 
     /// Advance one step. On failure the state is left as it was after the failing step.
-    pub fn step(&mut self) -> Result<(), StepFailure> {
-        let dt = self.dt;
-        let t = self.t;
-        let n = self.rod.nodes();
-        self.max_compression = 0.0;
+    /// Step 1 alone: segment geometry, explicit forces and implicit node matrices of
+    /// every enabled term at the current state (the hot kernel, exposed for benches).
+    pub fn evaluate_forces(&mut self) {
+        let (dt, t, n) = (self.dt, self.t, self.rod.nodes());
         self.ws.update_geometry(&self.rod);
         for i in 0..n {
             self.ws.force[i] = [0.0; 3];
@@ -244,6 +248,14 @@ impl Simulator {
         for term in &self.terms {
             term.accumulate(&self.rod, &mut self.ws, t, dt);
         }
+    }
+
+    pub fn step(&mut self) -> Result<(), StepFailure> {
+        let dt = self.dt;
+        let t = self.t;
+        let n = self.rod.nodes();
+        self.max_compression = 0.0;
+        self.evaluate_forces();
         // 2. node-wise implicit velocity update
         let need_w = self.integrator != Integrator::Explicit;
         let driven = if self.driven_top.is_some() { n - 1 } else { usize::MAX };
@@ -390,6 +402,7 @@ impl Simulator {
                     }
                 } else if x[2] > self.max_lift[i] {
                     self.max_lift[i] = x[2];
+                    self.lift_time[i] = t_new;
                 }
             }
         }

@@ -10,13 +10,21 @@ pub struct LaydownResult {
     pub positions: Vec<[f64; 3]>,
     /// Time each node first touched the belt (s); NaN = never landed.
     pub landing_time: Vec<f64>,
-    /// False when a landed node later rose above `bounce_tolerance` (the paper rejects
-    /// such bounced fibres) or when the run failed.
+    /// False when a landed node is above `bounce_tolerance` (in the final profile, or at
+    /// any time with `bounce_check` = transient; the paper rejects such bounced fibres)
+    /// or when the run failed.
     pub valid: bool,
     pub invalid_reason: Option<String>,
-    /// Highest rise of any node above the belt after its landing (m); compared with
-    /// `bounce_tolerance` for `valid`.
+    /// Highest rise of any node above the belt after its landing, at any time (m);
+    /// compared with `bounce_tolerance` for `valid` when `bounce_check` = transient.
     pub max_lift_after_landing: f64,
+    /// Highest landed node above the belt in the final profile (m); compared with
+    /// `bounce_tolerance` for `valid` when `bounce_check` = final (the default).
+    pub final_lift_of_landed: f64,
+    /// Per node: highest rise above the belt after landing (m, 0 = never rose or never landed).
+    pub lift: Vec<f64>,
+    /// Per node: time of that highest rise (s, NaN = never rose).
+    pub lift_time: Vec<f64>,
     /// Laid nodes (those that landed), in fibre order.
     pub landed_nodes: usize,
     /// Arc length of the laid polyline (m).
@@ -65,6 +73,9 @@ impl LaydownResult {
             valid: false,
             invalid_reason: Some(error.clone()),
             max_lift_after_landing: 0.0,
+            lift: Vec::new(),
+            final_lift_of_landed: 0.0,
+            lift_time: Vec::new(),
             landed_nodes: 0,
             laid_length: 0.0,
             radius_of_gyration: 0.0,

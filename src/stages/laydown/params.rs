@@ -53,6 +53,29 @@ impl Integrator {
     }
 }
 
+/// Which rise of a landed node above the belt decides that a replicate bounced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BounceCheck {
+    /// The paper's test: a landed node still out of plane (above `bounce_tolerance`) in
+    /// the final profile, the one S and e are measured on.
+    #[default]
+    Final,
+    /// Stricter: the highest rise of any landed node at any time after its landing,
+    /// including rises that settle back before the end.
+    Transient,
+}
+
+impl BounceCheck {
+    pub const NAMES: [&'static str; 2] = ["final", "transient"];
+    pub fn name(self) -> &'static str {
+        match self {
+            BounceCheck::Final => "final",
+            BounceCheck::Transient => "transient",
+        }
+    }
+}
+
 /// Opt-in physical effects. A disabled effect is not built at all (no cost).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -166,6 +189,8 @@ pub struct LaydownParams {
     pub duration: f64,
     /// Time integration scheme.
     pub integrator: Integrator,
+    /// Which lift of landed nodes `bounce_tolerance` applies to.
+    pub bounce_check: BounceCheck,
     /// Physical effects switched on.
     pub effects: Effects,
 }
@@ -201,6 +226,7 @@ impl Default for LaydownParams {
             coil_resolution: 2.0,
             duration: 0.0,
             integrator: Integrator::default(),
+            bounce_check: BounceCheck::default(),
             effects: Effects::default(),
         }
     }
@@ -258,7 +284,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
     real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step"),
     int("diagnostic_stride", 1000.0, 1.0, 1e9, "record energy diagnostics every this many steps"),
-    real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node later higher than this invalidates the replicate"),
+    real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
     real("coil_resolution", "1", 2.0, 0.0, 100.0, "minimum elements per inertial coil scale sqrt(EI/(rho A v_f^2)); 0 = off"),
     real("duration", "s", 0.0, 0.0, 1e3, "simulated time; 0 = until the top node reaches laydown_height"),
@@ -484,6 +510,11 @@ pub fn parameter_table_markdown() -> String {
     for (name, doc) in Effects::FLAGS {
         s += &format!("| effects.{name} | bool | true | | | {doc} |\n");
     }
+    s += &format!(
+        "| bounce_check | | {} | | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
+        BounceCheck::default().name(),
+        BounceCheck::NAMES.join(", ")
+    );
     s += &format!(
         "| integrator | | {} | | | one of {} |\n",
         Integrator::default().name(),

@@ -386,6 +386,12 @@ fn check_replicate(name: &str, r: &LaydownResult, p: &LaydownParams) {
         assert!(v.is_finite() && v >= 0.0, "{name}: metric {v}");
     }
     assert!(r.diagnostics.iter().all(|d| d.kinetic.is_finite() && d.elastic.is_finite()));
+    // bounded energy: kinetic energy never above that of the whole fibre moving at ten
+    // times the fastest imposed speed
+    let v_ref = p.fibre_speed.max(p.air_speed).max(p.belt_speed).max(p.angular_frequency() * p.oscillation_amplitude).max(1.0);
+    let bound = 0.5 * p.mass_per_length() * p.length * (10.0 * v_ref).powi(2);
+    let kmax = r.diagnostics.iter().map(|d| d.kinetic).fold(0.0, f64::max);
+    assert!(kmax <= bound, "{name}: kinetic energy {kmax:.3e} J above {bound:.3e} J");
     match &r.error {
         None => assert!(r.landed_nodes > 10, "{name}: only {} nodes landed", r.landed_nodes),
         Some(e) => assert!(!e.is_empty()),
@@ -512,4 +518,46 @@ fn mesh_convergence_reduced() {
 #[ignore]
 fn print_parameter_table() {
     println!("{}", parameter_table_markdown());
+}
+
+#[test]
+fn valid_replicate_target_is_deterministic_and_capped() {
+    // A strict bounce tolerance (20 µm) makes many replicates invalid, so extra rounds
+    // are needed; the set of runs and every result must not depend on the thread count.
+    let mut p = reduced();
+    p.length = 0.1;
+    p.elements = 100;
+    p.bounce_tolerance = 2e-5;
+    p.bounce_check = BounceCheck::Transient;
+    let mut q = p.clone();
+    q.bounce_tolerance = 1e-3;
+    let scenes = vec![p.clone(), q];
+    let targets = vec![(3, 10), (2, 10)];
+    let go = |threads: usize| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
+            super::stage::run_until_valid(&scenes, &targets, 2, false, "t", |pt, r| {
+                simulate(&scenes[pt], &mut replicate_rng(5, r as u64))
+            })
+        })
+    };
+    let (one, two) = (go(1), go(2));
+    assert_eq!(one.len(), 2);
+    for (a, b) in one.iter().zip(&two) {
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!(bits(x), bits(y), "1 vs 2 threads");
+        }
+    }
+    for (pt, rs) in one.iter().enumerate() {
+        let valid = rs.iter().filter(|r| r.valid).count();
+        println!("point {pt}: attempted {} valid {valid}", rs.len());
+        let (target, cap) = targets[pt];
+        assert!(rs.len() >= 2 && rs.len() <= cap);
+        assert!(valid >= target || rs.len() == cap, "stopped early: {valid} valid of {}", rs.len());
+        // replicate r is the same run whatever round drew it
+        let last = rs.len() - 1;
+        assert_eq!(bits(&rs[last]), bits(&simulate(&scenes[pt], &mut replicate_rng(5, last as u64))));
+    }
+    // the strict point needed more than its first two replicates
+    assert!(one[0].len() > 2, "expected extra rounds at the strict tolerance");
 }

@@ -483,6 +483,12 @@ fn paper_trends() {
     println!("d 30 {thin:?}\nd 80 {thick:?}");
     assert!(thick[0] > 1.3 * thin[0], "S(d): {} vs {}", thin[0], thick[0]);
     assert!(thick[1] < thin[1], "e(d): {} vs {}", thin[1], thick[1]);
+    // oscillation amplitude: S grows with u0 above 10 mm (Fig 5e)
+    let u10 = with(&|p| p.oscillation_amplitude = 0.010);
+    let u50 = with(&|p| p.oscillation_amplitude = 0.050);
+    println!("u0 10 mm {u10:?}\nu0 50 mm {u50:?}");
+    assert!(u50[0] > 1.3 * u10[0], "S(u0): {} vs {}", u10[0], u50[0]);
+    assert!(u50[2] > 1.3 * u10[2], "S_removed(u0): {} vs {}", u10[2], u50[2]);
     // belt speed: raw S grows, with the belt motion removed S and e hardly change (Figs 5d, 6d)
     let slow = with(&|p| p.belt_speed = 0.05);
     let fast = with(&|p| p.belt_speed = 0.5);

@@ -247,7 +247,11 @@ pub fn swept_coordinates(group: &hdf5::Group) -> Vec<Swept> {
             _ => String::new(),
         };
         let (values, labels) = match read_f64(group, &name) {
-            Ok(v) => (v.iter().copied().collect::<Vec<_>>(), v.iter().map(|x| crate::params::format_float(*x)).collect()),
+            Ok(v) => (
+                v.iter().copied().collect::<Vec<_>>(),
+                // Whole numbers (element counts, ...) without a trailing `.0`.
+                v.iter().map(|x| if x.fract() == 0.0 && x.abs() < 1e15 { format!("{}", *x as i64) } else { crate::params::format_float(*x) }).collect(),
+            ),
             Err(_) => {
                 let s = read_strings(group, &name).unwrap_or_default();
                 (vec![f64::NAN; s.len()], s)

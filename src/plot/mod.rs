@@ -11,6 +11,7 @@
 //! for p in paths { println!("{}", p.display()); }
 //! ```
 pub mod figure;
+mod accuracy;
 mod grid;
 mod image;
 mod laydown;
@@ -112,6 +113,7 @@ pub fn figures(data: &StageData) -> Result<Vec<Figure>> {
         "web" => web::figures(data),
         "grid" => grid::figures(data),
         "image" => image::figures(data),
+        "accuracy" => accuracy::figures(data),
         other => bail!("no plots for stage kind `{other}` yet"),
     }
 }

@@ -13,6 +13,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
+pub mod accuracy;
 pub mod grid;
 pub mod image;
 pub mod laydown;
@@ -178,7 +179,7 @@ pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
 
 /// Every stage kind the pipeline knows.
 pub fn registry() -> Vec<&'static dyn Stage> {
-    vec![&laydown::LaydownStage, &spectra::SpectraStage, &web::WebStage, &grid::GridStage, &image::stage::ImageStage]
+    vec![&laydown::LaydownStage, &spectra::SpectraStage, &web::WebStage, &grid::GridStage, &image::stage::ImageStage, &accuracy::AccuracyStage]
 }
 
 pub fn find(kind: &str) -> Option<&'static dyn Stage> {

@@ -1,0 +1,47 @@
+//! Accuracy figures: relative error of each metric against wall time per unit, one
+//! series per candidate stage, log-log.
+use super::figure::{Figure, LinePanel, Panel, Series, Style};
+use super::StageData;
+use anyhow::Result;
+use ndarray::Ix2;
+
+pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
+    let metrics = d.strings("metric")?;
+    let stages = d.strings("candidate_stage")?;
+    let error = d.f64("relative_error")?.into_dimensionality::<Ix2>()?;
+    let wall = d.f64("wall_seconds")?;
+    let mut names: Vec<String> = vec![];
+    for s in &stages {
+        if !names.contains(s) {
+            names.push(s.clone());
+        }
+    }
+    let panels = metrics
+        .iter()
+        .enumerate()
+        .map(|(m, metric)| {
+            let series = names
+                .iter()
+                .enumerate()
+                .map(|(k, name)| {
+                    let pts = (0..stages.len())
+                        .filter(|&c| &stages[c] == name)
+                        // An exact match has no place on a log axis; show it at 1e-6.
+                        .map(|c| (wall[[c]], error[[c, m]].abs().max(1e-6)))
+                        .collect();
+                    Series::new(Some(name), pts, Style::LineMarkers, k)
+                })
+                .collect();
+            Panel::Lines(LinePanel {
+                title: format!("{metric}: error against cost"),
+                x_label: "wall time per unit (s)".into(),
+                y_label: "|relative error| (exact shown at 1e-6)".into(),
+                log_x: true,
+                log_y: true,
+                series,
+                ..Default::default()
+            })
+        })
+        .collect();
+    Ok(vec![Figure::new("accuracy_cost", &format!("What accuracy costs (reference: {})", d.info.attr_str("reference").unwrap_or("?")), panels, 2)])
+}

@@ -22,7 +22,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         for p in 0..points.min(4) {
             // density is (md, cd); a map's rows run along y = CD.
             let map: Array2<f64> = density.index_axis(Axis(0), p).index_axis(Axis(0), 0).t().to_owned();
-            let label = d.point_label(p);
+            // The first swept parameter names the panel (zip sweeps would make long titles).
+            let label = swept.first().map(|s| format!("{} = {}", s.parameter, s.labels[p])).unwrap_or_default();
             maps.push(Panel::Map(MapPanel {
                 title: if label.is_empty() { "realisation 0".into() } else { format!("{label}, realisation 0") },
                 x_label: "x, machine direction, from the window edge (m)".into(),
@@ -91,12 +92,19 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
 
     // ρ_av and CV against each swept parameter (Fig 10d,e); measured Table 4 values (Fig 13).
     let reference = d.has("reference_belt_speed_ratio");
+    let mut orders_seen: Vec<Vec<usize>> = vec![];
     for s in &swept {
         let mut order: Vec<usize> = (0..points).filter(|&p| s.values[p].is_finite()).collect();
         if order.len() < 2 {
             continue;
         }
         order.sort_by(|&a, &b| s.values[a].total_cmp(&s.values[b]));
+        // Parameters swept together (zip) in the same or reverse order: one figure is enough.
+        let reversed: Vec<usize> = order.iter().rev().copied().collect();
+        if orders_seen.iter().any(|o| *o == order || *o == reversed) {
+            continue;
+        }
+        orders_seen.push(order.clone());
         let line = |name: &str, scale: f64, colour: usize| -> Result<Series> {
             let (m, sd): (ArrayD<f64>, ArrayD<f64>) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
             Ok(Series::new(Some("simulated"), order.iter().map(|&p| (s.values[p], m[[p]] * scale)).collect(), Style::LineMarkers, colour)

@@ -40,11 +40,20 @@ stages:
     params: {length: 0.08, laydown_height: 0.03, elements: 40}
     sweep: {elements: [50, 60, 70, 80]}
     replicates: 2
+  - name: web
+    kind: web
+    params: {preset: spectrum1, points_per_segment: 100, fibres_across: 20, fibre_spacing: 0.005, segments_per_fibre: 3}
+    sweep: {belt_speed_ratio: [0.1, 0.2, 0.3, 0.4]}
+  - name: grid
+    kind: grid
+    input: web
+    params: {cell_size: 0.01, window_side: 0.1, boundary: periodic}
+    replicates: 2
 ";
 
-fn datasets(file: &Path) -> Vec<(String, hdf5::Dataset)> {
+fn datasets(file: &Path, group: &str) -> Vec<(String, hdf5::Dataset)> {
     let f = hdf5::File::open(file).unwrap();
-    let g = f.group("/fibre/v1").unwrap();
+    let g = f.group(group).unwrap();
     let mut out: Vec<(String, hdf5::Dataset)> =
         g.member_names().unwrap().into_iter().filter_map(|n| g.dataset(&n).ok().map(|d| (n, d))).collect();
     out.sort_by(|a, b| a.0.cmp(&b.0));
@@ -64,8 +73,12 @@ fn bytes(ds: &hdf5::Dataset) -> Vec<u8> {
 }
 
 fn attr_text(file: &Path, name: &str) -> String {
+    attr_of(file, "/fibre/v1", name)
+}
+
+fn attr_of(file: &Path, group: &str, name: &str) -> String {
     let f = hdf5::File::open(file).unwrap();
-    let g = f.group("/fibre/v1").unwrap();
+    let g = f.group(group).unwrap();
     let a = g.attr(name).unwrap_or_else(|_| panic!("no attribute {name}"));
     a.read_scalar::<hdf5::types::VarLenUnicode>().unwrap().as_str().to_string()
 }
@@ -156,22 +169,30 @@ fn job_array_matches_local_and_rerun_submits_only_the_failed_tasks() {
     assert!(so.contains("submitting 2 of 4 Slurm array tasks (4 points); 2 complete from an earlier run kept"), "{so}");
     assert!(!work.join("slurm.h5.slurm").exists(), "work directory removed after the commit");
 
-    // Bit-identical to the local executor, except the measured wall times.
-    let (a, b) = (datasets(&work.join("local.h5")), datasets(&work.join("slurm.h5")));
-    let names = |v: &[(String, hdf5::Dataset)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
-    assert_eq!(names(&a), names(&b));
+    // Bit-identical to the local executor, except the measured wall times: the laydown
+    // sweep (split by point) and the grid of a swept web (split by web point; the web
+    // itself runs in the driver).
+    assert!(so.contains("grid: submitting 4 of 4 Slurm array tasks (4 points)"), "{so}");
     let mut compared = 0;
-    for ((name, da), (_, db)) in a.iter().zip(&b) {
-        assert_eq!(da.shape(), db.shape(), "{name}");
-        if name == "wall_seconds" {
-            continue;
+    for group in ["/fibre/v1", "/web/v1", "/grid/v1"] {
+        let (a, b) = (datasets(&work.join("local.h5"), group), datasets(&work.join("slurm.h5"), group));
+        let names = |v: &[(String, hdf5::Dataset)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&a), names(&b), "{group}");
+        for ((name, da), (_, db)) in a.iter().zip(&b) {
+            assert_eq!(da.shape(), db.shape(), "{group}/{name}");
+            if name == "wall_seconds" {
+                continue;
+            }
+            assert!(bytes(da) == bytes(db), "dataset {group}/{name} differs between the local and the Slurm executor");
+            let attrs = |d: &hdf5::Dataset| laydown::archive::hdf::read_attrs(d).unwrap();
+            assert_eq!(attrs(da), attrs(db), "attributes of {group}/{name}");
+            compared += 1;
         }
-        assert!(bytes(da) == bytes(db), "dataset {name} differs between the local and the Slurm executor");
-        let attrs = |d: &hdf5::Dataset| laydown::archive::hdf::read_attrs(d).unwrap();
-        assert_eq!(attrs(da), attrs(db), "attributes of {name}");
-        compared += 1;
+        assert_eq!(attr_of(&work.join("local.h5"), group, "fingerprint"), attr_of(&work.join("slurm.h5"), group, "fingerprint"), "{group}");
     }
-    assert!(compared >= 20, "compared {compared} datasets");
+    assert!(compared >= 60, "compared {compared} datasets");
+    assert_eq!(attr_of(&work.join("slurm.h5"), "/grid/v1", "executor"), "slurm");
+    let a = datasets(&work.join("local.h5"), "/fibre/v1");
     let shape = a.iter().find(|(n, _)| n == "positions").unwrap().1.shape();
     assert_eq!(shape[..2], [4, 2]);
     // Points with fewer nodes than the longest are NaN-padded: the gather must pad alike.

@@ -113,7 +113,8 @@ pub fn cleanup(archive: &Path, stage: &str, fingerprint: &str) {
 
 pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job: &StageJob) -> Result<(Output, BTreeMap<String, Attr>)> {
     let name = job.stage_name;
-    let tasks = split(ctx.points.len());
+    let points = stage.point_count(ctx)?;
+    let tasks = split(points);
     let dir = work_dir(&job.pipeline.archive, name, job.fingerprint)?;
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let plan = Plan {
@@ -156,7 +157,7 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
             "{name}: submitting {} of {} Slurm array tasks ({} points){kept_note}; logs in {}",
             missing.len(),
             tasks.len(),
-            ctx.points.len(),
+            points,
             dir.display()
         );
         let out = cmd.output().map_err(|e| {

@@ -66,6 +66,11 @@ pub trait Stage: Send + Sync {
     fn point_dims(&self) -> &'static [&'static str] {
         &[]
     }
+    /// How many sweep points the stage computes: its own, unless it takes them from its
+    /// input (a grid of a swept web). An executor splits this range.
+    fn point_count(&self, ctx: &RunContext) -> Result<usize> {
+        Ok(ctx.points.len())
+    }
 }
 
 /// An upstream stage version a stage reads from.
@@ -118,6 +123,10 @@ pub struct RunContext {
     /// executor runs a share of the points ([`RunContext::restrict`]). Anything keyed
     /// by the point (random streams, file names) must use [`RunContext::point_index`].
     pub point_offset: usize,
+    /// Set by [`RunContext::restrict`]: the global points `a..b` this run computes. A
+    /// stage whose points come from its input (see [`Stage::point_count`]) computes only
+    /// these; for the others `points` is already cut to them.
+    pub point_range: Option<(usize, usize)>,
 }
 
 impl RunContext {
@@ -132,15 +141,20 @@ impl RunContext {
         self.point_offset + local
     }
 
-    /// The same run restricted to the global points `a..b` (their indices kept).
+    /// The same run restricted to the global points `a..b` (their indices kept). A
+    /// stage's own sweep points are cut to the range; a single point is kept whole (the
+    /// stage may take its points from its input and reads [`RunContext::point_range`]).
     pub fn restrict(mut self, a: usize, b: usize) -> Self {
-        let a0 = a - self.point_offset;
-        let b0 = b - self.point_offset;
-        self.points = self.points[a0..b0].to_vec();
-        for (_, values) in self.sweep.iter_mut() {
-            *values = values[a0..b0].to_vec();
+        if self.points.len() > 1 {
+            let a0 = a - self.point_offset;
+            let b0 = b - self.point_offset;
+            self.points = self.points[a0..b0].to_vec();
+            for (_, values) in self.sweep.iter_mut() {
+                *values = values[a0..b0].to_vec();
+            }
         }
         self.point_offset = a;
+        self.point_range = Some((a, b));
         self
     }
 

@@ -43,6 +43,14 @@ impl Stage for GridStage {
     fn summary(&self) -> &'static str {
         "areal density of a web on a Δh grid over an H×H window: ρ_av (eq 16), CV, CV by zone size and formation number"
     }
+    /// Points are independent (one web point each): an executor may split them.
+    fn point_dims(&self) -> &'static [&'static str] {
+        &["point"]
+    }
+    fn point_count(&self, ctx: &RunContext) -> Result<usize> {
+        let web_points = ctx.input(0).read_f64("point")?.len();
+        Ok(if web_points > 1 { web_points } else { ctx.points.len() })
+    }
     fn cache_version(&self) -> u32 {
         1
     }
@@ -77,10 +85,16 @@ impl Stage for GridStage {
             ))
             .into());
         }
-        let npoints = nw.max(ctx.points.len());
-        let units: Vec<(usize, GridParams)> = (0..npoints)
-            .map(|i| if nw > 1 { (i, grid_params(&ctx.points[0])) } else { (0, grid_params(&ctx.points[i])) })
-            .collect();
+        // One point per web point (a swept web), or per own sweep point of one web. An
+        // executor may ask for a share of the web's points (`point_range`); the grid's own
+        // points arrive already cut to the share.
+        let units: Vec<(usize, GridParams)> = if nw > 1 {
+            let (lo, hi) = ctx.point_range.unwrap_or((0, nw));
+            (lo..hi).map(|i| (i, grid_params(&ctx.points[0]))).collect()
+        } else {
+            ctx.points.iter().map(|p| (0, grid_params(p))).collect()
+        };
+        let npoints = units.len();
         let first = units[0].1;
         for (i, (_, g)) in units.iter().enumerate() {
             let same = g.cell_size == first.cell_size
@@ -108,7 +122,8 @@ impl Stage for GridStage {
         bar.finish_and_clear();
         let mut out = assemble(&units, &webs, &results, reps, ctx.points[0].bool("store_density"));
         if nw > 1 {
-            copy_web_sweep(input, &mut out)?;
+            let web_points: Vec<usize> = units.iter().map(|u| u.0).collect();
+            copy_web_sweep(input, &mut out, &web_points)?;
         }
         if ctx.points[0].text("compare_with") == "table4" {
             add_table4(&mut out);
@@ -238,7 +253,7 @@ fn mean_std(v: &Array2<f64>) -> (Array1<f64>, Array1<f64>) {
 }
 
 /// Copies the web's sweep coordinates (variables carrying a `parameter` attribute).
-fn copy_web_sweep(input: &crate::stages::Input, out: &mut Output) -> Result<()> {
+fn copy_web_sweep(input: &crate::stages::Input, out: &mut Output, web_points: &[usize]) -> Result<()> {
     let g = input.version.open()?;
     let mut names = vec![];
     for name in g.member_names()? {
@@ -251,10 +266,11 @@ fn copy_web_sweep(input: &crate::stages::Input, out: &mut Output) -> Result<()> 
                 Some(Attr::Str(u)) => u.clone(),
                 _ => "1".into(),
             };
-            let n = v.len();
-            out.f64(&name, &["point"], ArrayD::from_shape_vec(IxDyn(&[n]), v.iter().copied().collect())?, &unit, &long)
+            let picked: Vec<f64> = web_points.iter().map(|&w| v[[w]]).collect();
+            out.f64(&name, &["point"], ArrayD::from_shape_vec(IxDyn(&[picked.len()]), picked)?, &unit, &long)
         } else {
-            out.strings(&name, "point", crate::archive::hdf::read_strings(&g, &name)?, &long)
+            let all = crate::archive::hdf::read_strings(&g, &name)?;
+            out.strings(&name, "point", web_points.iter().map(|&w| all[w].clone()).collect(), &long)
         };
         var.attrs.insert("parameter".into(), Attr::Str(param.clone()));
         names.push(name);

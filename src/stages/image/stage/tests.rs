@@ -49,6 +49,7 @@ fn ctx(dir: &Path, input: Vec<Input>, given: &[(&str, ParamValue)]) -> RunContex
         pipeline_dir: dir.to_path_buf(),
         figure_dir: dir.join("figures"),
         point_offset: 0,
+        point_range: None,
     }
 }
 

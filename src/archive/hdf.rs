@@ -263,6 +263,42 @@ pub fn swept_coordinates(group: &hdf5::Group) -> Vec<Swept> {
 }
 
 /// `param = value, ...` naming point `p` of a version from its swept coordinates.
+///
+/// When every swept parameter has a majority value (a zip sweep switching one thing
+/// at a time, e.g. each effect off in turn), only the parameters that differ from
+/// their majority at `p` are named.
 pub fn point_label(swept: &[Swept], p: usize) -> String {
-    swept.iter().map(|s| format!("{} = {}", s.parameter, s.labels.get(p).map(String::as_str).unwrap_or("?"))).collect::<Vec<_>>().join(", ")
+    let label = |s: &Swept| format!("{} = {}", s.parameter, s.labels.get(p).map(String::as_str).unwrap_or("?"));
+    fn majority(s: &Swept) -> Option<&String> {
+        let n = s.labels.len();
+        s.labels.iter().find(|l| s.labels.iter().filter(|m| m == l).count() * 2 > n)
+    }
+    if swept.len() > 1 && swept.iter().all(|s| majority(s).is_some()) {
+        let differing: Vec<String> =
+            swept.iter().filter(|s| s.labels.get(p) != majority(s)).map(label).collect();
+        if !differing.is_empty() {
+            return differing.join(", ");
+        }
+    }
+    swept.iter().map(label).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod label_tests {
+    use super::*;
+
+    fn swept(parameter: &str, labels: &[&str]) -> Swept {
+        Swept { name: parameter.into(), parameter: parameter.into(), values: vec![], labels: labels.iter().map(|s| s.to_string()).collect(), units: String::new() }
+    }
+
+    #[test]
+    fn point_labels_name_what_changes() {
+        // One effect off in turn (zip): only the switched-off one is named.
+        let zip = [swept("effects.drag", &["false", "true", "true"]), swept("effects.gravity", &["true", "false", "true"]), swept("effects.friction", &["true", "true", "false"])];
+        assert_eq!(point_label(&zip, 1), "effects.gravity = false");
+        // A cartesian sweep has no majorities: every parameter is named.
+        let cart = [swept("a", &["1", "1", "2", "2"]), swept("b", &["x", "y", "x", "y"])];
+        assert_eq!(point_label(&cart, 2), "a = 2, b = x");
+        assert_eq!(point_label(&[swept("elements", &["125", "250"])], 1), "elements = 250");
+    }
 }

@@ -26,10 +26,15 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 .map(|(k, name)| {
                     let pts = (0..stages.len())
                         .filter(|&c| &stages[c] == name)
-                        // An exact match has no place on a log axis; show it at 1e-6.
-                        .map(|c| (wall[[c]], error[[c, m]].abs().max(1e-6)))
+                        // An exact match has no place on a log axis: show it at 1e-6. NaN (no
+                        // valid replicate) stays NaN and is not drawn.
+                        .map(|c| {
+                            let e = error[[c, m]].abs();
+                            (wall[[c]], if e.is_nan() { e } else { e.max(1e-6) })
+                        })
                         .collect();
-                    Series::new(Some(name), pts, Style::LineMarkers, k)
+                    // Markers only: candidates of one stage need not be ordered by cost.
+                    Series::new(Some(name), pts, Style::Markers, k)
                 })
                 .collect();
             Panel::Lines(LinePanel {

@@ -208,18 +208,6 @@ pub fn read_strings(group: &hdf5::Group, name: &str) -> Result<Vec<String>> {
     Ok(ds.read_raw::<VarLenUnicode>()?.into_iter().map(|s| s.as_str().to_string()).collect())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn chunks_stay_near_64k() {
-        let c = chunk_shape(&[10, 10, 1001, 3]);
-        assert!(c.iter().product::<usize>() <= 65536);
-        assert_eq!(c[3], 3);
-    }
-}
-
 /// A swept parameter of a stage version: a coordinate along `point` carrying a
 /// `parameter` attribute (written by the runner).
 #[derive(Debug, Clone)]
@@ -284,7 +272,19 @@ pub fn point_label(swept: &[Swept], p: usize) -> String {
 }
 
 #[cfg(test)]
-mod label_tests {
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_stay_near_64k() {
+        let c = chunk_shape(&[10, 10, 1001, 3]);
+        assert!(c.iter().product::<usize>() <= 65536);
+        assert_eq!(c[3], 3);
+    }
+}
+
+#[cfg(test)]
+mod point_label_tests {
     use super::*;
 
     fn swept(parameter: &str, labels: &[&str]) -> Swept {

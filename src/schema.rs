@@ -84,7 +84,16 @@ pub fn pipeline_schema() -> Value {
         .map(|s| {
             let specs = s.params();
             let params = params_object(&specs, &value_schema);
-            let sweep = params_object(&specs, &|p| json!({"type": "array", "minItems": 1, "items": value_schema(p)}));
+            let list = |p: &ParamSpec| json!({"type": "array", "minItems": 1, "items": value_schema(p)});
+            let mut sweep = params_object(&specs, &list);
+            // A sweep may also name nested parameters with dots (`effects.drag: [true, false]`).
+            if let Some(Value::Object(props)) = sweep.get_mut("properties") {
+                for p in specs.iter().filter(|p| p.name.contains('.')) {
+                    let mut s = list(p);
+                    s["description"] = json!(format!("{} (dotted form of the nested parameter)", p.doc));
+                    props.insert(p.name.to_string(), s);
+                }
+            }
             json!({
                 "if": {"properties": {"kind": {"const": s.kind()}}, "required": ["kind"]},
                 "then": {"properties": {"params": params, "sweep": sweep}}

@@ -87,20 +87,25 @@ fn write_array<T: hdf5::H5Type>(group: &hdf5::Group, name: &str, data: &ArrayD<T
     Ok(builder.create(name)?)
 }
 
-fn write_variable(group: &hdf5::Group, v: &Variable) -> Result<hdf5::Dataset> {
-    let ds = match &v.values {
-        Values::F64(a) => write_array(group, &v.name, a)?,
-        Values::I64(a) => write_array(group, &v.name, a)?,
-        Values::U8(a) => write_array(group, &v.name, a)?,
+/// Write one dataset of `values` (compressed when large; strings as variable-length UTF-8).
+pub fn write_values(group: &hdf5::Group, name: &str, values: &Values) -> Result<hdf5::Dataset> {
+    match values {
+        Values::F64(a) => write_array(group, name, a),
+        Values::I64(a) => write_array(group, name, a),
+        Values::U8(a) => write_array(group, name, a),
         Values::Str(items) => {
             let vs = items
                 .iter()
-                .map(|s| VarLenUnicode::from_str(s).map_err(|e| anyhow!("{}: {e}", v.name)))
+                .map(|s| VarLenUnicode::from_str(s).map_err(|e| anyhow!("{name}: {e}")))
                 .collect::<Result<Vec<_>>>()?;
             let arr = ArrayD::from_shape_vec(IxDyn(&[vs.len()]), vs)?;
-            group.new_dataset_builder().with_data(arr.view()).create(v.name.as_str())?
+            Ok(group.new_dataset_builder().with_data(arr.view()).create(name)?)
         }
-    };
+    }
+}
+
+fn write_variable(group: &hdf5::Group, v: &Variable) -> Result<hdf5::Dataset> {
+    let ds = write_values(group, &v.name, &v.values)?;
     if !v.units.is_empty() {
         write_str_attr(&ds, "units", &v.units)?;
     }

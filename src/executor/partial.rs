@@ -7,11 +7,9 @@
 use crate::archive::data::{Attr, Output, Values, Variable};
 use crate::archive::hdf;
 use anyhow::{anyhow, bail, Context, Result};
-use hdf5::types::VarLenUnicode;
 use ndarray::{ArrayD, Axis, IxDyn, Slice};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::str::FromStr;
 
 const META: &str = "_laydown_";
 
@@ -28,19 +26,7 @@ pub fn write(path: &Path, out: &Output, attrs: &BTreeMap<String, Attr>) -> Resul
             hdf::write_attr(&vars, k, a)?;
         }
         for (i, v) in out.variables.iter().enumerate() {
-            let ds = match &v.values {
-                Values::F64(a) => vars.new_dataset_builder().with_data(a.view()).create(v.name.as_str())?,
-                Values::I64(a) => vars.new_dataset_builder().with_data(a.view()).create(v.name.as_str())?,
-                Values::U8(a) => vars.new_dataset_builder().with_data(a.view()).create(v.name.as_str())?,
-                Values::Str(items) => {
-                    let vs = items
-                        .iter()
-                        .map(|s| VarLenUnicode::from_str(s).map_err(|e| anyhow!("{}: {e}", v.name)))
-                        .collect::<Result<Vec<_>>>()?;
-                    let arr = ArrayD::from_shape_vec(IxDyn(&[vs.len()]), vs)?;
-                    vars.new_dataset_builder().with_data(arr.view()).create(v.name.as_str())?
-                }
-            };
+            let ds = hdf::write_values(&vars, &v.name, &v.values)?;
             hdf::write_attr(&ds, &format!("{META}index"), &Attr::I64(i as i64))?;
             hdf::write_attr(&ds, &format!("{META}type"), &Attr::Str(v.values.type_name().into()))?;
             hdf::write_attr(&ds, &format!("{META}dims"), &Attr::Str(v.dims.join(" ")))?;

@@ -330,7 +330,10 @@ impl From<&crate::stages::param_table::ParamSpec> for ParamSpec {
                 ParamValue::Int(v as i64),
             ),
             ParamDefault::Choice(c) => (ParamKind::Choice(p.choices), ParamValue::Text(c.to_string())),
+            ParamDefault::Bool(b) => (ParamKind::Bool, ParamValue::Bool(b)),
+            ParamDefault::Unset => (ParamKind::Float { min: p.min, max: p.max }, ParamValue::Auto),
         };
-        ParamSpec { name: p.name, unit: p.unit, kind, default, auto: false, doc: p.doc }
+        let auto = matches!(p.default, ParamDefault::Unset);
+        ParamSpec { name: p.name, unit: p.unit, kind, default, auto, doc: p.doc }
     }
 }

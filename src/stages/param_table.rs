@@ -12,6 +12,10 @@ pub enum ParamDefault {
     Integer(u64),
     /// One of [`ParamSpec::choices`].
     Choice(&'static str),
+    /// A switch (bounds 0 and 1).
+    Bool(bool),
+    /// No default: optional, the doc says what happens when absent.
+    Unset,
 }
 
 /// One row of a stage's parameter table. Bounds are inclusive; a strictly

@@ -217,63 +217,43 @@ impl Default for ImageParams {
     }
 }
 
-/// Typed default of a parameter in [`PARAMETERS`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ParamDefault {
-    Float(f64),
-    Int(i64),
-    Bool(bool),
-    /// No default: optional, the doc says what happens when absent.
-    Unset,
-}
-
-/// One row of the parameter table (for YAML validation, `--help` and JSON schema).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ParamSpec {
-    pub name: &'static str,
-    pub unit: &'static str,
-    pub default: ParamDefault,
-    /// Inclusive bounds (for Bool: 0 and 1).
-    pub min: f64,
-    pub max: f64,
-    pub doc: &'static str,
-}
+pub use crate::stages::param_table::{ParamDefault, ParamSpec};
 
 /// The image stage's parameters: name, unit, default, range, meaning.
 pub const PARAMETERS: &[ParamSpec] = &[
-    ParamSpec { name: "pixel_size_mm", unit: "mm", default: ParamDefault::Unset, min: 1e-4, max: 100.0,
+    ParamSpec { name: "pixel_size_mm", unit: "mm", default: ParamDefault::Unset, min: 1e-4, max: 100.0, choices: &[],
         doc: "Pixel size; give this or dpi (not both). Neither: 297/871 mm (A4 at 871 px, the paper's scans)." },
-    ParamSpec { name: "dpi", unit: "1/inch", default: ParamDefault::Unset, min: 1.0, max: 1e5,
+    ParamSpec { name: "dpi", unit: "1/inch", default: ParamDefault::Unset, min: 1.0, max: 1e5, choices: &[],
         doc: "Scan resolution; pixel size = 25.4/dpi mm. Give this or pixel_size_mm." },
-    ParamSpec { name: "false_alarm_rate", unit: "peaks/image", default: ParamDefault::Float(1e-3), min: 1e-12, max: 0.5,
+    ParamSpec { name: "false_alarm_rate", unit: "peaks/image", default: ParamDefault::Real(1e-3), min: 1e-12, max: 0.5, choices: &[],
         doc: "Expected number of false peaks per bond-free image; sets the Exp(1) threshold ln(M·passes/α)." },
-    ParamSpec { name: "notch_sigma_bins", unit: "bins", default: ParamDefault::Float(1.5), min: 0.5, max: 10.0,
+    ParamSpec { name: "notch_sigma_bins", unit: "bins", default: ParamDefault::Real(1.5), min: 0.5, max: 10.0, choices: &[],
         doc: "Standard deviation of the circular Gaussian notches, in frequency bins." },
-    ParamSpec { name: "off_grid_widening", unit: "1", default: ParamDefault::Float(1.0), min: 0.0, max: 5.0,
+    ParamSpec { name: "off_grid_widening", unit: "1", default: ParamDefault::Real(1.0), min: 0.0, max: 5.0, choices: &[],
         doc: "Notch widening for peaks between bins (period not dividing the image): σ·(1 + w·2·max|δ|)." },
-    ParamSpec { name: "dc_exclusion_bins", unit: "bins", default: ParamDefault::Float(8.0), min: 1.0, max: 200.0,
+    ParamSpec { name: "dc_exclusion_bins", unit: "bins", default: ParamDefault::Real(8.0), min: 1.0, max: 200.0, choices: &[],
         doc: "Radius of the disc around DC that is never searched (web scale, not bonds)." },
-    ParamSpec { name: "min_peak_fraction", unit: "1", default: ParamDefault::Float(1e-5), min: 0.0, max: 0.1,
+    ParamSpec { name: "min_peak_fraction", unit: "1", default: ParamDefault::Real(1e-5), min: 0.0, max: 0.1, choices: &[],
         doc: "A peak (with its conjugate) must hold at least this share of the image variance above background." },
-    ParamSpec { name: "background_sectors", unit: "count", default: ParamDefault::Int(8), min: 1.0, max: 64.0,
+    ParamSpec { name: "background_sectors", unit: "count", default: ParamDefault::Integer(8), min: 1.0, max: 64.0, choices: &[],
         doc: "Angular sectors (over 180°) of the median background model; 1 = purely radial." },
-    ParamSpec { name: "background_smoothing", unit: "annuli", default: ParamDefault::Int(1), min: 0.0, max: 20.0,
+    ParamSpec { name: "background_smoothing", unit: "annuli", default: ParamDefault::Integer(1), min: 0.0, max: 20.0, choices: &[],
         doc: "Smallest radial half-width of the pools whose median is the background." },
-    ParamSpec { name: "background_pool", unit: "bins", default: ParamDefault::Int(256), min: 16.0, max: 100000.0,
+    ParamSpec { name: "background_pool", unit: "bins", default: ParamDefault::Integer(256), min: 16.0, max: 100000.0, choices: &[],
         doc: "Bins a background pool aims for; pools grow radially (within ±17 % of the radius) to reach it." },
-    ParamSpec { name: "max_passes", unit: "count", default: ParamDefault::Int(3), min: 1.0, max: 10.0,
+    ParamSpec { name: "max_passes", unit: "count", default: ParamDefault::Integer(3), min: 1.0, max: 10.0, choices: &[],
         doc: "Detection passes; each searches the residual after the previous notches." },
-    ParamSpec { name: "max_peaks", unit: "count", default: ParamDefault::Int(400), min: 1.0, max: 100000.0,
+    ParamSpec { name: "max_peaks", unit: "count", default: ParamDefault::Integer(400), min: 1.0, max: 100000.0, choices: &[],
         doc: "Upper bound on notched peaks (half plane); reaching it adds a warning." },
-    ParamSpec { name: "periodic_decomposition", unit: "bool", default: ParamDefault::Bool(true), min: 0.0, max: 1.0,
+    ParamSpec { name: "periodic_decomposition", unit: "bool", default: ParamDefault::Bool(true), min: 0.0, max: 1.0, choices: &[],
         doc: "Periodic-plus-smooth decomposition (Moisan) before the FFT, against edge-jump artefacts." },
-    ParamSpec { name: "zone_min_mm", unit: "mm", default: ParamDefault::Float(0.5), min: 1e-4, max: 1000.0,
+    ParamSpec { name: "zone_min_mm", unit: "mm", default: ParamDefault::Real(0.5), min: 1e-4, max: 1000.0, choices: &[],
         doc: "Smallest zone side of the CV-per-zone-size curves." },
-    ParamSpec { name: "zone_max_mm", unit: "mm", default: ParamDefault::Float(16.0), min: 1e-4, max: 1000.0,
+    ParamSpec { name: "zone_max_mm", unit: "mm", default: ParamDefault::Real(16.0), min: 1e-4, max: 1000.0, choices: &[],
         doc: "Largest zone side of the CV-per-zone-size curves (≥ zone_min_mm)." },
-    ParamSpec { name: "zones_per_octave", unit: "count", default: ParamDefault::Int(2), min: 1.0, max: 16.0,
+    ParamSpec { name: "zones_per_octave", unit: "count", default: ParamDefault::Integer(2), min: 1.0, max: 16.0, choices: &[],
         doc: "Zone sizes per doubling of the zone side." },
-    ParamSpec { name: "edge_margin_periods", unit: "bond periods", default: ParamDefault::Float(1.0), min: 0.0, max: 10.0,
+    ParamSpec { name: "edge_margin_periods", unit: "bond periods", default: ParamDefault::Real(1.0), min: 0.0, max: 10.0, choices: &[],
         doc: "Edge band left out of the filtered-image CVs, in longest detected bond periods (0 = whole image)." },
 ];
 

@@ -22,7 +22,7 @@
 use super::render::{render, BondPattern, BondShape, RenderParams};
 use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PARAMETERS};
 use crate::archive::data::{Attr, Output};
-use crate::params::{ParamKind, ParamSet, ParamSpec, ParamValue};
+use crate::params::{ParamSet, ParamSpec};
 use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
 use ndarray::{s, Array1, Array2, Array3, Axis};
@@ -128,18 +128,16 @@ impl Stage for ImageStage {
             if matches!(p.name, "pixel_size_mm" | "dpi" | "zone_min_mm" | "zone_max_mm") {
                 continue;
             }
-            let (kind, default) = match p.default {
-                ParamDefault::Float(x) => (ParamKind::Float { min: p.min, max: p.max }, ParamValue::Float(x)),
-                ParamDefault::Int(i) => (ParamKind::Int { min: p.min as i64, max: p.max as i64 }, ParamValue::Int(i)),
-                ParamDefault::Bool(b) => (ParamKind::Bool, ParamValue::Bool(b)),
-                ParamDefault::Unset => continue,
-            };
-            let unit = match p.unit {
+            if p.default == ParamDefault::Unset {
+                continue;
+            }
+            let mut spec = ParamSpec::from(p);
+            spec.unit = match p.unit {
                 "bool" => "",
                 "count" | "bins" | "annuli" | "peaks/image" | "bond periods" => "1",
                 u => u,
             };
-            v.push(ParamSpec { name: p.name, unit, kind, default, auto: false, doc: p.doc });
+            v.push(spec);
         }
         v
     }

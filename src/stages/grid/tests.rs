@@ -152,7 +152,8 @@ fn parameter_tables_match_the_defaults() {
     let value = |d: ParamDefault| match d {
         ParamDefault::Real(x) => x,
         ParamDefault::Integer(i) => i as f64,
-        ParamDefault::Choice(_) => f64::NAN,
+        ParamDefault::Choice(_) | ParamDefault::Unset => f64::NAN,
+        ParamDefault::Bool(b) => f64::from(u8::from(b)),
     };
     let g = GridParams::default();
     for row in GRID_PARAMS {

@@ -4,6 +4,7 @@
 //! written through the archive API: the grid stage itself is not on this branch.
 use super::*;
 use crate::archive::Archive;
+use crate::params::ParamValue;
 use crate::stages::image::render::random_fibre_web;
 use ndarray::{Array0, Array4};
 use std::collections::BTreeMap;

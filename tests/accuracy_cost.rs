@@ -73,3 +73,78 @@ fn reference_with_several_points_is_refused() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("the reference `mesh` has 2 sweep points"), "{err}");
 }
+
+/// Image part: the notch filter on bonded renderings of webs whose true CV is known
+/// (`cv_web`, the same rendering without bonds) is compared with that truth over the
+/// notch width and the detection threshold.
+const IMAGE: &str = "\
+pipeline: accuracy_image
+archive: acc.h5
+seed: 3
+stages:
+  - {name: spectrum, kind: spectra, params: {preset: spectrum1}}
+  - name: web
+    kind: web
+    input: spectrum
+    params: {fibres_across: 240, fibre_spacing: 0.00025, segments_per_fibre: 10, fibre_diameter: 16.2e-6, belt_speed_ratio: 0.028}
+    replicates: 2
+  - name: grid
+    kind: grid
+    input: web
+    params: {cell_size: 0.0004, window_side: 0.06, boundary: periodic}
+    replicates: 2
+  - name: default
+    kind: image
+    input: grid
+    params:
+      bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 0.15}
+      panels: false
+  - name: notch
+    kind: image
+    input: grid
+    params:
+      bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 0.15}
+      panels: false
+    sweep: {notch_sigma_bins: [1.5, 6.0]}
+  - name: threshold
+    kind: image
+    input: grid
+    params:
+      bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 0.15}
+      panels: false
+    sweep: {false_alarm_rate: [1.0e-6, 0.1]}
+  - name: cost
+    kind: accuracy
+    input: [default, notch, threshold]
+    params: {metrics: [cv_corr, cv_corr_compensated], reference_metrics: [cv_web, cv_web]}
+";
+
+#[test]
+fn image_accuracy_against_the_known_web_cv() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", IMAGE);
+    let o = run_in(dir.path(), &["run", "p.yaml"]);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("| cv_corr | error against cv_web |"), "{err}");
+    let a = Archive::open_read(&dir.path().join("acc.h5")).unwrap();
+    let g = a.version("cost", None).unwrap().open().unwrap();
+    assert_eq!(hdf::read_strings(&g, "candidate_stage").unwrap(), ["notch", "notch", "threshold", "threshold"]);
+    assert_eq!(hdf::read_strings(&g, "candidate_label").unwrap()[1], "notch_sigma_bins = 6");
+    let error = hdf::read_f64(&g, "relative_error").unwrap();
+    let wall = hdf::read_f64(&g, "wall_seconds").unwrap();
+    for c in 0..4 {
+        assert!(wall[[c]] > 0.0 && wall[[c]] < 10.0, "wall per image {}", wall[[c]]);
+        for m in 0..2 {
+            assert!(error[[c, m]].is_finite() && error[[c, m]].abs() < 0.5, "candidate {c} metric {m}: {}", error[[c, m]]);
+        }
+    }
+    // The default notch recovers the web's CV (compensated within 5 %); a notch four
+    // times wider removes more of the web's own variance, so the plain CV_corr reads lower.
+    assert!(error[[0, 1]].abs() < 0.05, "compensated CV_corr at the default notch: {:+.3}", error[[0, 1]]);
+    assert!(error[[1, 0]] < error[[0, 0]] - 0.01, "wide notch {:+.3} vs default {:+.3}", error[[1, 0]], error[[0, 0]]);
+    // The swept image stage stores its results per point.
+    let n = a.version("notch", None).unwrap().open().unwrap();
+    assert_eq!(hdf::read_f64(&n, "cv_corr").unwrap().shape(), [2, 2]);
+    assert_eq!(hdf::read_f64(&n, "notch_sigma_bins").unwrap().as_slice().unwrap(), [1.5, 6.0]);
+}

@@ -9,9 +9,11 @@
 //! archive (`accuracy_cost.md` in the stage's figure directory) and prints it.
 //!
 //! Metrics are per-point datasets `<metric>_mean` of the inputs (laydown:
-//! `radius_of_gyration`, `bending_energy`, ...; grid: `mean_areal_density`, `cv`); the
-//! time is the input's `wall_seconds` averaged over everything but the point, or the
-//! version's wall time divided by its points when a stage records none per unit.
+//! `radius_of_gyration`, `bending_energy`, ...; grid: `mean_areal_density`, `cv`;
+//! image, with one condition: `cv_corr`, `cv_corr_compensated`); the time is the
+//! input's `wall_seconds` averaged over everything but the point (per replicate,
+//! realisation or image), or the version's wall time divided by its points when a stage
+//! records none per unit.
 //! Errors of means over a few random replicates include their sampling error: compare
 //! candidates against a reference with the same seed and replicates, and read errors
 //! below the replicate scatter (`<metric>_std / sqrt(n)`) as "converged".
@@ -37,30 +39,51 @@ fn bad(msg: String) -> anyhow::Error {
     anyhow::Error::new(BadInput(msg))
 }
 
-/// Per-point values of `metric` in an input version.
-fn metric(input: &Input, metric: &str) -> Result<Vec<f64>> {
+/// Number of sweep points of an input version (1 without a `point` dimension).
+fn points_of(input: &Input) -> Result<usize> {
+    let g = input.version.open()?;
+    Ok(match g.dataset("point") {
+        Ok(ds) => ds.size(),
+        Err(_) => 1,
+    })
+}
+
+/// Per-point values of `metric` in an input version: `<metric>_mean` must hold one
+/// value per sweep point (dimensions (point) or (point, 1), or a single value).
+fn metric(input: &Input, metric: &str, points: usize) -> Result<Vec<f64>> {
     let name = format!("{metric}_mean");
     if !input.has(&name) {
         return Err(bad(format!(
-            "input `{}` (kind {}) has no per-point `{name}`; choose metrics it records (e.g. laydown: radius_of_gyration, bending_energy; grid: mean_areal_density, cv)",
+            "input `{}` (kind {}) has no per-point `{name}`; choose metrics it records (e.g. laydown: radius_of_gyration, bending_energy; grid: mean_areal_density, cv; image: cv_corr, cv_corr_compensated)",
             input.name, input.kind
         )));
     }
-    Ok(input.read_f64(&name)?.iter().copied().collect())
+    let values = input.read_f64(&name)?;
+    if values.len() != points {
+        return Err(bad(format!(
+            "`{name}` of input `{}` has shape {:?}, not one value per sweep point ({points}); an image stage compared here must have one condition (e.g. one grid point)",
+            input.name,
+            values.shape()
+        )));
+    }
+    Ok(values.iter().copied().collect())
 }
 
-/// Mean wall time per unit of work at each of `points` points.
+/// Mean wall time per unit of work at each of `points` points: `wall_seconds` averaged
+/// over everything but the point (over everything for a single point), or the
+/// version's wall time shared out over the points when a stage records none.
 fn wall_per_point(input: &Input, points: usize) -> Result<Vec<f64>> {
+    let mean = |v: &mut dyn Iterator<Item = f64>| {
+        let finite: Vec<f64> = v.filter(|v| v.is_finite()).collect();
+        finite.iter().sum::<f64>() / finite.len().max(1) as f64
+    };
     if input.has("wall_seconds") {
         let w = input.read_f64("wall_seconds")?;
+        if points == 1 {
+            return Ok(vec![mean(&mut w.iter().copied())]);
+        }
         if w.ndim() >= 1 && w.shape()[0] == points {
-            return Ok(w
-                .outer_iter()
-                .map(|row| {
-                    let finite: Vec<f64> = row.iter().copied().filter(|v| v.is_finite()).collect();
-                    finite.iter().sum::<f64>() / finite.len().max(1) as f64
-                })
-                .collect());
+            return Ok(w.outer_iter().map(|row| mean(&mut row.iter().copied())).collect());
         }
     }
     let total = input.version.attr_f64("wall_seconds").unwrap_or(f64::NAN);
@@ -71,15 +94,22 @@ fn default_metrics(kind: &str) -> Vec<String> {
     match kind {
         "laydown" => vec!["radius_of_gyration".into(), "bending_energy".into()],
         "grid" => vec!["mean_areal_density".into(), "cv".into()],
+        "image" => vec!["cv_corr".into(), "cv_corr_compensated".into()],
         _ => vec![],
     }
 }
 
 /// The markdown table of a run.
-fn table(metrics: &[String], reference: &[f64], reference_wall: f64, cands: &[Candidate]) -> String {
+/// The markdown table of a run; `against[i]` is what metric `i` is compared with in
+/// the reference.
+fn table(metrics: &[String], against: &[String], reference: &[f64], reference_wall: f64, cands: &[Candidate]) -> String {
     let mut t = String::from("| candidate | setting | wall per unit (s) | speed-up |");
-    for m in metrics {
-        t += &format!(" {m} | error |");
+    for (m, r) in metrics.iter().zip(against) {
+        if m == r {
+            t += &format!(" {m} | error |");
+        } else {
+            t += &format!(" {m} | error against {r} |");
+        }
     }
     t += "\n|---|---|---:|---:|";
     for _ in metrics {
@@ -124,15 +154,28 @@ impl Stage for AccuracyStage {
         1
     }
     fn params(&self) -> Vec<ParamSpec> {
-        vec![ParamSpec::text_list(
-            "metrics",
-            "per-point quantities to compare (`<name>_mean` in every input); empty: laydown radius_of_gyration, bending_energy; grid mean_areal_density, cv",
-        )]
+        vec![
+            ParamSpec::text_list(
+                "metrics",
+                "per-point quantities to compare (`<name>_mean` in every input); empty: laydown radius_of_gyration, bending_energy; grid mean_areal_density, cv; image cv_corr, cv_corr_compensated",
+            ),
+            ParamSpec::text_list(
+                "reference_metrics",
+                "what each metric is compared with in the reference (`<name>_mean`; same length as metrics), e.g. an image stage's cv_web, the known truth of its rendered webs; empty: the metrics themselves",
+            ),
+        ]
     }
     fn inputs(&self) -> InputRule {
         InputRule { kinds: &["laydown", "grid", "spectra", "web", "image"], min: 2, max: 64 }
     }
-    fn check(&self, _p: &ParamSet) -> std::result::Result<(), (String, String)> {
+    fn check(&self, p: &ParamSet) -> std::result::Result<(), (String, String)> {
+        let (m, r) = (p.text_list("metrics"), p.text_list("reference_metrics"));
+        if !r.is_empty() && r.len() != m.len() {
+            return Err((
+                "reference_metrics".into(),
+                format!("{} reference metrics for {} metrics; allowed: one per metric (list the metrics too), or none", r.len(), m.len()),
+            ));
+        }
         Ok(())
     }
     fn run(&self, ctx: &RunContext) -> Result<Output> {
@@ -147,21 +190,23 @@ impl Stage for AccuracyStage {
         if metrics.is_empty() {
             return Err(bad(format!("give `metrics`: there is no default for a reference of kind {}", reference.kind)));
         }
-        let ref_values: Vec<Vec<f64>> = metrics.iter().map(|m| metric(reference, m)).collect::<Result<_>>()?;
-        if ref_values[0].len() != 1 {
+        let ref_points = points_of(reference)?;
+        if ref_points != 1 {
             return Err(bad(format!(
-                "the reference `{}` has {} sweep points; it must be one converged run (the first input)",
-                reference.name,
-                ref_values[0].len()
+                "the reference `{}` has {ref_points} sweep points; it must be one converged run (the first input)",
+                reference.name
             )));
         }
+        let given = ctx.points[0].text_list("reference_metrics");
+        let reference_metrics: Vec<String> = if given.is_empty() { metrics.clone() } else { given.to_vec() };
+        let ref_values: Vec<Vec<f64>> = reference_metrics.iter().map(|m| metric(reference, m, 1)).collect::<Result<_>>()?;
         let reference_values: Vec<f64> = ref_values.iter().map(|v| v[0]).collect();
         let reference_wall = wall_per_point(reference, 1)?[0];
 
         let mut cands = vec![];
         for input in &ctx.inputs[1..] {
-            let values: Vec<Vec<f64>> = metrics.iter().map(|m| metric(input, m)).collect::<Result<_>>()?;
-            let points = values[0].len();
+            let points = points_of(input)?;
+            let values: Vec<Vec<f64>> = metrics.iter().map(|m| metric(input, m, points)).collect::<Result<_>>()?;
             let wall = wall_per_point(input, points)?;
             let swept = hdf::swept_coordinates(&input.version.open()?);
             for p in 0..points {
@@ -178,6 +223,7 @@ impl Stage for AccuracyStage {
         let n = cands.len();
         let mut out = Output::new();
         out.strings("metric", "metric", metrics.clone(), "compared quantity (`<metric>_mean` of the inputs)");
+        out.strings("reference_metric", "metric", reference_metrics.clone(), "what the metric is compared with in the reference (`<name>_mean`)");
         out.strings("candidate_stage", "candidate", cands.iter().map(|c| c.stage.clone()).collect(), "input stage of the candidate");
         out.i64("candidate_point", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.point as i64)), "1", "sweep point of the candidate in its stage");
         out.strings("candidate_label", "candidate", cands.iter().map(|c| c.label.clone()).collect(), "swept parameters of the candidate");
@@ -190,7 +236,7 @@ impl Stage for AccuracyStage {
         out.f64("wall_seconds", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.wall_seconds)), "s", "wall time per unit of work (replicate, realisation)");
         out.f64("speedup", &["candidate"], Array1::from_iter(cands.iter().map(|c| reference_wall / c.wall_seconds)), "1", "reference wall time / candidate wall time");
 
-        let md = table(&metrics, &reference_values, reference_wall, &cands);
+        let md = table(&metrics, &reference_metrics, &reference_values, reference_wall, &cands);
         eprint!("{}", md.lines().map(|l| format!("{}: {l}\n", ctx.stage_name)).collect::<String>());
         std::fs::create_dir_all(&ctx.figure_dir)?;
         let path = ctx.figure_dir.join("accuracy_cost.md");
@@ -209,7 +255,8 @@ mod tests {
     #[test]
     fn table_has_errors_and_speedups() {
         let c = Candidate { stage: "fast".into(), point: 0, label: "elements = 250".into(), values: vec![1.1, 2.0], wall_seconds: 0.5 };
-        let t = table(&["s".into(), "e".into()], &[1.0, 2.0], 5.0, &[c]);
+        let names = ["s".to_string(), "e".to_string()];
+        let t = table(&names, &names, &[1.0, 2.0], 5.0, &[c]);
         assert!(t.contains("| fast | elements = 250 | 0.500 | 10.0 | 1.100 | +10.00 % | 2.000 | +0.00 % |"), "{t}");
     }
 

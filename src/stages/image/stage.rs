@@ -21,7 +21,7 @@
 //! returned unchanged (`notches` = 0, `cv_corr` = `cv_raw`).
 use super::render::{render, BondPattern, BondShape, RenderParams};
 use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PARAMETERS};
-use crate::archive::data::{Attr, Output};
+use crate::archive::data::{Attr, Output, Values};
 use crate::params::{ParamSet, ParamSpec};
 use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
@@ -57,18 +57,16 @@ struct GridData {
     from: String,
     density: ndarray::ArrayD<f64>,
     cell: f64,
-    bonded: RenderParams,
-    plain: RenderParams,
 }
 
 impl GridData {
     /// The bonded rendering of one map and the CV of the bond-free one (the truth).
-    fn render(&self, pt: usize, r: usize) -> Result<(Array2<f64>, f64)> {
+    fn render(&self, pt: usize, r: usize, bonded: &RenderParams, plain: &RenderParams) -> Result<(Array2<f64>, f64)> {
         let map: Array2<f64> =
             self.density.index_axis(Axis(0), pt).index_axis(Axis(0), r).to_owned().into_dimensionality().map_err(|e| anyhow!("{e}"))?;
         let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("grid {} point {pt} realisation {r}: {e}", self.from)));
-        let image = render(&map, self.cell, &self.bonded).map_err(bad)?.grey;
-        let web = render(&map, self.cell, &self.plain).map_err(bad)?.grey;
+        let image = render(&map, self.cell, bonded).map_err(bad)?.grey;
+        let web = render(&map, self.cell, plain).map_err(bad)?.grey;
         Ok((image, crate::uniformity::coefficient_of_variation(web.iter().copied())))
     }
 }
@@ -81,6 +79,8 @@ struct Kept {
     cols: usize,
     /// Grid source: CV of the bond-free rendering; NaN for files.
     cv_web: f64,
+    /// Wall time of reading or rendering and analysing the image.
+    wall_seconds: f64,
 }
 
 impl Stage for ImageStage {
@@ -168,16 +168,20 @@ impl Stage for ImageStage {
     }
 
     fn run(&self, ctx: &RunContext) -> Result<Output> {
-        if !ctx.sweep.is_empty() {
-            return Err(BadInput("an image stage has no sweep: list the files (with groups), or sweep the grid stage it reads".into()).into());
-        }
         if ctx.replicates != 1 {
             return Err(BadInput(format!("an image stage is deterministic; replicates must be 1, not {}", ctx.replicates)).into());
         }
+        if let Some((name, _)) = ctx.sweep.iter().find(|(n, _)| NOT_SWEPT.contains(&n.as_str())) {
+            return Err(BadInput(format!(
+                "`{name}` cannot be swept in an image stage: it decides which images are read or how results are laid out; sweep the analysis (e.g. notch_sigma_bins, false_alarm_rate), render.* or bonds.*, or sweep the grid stage it reads"
+            ))
+            .into());
+        }
+        for p in &ctx.points {
+            image_params(p).validate().map_err(|e| BadInput(e.to_string()))?;
+        }
         let p = &ctx.points[0];
-        let ip = image_params(p);
-        ip.validate().map_err(|e| BadInput(e.to_string()))?;
-        let (samples, sweep, grid) = match ctx.inputs.first() {
+        let (samples, grid_sweep, grid) = match ctx.inputs.first() {
             Some(input) => {
                 if !p.text_list("files").is_empty() {
                     return Err(BadInput("give `files` or a grid `input`, not both".into()).into());
@@ -185,61 +189,121 @@ impl Stage for ImageStage {
                 if p.f64_or_auto("pixel_size").is_some() || p.f64_or_auto("dpi").is_some() {
                     return Err(BadInput("with a grid input the pixel size is the grid's cell_size; remove pixel_size/dpi".into()).into());
                 }
-                grid_samples(input, p)?
+                grid_samples(input)?
             }
             None => {
                 if p.text_list("files").is_empty() {
                     return Err(BadInput("an image stage needs `files` (paths or globs) or an `input` grid stage".into()).into());
                 }
-                if p.text("bonds.shape") != "none" {
+                if ctx.points.iter().any(|p| p.text("bonds.shape") != "none") {
                     return Err(BadInput("bonds.* overlay rendered grid images; image files are analysed as they are (set bonds.shape: none)".into()).into());
                 }
                 (file_samples(ctx, p)?, vec![], None)
             }
         };
         let max_store = p.usize("max_stored_images");
-        // Analyse in parallel; only the first `max_store` keep their images.
-        let results: Vec<Result<Kept>> = samples
-            .par_iter()
-            .enumerate()
-            .map(|(i, smp)| {
-                let (image, cv_web) = match (&smp.source, &grid) {
-                    (Source::File(path), _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
-                    (Source::Grid(pt, r), Some(g)) => g.render(*pt, *r)?,
-                    (Source::Grid(..), None) => unreachable!("grid samples come with the grid"),
-                };
-                let (rows, cols) = image.dim();
-                let a = analyze(&image, smp.pixel, &ip).map_err(|e| {
-                    let what = if smp.file.is_empty() { format!("group {} sample {i}", smp.group) } else { smp.file.clone() };
-                    anyhow::Error::new(BadInput(format!("{what}: {e}")))
-                })?;
-                drop(image);
-                let store = i < max_store;
-                let a = if store { a } else { strip(a) };
-                Ok(Kept { a, store, rows, cols, cv_web })
-            })
-            .collect();
-        let kept: Vec<Kept> = results.into_iter().collect::<Result<_>>()?;
-        for (smp, k) in samples.iter().zip(&kept) {
-            for w in &k.a.warnings {
-                let what = if smp.file.is_empty() { format!("group {}", smp.group) } else { smp.file.clone() };
-                eprintln!("{}: warning: {what}: {w}", ctx.stage_name);
+        // Sweep points one after another, the samples of a point in parallel.
+        let mut per_point = Vec::with_capacity(ctx.points.len());
+        for (k, p) in ctx.points.iter().enumerate() {
+            let point = if ctx.sweep.is_empty() { String::new() } else { format!("point {}: ", ctx.point_index(k)) };
+            let kept = analyse_point(&samples, grid.as_ref(), p, max_store)?;
+            for (smp, k) in samples.iter().zip(&kept) {
+                for w in &k.a.warnings {
+                    let what = if smp.file.is_empty() { format!("group {}", smp.group) } else { smp.file.clone() };
+                    eprintln!("{}: warning: {point}{what}: {w}", ctx.stage_name);
+                }
             }
+            let groups = group_stats(&samples, &kept);
+            let label = if ctx.sweep.is_empty() { ctx.stage_name.clone() } else { format!("{} point {}", ctx.stage_name, ctx.point_index(k)) };
+            eprint!("{}", table(&label, &groups, &kept));
+            per_point.push(kept);
         }
-        let mut out = assemble(&samples, &kept, &ip, p, &sweep);
-        let groups = group_stats(&samples, &kept);
-        eprint!("{}", table(&ctx.stage_name, &groups, &kept));
-        if p.bool("panels") && kept.iter().any(|k| k.store) {
+        // One peak-table width for all points, so that the points stack.
+        let peaks = per_point.iter().flatten().map(|k| k.a.peaks.len()).max().unwrap_or(0);
+        let parts: Vec<Output> = per_point
+            .iter()
+            .zip(&ctx.points)
+            .map(|(kept, p)| assemble(&samples, kept, &image_params(p), p, &grid_sweep, peaks))
+            .collect();
+        let mut out = stack_points(parts, !ctx.sweep.is_empty())?;
+        if p.bool("panels") && per_point.iter().flatten().any(|k| k.store) {
             std::fs::create_dir_all(&ctx.figure_dir).map_err(|e| anyhow!("creating {}: {e}", ctx.figure_dir.display()))?;
-            for (i, (smp, k)) in samples.iter().zip(&kept).enumerate().filter(|(_, (_, k))| k.store) {
-                let path = ctx.figure_dir.join(format!("sample{i:03}_{}.png", sanitise(&smp.group)));
-                super::panel::write_panel_png(&path, &k.a, PANEL_DECADES).map_err(|e| anyhow!("{e}"))?;
-                eprintln!("{}: panel {}", ctx.stage_name, path.display());
+            for (k, kept) in per_point.iter().enumerate() {
+                let prefix = if ctx.sweep.is_empty() { String::new() } else { format!("point{:03}_", ctx.point_index(k)) };
+                for (i, (smp, kp)) in samples.iter().zip(kept).enumerate().filter(|(_, (_, kp))| kp.store) {
+                    let path = ctx.figure_dir.join(format!("{prefix}sample{i:03}_{}.png", sanitise(&smp.group)));
+                    super::panel::write_panel_png(&path, &kp.a, PANEL_DECADES).map_err(|e| anyhow!("{e}"))?;
+                    eprintln!("{}: panel {}", ctx.stage_name, path.display());
+                }
             }
             out.set_attr("figure_dir", ctx.figure_dir.display().to_string());
         }
         Ok(out)
     }
+}
+
+/// Parameters that decide which images are read or how the results are laid out; the
+/// same at every point of a sweep, so that the points' datasets stack.
+const NOT_SWEPT: &[&str] = &["files", "groups", "pixel_size", "dpi", "zone_min", "zone_max", "zones_per_octave", "max_stored_images", "panels"];
+
+/// Variables that describe the samples and conditions, not their analysis: the same at
+/// every sweep point, stored once.
+const SAMPLE_DESCRIPTORS: &[&str] = &["sample", "grid_point", "realisation", "pixel_size", "rows", "cols", "condition_samples", "stored_sample"];
+
+/// Analyses every sample with the parameters of one sweep point, in parallel; only the
+/// first `max_store` keep their images.
+fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ParamSet, max_store: usize) -> Result<Vec<Kept>> {
+    let ip = image_params(p);
+    let render = grid.map(|_| render_params(p));
+    samples
+        .par_iter()
+        .enumerate()
+        .map(|(i, smp)| {
+            let started = std::time::Instant::now();
+            let (image, cv_web) = match (&smp.source, grid, &render) {
+                (Source::File(path), _, _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
+                (Source::Grid(pt, r), Some(g), Some((bonded, plain))) => g.render(*pt, *r, bonded, plain)?,
+                (Source::Grid(..), _, _) => unreachable!("grid samples come with the grid"),
+            };
+            let (rows, cols) = image.dim();
+            let a = analyze(&image, smp.pixel, &ip).map_err(|e| {
+                let what = if smp.file.is_empty() { format!("group {} sample {i}", smp.group) } else { smp.file.clone() };
+                anyhow::Error::new(BadInput(format!("{what}: {e}")))
+            })?;
+            drop(image);
+            let store = i < max_store;
+            let a = if store { a } else { strip(a) };
+            Ok(Kept { a, store, rows, cols, cv_web, wall_seconds: started.elapsed().as_secs_f64() })
+        })
+        .collect()
+}
+
+/// The output of a sweep from the outputs of its points: every analysis result gains a
+/// leading `point` dimension; coordinates, text and the [`SAMPLE_DESCRIPTORS`] are
+/// stored once (they must agree between points). Without a sweep, the one point's output.
+fn stack_points(mut parts: Vec<Output>, swept: bool) -> Result<Output> {
+    if !swept {
+        return parts.pop().ok_or_else(|| anyhow!("an image stage ran no point"));
+    }
+    for part in &mut parts {
+        for v in &mut part.variables {
+            let shared = SAMPLE_DESCRIPTORS.contains(&v.name.as_str())
+                || v.attrs.contains_key("grid_parameter")
+                || v.dims.len() == 1 && v.dims[0] == v.name
+                || matches!(v.values, Values::Str(_));
+            if shared {
+                continue;
+            }
+            v.dims.insert(0, "point".into());
+            v.values = match std::mem::replace(&mut v.values, Values::Str(vec![])) {
+                Values::F64(a) => Values::F64(a.insert_axis(Axis(0))),
+                Values::I64(a) => Values::I64(a.insert_axis(Axis(0))),
+                Values::U8(a) => Values::U8(a.insert_axis(Axis(0))),
+                Values::Str(_) => unreachable!("text is shared"),
+            };
+        }
+    }
+    crate::executor::partial::gather(&parts, &["point"])
 }
 
 /// Drops the large arrays of an analysis that is not stored.
@@ -341,11 +405,24 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
         .collect())
 }
 
+/// How grid maps become images: (with the bond lattice, without it).
+fn render_params(p: &ParamSet) -> (RenderParams, RenderParams) {
+    let bonded = RenderParams {
+        attenuation: p.f64("render.attenuation"),
+        white: p.f64("render.white"),
+        black: p.f64("render.black"),
+        bits: p.usize("render.bits") as u8,
+        bonds: bond_pattern(p),
+    };
+    let plain = RenderParams { bonds: None, ..bonded.clone() };
+    (bonded, plain)
+}
+
 /// A grid point's swept parameters, read from the grid version (1-D variables along
 /// `point` with a `parameter` attribute): (name, unit, values).
-type Sweep = Vec<(String, String, Vec<f64>)>;
+type GridSweep = Vec<(String, String, Vec<f64>)>;
 
-fn grid_sweep(input: &Input, npoints: usize) -> Result<Sweep> {
+fn grid_sweep(input: &Input, npoints: usize) -> Result<GridSweep> {
     let g = input.version.open()?;
     Ok(crate::archive::hdf::swept_coordinates(&g)
         .into_iter()
@@ -354,7 +431,7 @@ fn grid_sweep(input: &Input, npoints: usize) -> Result<Sweep> {
         .collect())
 }
 
-fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep, Option<GridData>)> {
+fn grid_samples(input: &Input) -> Result<(Vec<Sample>, GridSweep, Option<GridData>)> {
     let from = input.version.group_path();
     let need = |name: &str| {
         if input.has(name) {
@@ -375,14 +452,6 @@ fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep, Opti
     }
     let (npoints, nreal) = (density.shape()[0], density.shape()[1]);
     let sweep = grid_sweep(input, npoints)?;
-    let bonded = RenderParams {
-        attenuation: p.f64("render.attenuation"),
-        white: p.f64("render.white"),
-        black: p.f64("render.black"),
-        bits: p.usize("render.bits") as u8,
-        bonds: bond_pattern(p),
-    };
-    let plain = RenderParams { bonds: None, ..bonded.clone() };
     let samples = (0..npoints)
         .flat_map(|pt| (0..nreal).map(move |r| (pt, r)))
         .map(|(pt, r)| Sample {
@@ -398,7 +467,7 @@ fn grid_samples(input: &Input, p: &ParamSet) -> Result<(Vec<Sample>, Sweep, Opti
             realisation: r as i64,
         })
         .collect();
-    Ok((samples, sweep, Some(GridData { from, density, cell, bonded, plain })))
+    Ok((samples, sweep, Some(GridData { from, density, cell })))
 }
 
 fn group_stats(samples: &[Sample], kept: &[Kept]) -> Vec<(GroupStats, MeanStd)> {
@@ -448,7 +517,8 @@ fn nan_if_none(v: Option<f64>) -> f64 {
     v.unwrap_or(f64::NAN)
 }
 
-fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, sweep: &Sweep) -> Output {
+/// The datasets of one sweep point; the peak table is `peaks` wide.
+fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, sweep: &GridSweep, peaks: usize) -> Output {
     let n = samples.len();
     let nan = f64::NAN;
     let mut out = Output::new();
@@ -480,10 +550,11 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.f64("lattice_angle1", &["sample"], lat(&|l| l.angles_deg.first().copied()), "degree", "direction of the first lattice vector from +x (columns) towards +y (rows)");
     out.f64("lattice_angle2", &["sample"], lat(&|l| l.angles_deg.get(1).copied()), "degree", "direction of the second lattice vector");
     out.f64("lattice_angle_between", &["sample"], lat(&|l| l.angle_between_deg), "degree", "angle between the lattice vectors");
+    out.f64("wall_seconds", &["sample"], Array1::from_iter(kept.iter().map(|k| k.wall_seconds)), "s", "wall time of reading or rendering and analysing the image (on one thread of the pool)");
     out.i64("lattice_explained", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.lattice.as_ref().map(|l| l.explained as i64).unwrap_or(0))), "1", "peaks explained by the lattice");
 
     // Peak table, padded with NaN (pass −1).
-    let np = kept.iter().map(|k| k.a.peaks.len()).max().unwrap_or(0);
+    let np = peaks;
     let peak = |f: &dyn Fn(&super::Peak) -> f64| {
         Array2::from_shape_fn((n, np), |(i, j)| kept[i].a.peaks.get(j).map(f).unwrap_or(nan))
     };
@@ -532,7 +603,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
                 .map(|(s, _)| samples.iter().find(|x| x.group == s.group).map(|x| values[x.grid_point as usize]).unwrap_or(nan))
                 .collect();
             let var = out.f64(&format!("condition_{name}"), &["condition"], Array1::from(per), if unit.is_empty() { "1" } else { unit.as_str() }, &format!("grid parameter {name} of the condition"));
-            var.attrs.insert("parameter".into(), Attr::Str(name.clone()));
+            var.attrs.insert("grid_parameter".into(), Attr::Str(name.clone()));
         }
     }
 

@@ -136,3 +136,98 @@ fn a_grid_version_without_density_or_with_nan_is_bad_input() {
     let e = ImageStage.run(&ctx(dir.path(), vec![input], &[])).unwrap_err();
     assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("point 0 realisation 0"), "{e}");
 }
+
+/// A sweep of the analysis: every result gains a leading `point` dimension and point k
+/// is exactly the unswept run with point k's parameters; the sample descriptors and
+/// text are stored once; parameters that change which images are read are refused.
+#[test]
+fn a_swept_analysis_stacks_the_unswept_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = fixture(dir.path(), 96, 128);
+    let fixed = [
+        ("bonds.shape", ParamValue::Text("circle".into())),
+        ("bonds.size1", ParamValue::Float(1.6e-3)),
+        ("bonds.contrast", ParamValue::Float(0.4)),
+        ("max_stored_images", ParamValue::Int(1)),
+        ("panels", ParamValue::Bool(false)),
+    ];
+    let values = [0.5, 2.0];
+    let single: Vec<Output> = values
+        .iter()
+        .map(|&w| {
+            let mut given = fixed.to_vec();
+            given.push(("notch_sigma_bins", ParamValue::Float(w)));
+            let input = Input { name: input.name.clone(), kind: input.kind.clone(), version: input.version.clone() };
+            ImageStage.run(&ctx(dir.path(), vec![input], &given)).unwrap()
+        })
+        .collect();
+    let mut swept = ctx(dir.path(), vec![input], &fixed);
+    swept.points = values
+        .iter()
+        .map(|&w| {
+            let mut given: BTreeMap<String, ParamValue> = fixed.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
+            given.insert("notch_sigma_bins".into(), ParamValue::Float(w));
+            ParamSet::resolve(&ImageStage.params(), &given)
+        })
+        .collect();
+    swept.sweep = vec![("notch_sigma_bins".into(), values.iter().map(|&w| ParamValue::Float(w)).collect())];
+    let out = ImageStage.run(&swept).unwrap();
+    assert!(out.dimensions().is_ok());
+    assert_eq!(out.get("cv_corr").unwrap().dims, vec!["point", "sample"]);
+    assert_eq!(out.get("cv_corr_mean").unwrap().dims, vec!["point", "condition"]);
+    assert_eq!(out.get("raw_image").unwrap().dims, vec!["point", "stored", "row", "col"]);
+    assert_eq!(out.get("rows").unwrap().dims, vec!["sample"]);
+    assert_eq!(out.get("condition_belt_speed_ratio").unwrap().dims, vec!["condition"]);
+    let mut differs = false;
+    for v in &single[0].variables {
+        let stacked = out.get(&v.name).unwrap();
+        if stacked.dims.first().map(String::as_str) != Some("point") {
+            assert_eq!(bits(&stacked.values), bits(&v.values), "{} is shared but differs", v.name);
+            continue;
+        }
+        for (k, one) in single.iter().enumerate() {
+            let want = &one.get(&v.name).unwrap().values;
+            // The peak table is as wide as the widest point's: the rest is padding.
+            let width = want.shape().get(1).copied().unwrap_or(0);
+            let trim = |a: ndarray::ArrayViewD<'_, f64>| if v.dims.last().map(String::as_str) == Some("peak") { a.slice_axis(Axis(1), (0..width).into()).to_owned() } else { a.to_owned() };
+            let got = match &stacked.values {
+                Values::F64(a) => {
+                    let point = a.index_axis(Axis(0), k);
+                    if v.dims.last().map(String::as_str) == Some("peak") {
+                        assert!(point.slice_axis(Axis(1), (width..).into()).iter().all(|x| x.is_nan()), "{} padding", v.name);
+                    }
+                    Values::F64(trim(point))
+                }
+                Values::I64(a) => {
+                    let point = a.index_axis(Axis(0), k).mapv(|x| x as f64);
+                    if v.dims.last().map(String::as_str) == Some("peak") {
+                        assert!(point.slice_axis(Axis(1), (width..).into()).iter().all(|&x| x == -1.0), "{} padding", v.name);
+                    }
+                    Values::I64(trim(point.view()).mapv(|x| x as i64))
+                }
+                other => panic!("{}: {other:?}", v.name),
+            };
+            if v.name != "wall_seconds" {
+                assert_eq!(bits(&got), bits(want), "{} at point {k}", v.name);
+            }
+        }
+        differs |= single[0].get(&v.name).unwrap().values != single[1].get(&v.name).unwrap().values && v.name == "cv_corr";
+    }
+    assert!(differs, "the notch width must change cv_corr");
+
+    let mut bad = ctx(dir.path(), vec![], &[]);
+    bad.sweep = vec![("zone_min".into(), vec![ParamValue::Float(1e-3), ParamValue::Float(2e-3)])];
+    let e = ImageStage.run(&bad).unwrap_err();
+    assert!(e.downcast_ref::<BadInput>().is_some() && e.to_string().contains("`zone_min` cannot be swept"), "{e}");
+}
+
+/// Values as bits (NaN padding compares equal to itself), with their shape.
+fn bits(v: &Values) -> (Vec<usize>, Vec<u64>) {
+    let b = match v {
+        Values::F64(a) => a.iter().map(|x| x.to_bits()).collect(),
+        Values::I64(a) => a.iter().map(|&x| x as u64).collect(),
+        Values::U8(a) => a.iter().map(|&x| x as u64).collect(),
+        Values::Str(s) => s.iter().flat_map(|t| t.bytes().map(u64::from).chain([u64::MAX])).collect(),
+    };
+    (v.shape(), b)
+}

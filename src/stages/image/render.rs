@@ -209,6 +209,13 @@ pub struct Rendered {
 
 /// Renders an areal-density map (g/m², cell size `cell` m) as a transmission image.
 pub fn render(density: &Array2<f64>, cell: f64, p: &RenderParams) -> Result<Rendered, ImageError> {
+    render_with_coverage(density, cell, p, None)
+}
+
+/// [`render`] with the bond coverage of the lattice already computed
+/// ([`BondPattern::coverage`] for this image size and `cell`): maps of one size share it,
+/// and it costs more than the rest of the rendering.
+pub fn render_with_coverage(density: &Array2<f64>, cell: f64, p: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<Rendered, ImageError> {
     let bad = |name: &'static str, value: f64, allowed: &str| ImageError::InvalidParam {
         name,
         value: value.to_string(),
@@ -239,7 +246,21 @@ pub fn render(density: &Array2<f64>, cell: f64, p: &RenderParams) -> Result<Rend
         if s.abs() < 1e-3 {
             return Err(bad("bonds.angle_between_deg", b.angle_between_deg, "not a multiple of 180°"));
         }
-        let c = b.coverage(h, w, cell);
+        let computed;
+        let c = match coverage {
+            Some(c) if c.dim() == (h, w) => c,
+            Some(c) => {
+                return Err(ImageError::InvalidParam {
+                    name: "coverage",
+                    value: format!("{:?}", c.dim()),
+                    allowed: format!("the image size {h} × {w}"),
+                })
+            }
+            None => {
+                computed = b.coverage(h, w, cell);
+                &computed
+            }
+        };
         f = c.mean().unwrap_or(0.0);
         let shift = if b.zero_mean { f } else { 0.0 };
         bond = c.mapv(|v| b.contrast * (v - shift));

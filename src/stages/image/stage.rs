@@ -19,7 +19,7 @@
 //! Documented results: a constant grey image gives CV 0 and no notches (warning on
 //! stderr); a lattice whose period exceeds the image is not detected and the image is
 //! returned unchanged (`notches` = 0, `cv_corr` = `cv_raw`).
-use super::render::{render, BondPattern, BondShape, RenderParams};
+use super::render::{render, render_with_coverage, BondPattern, BondShape, RenderParams};
 use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PARAMETERS};
 use crate::archive::data::{Attr, Output, Values};
 use crate::params::{ParamSet, ParamSpec};
@@ -61,11 +61,13 @@ struct GridData {
 
 impl GridData {
     /// The bonded rendering of one map and the CV of the bond-free one (the truth).
-    fn render(&self, pt: usize, r: usize, bonded: &RenderParams, plain: &RenderParams) -> Result<(Array2<f64>, f64)> {
+    ///
+    /// `coverage`: the lattice's bond coverage of a map (all maps of a grid have one size).
+    fn render(&self, pt: usize, r: usize, bonded: &RenderParams, plain: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<(Array2<f64>, f64)> {
         let map: Array2<f64> =
             self.density.index_axis(Axis(0), pt).index_axis(Axis(0), r).to_owned().into_dimensionality().map_err(|e| anyhow!("{e}"))?;
         let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("grid {} point {pt} realisation {r}: {e}", self.from)));
-        let image = render(&map, self.cell, bonded).map_err(bad)?.grey;
+        let image = render_with_coverage(&map, self.cell, bonded, coverage).map_err(bad)?.grey;
         let web = render(&map, self.cell, plain).map_err(bad)?.grey;
         Ok((image, crate::uniformity::coefficient_of_variation(web.iter().copied())))
     }
@@ -255,6 +257,11 @@ const SAMPLE_DESCRIPTORS: &[&str] = &["sample", "grid_point", "realisation", "pi
 fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ParamSet, max_store: usize) -> Result<Vec<Kept>> {
     let ip = image_params(p);
     let render = grid.map(|_| render_params(p));
+    // The bond coverage of the grid's map size, once for all its maps.
+    let coverage = match (grid, &render) {
+        (Some(g), Some((bonded, _))) => bonded.bonds.as_ref().map(|b| b.coverage(g.density.shape()[2], g.density.shape()[3], g.cell)),
+        _ => None,
+    };
     samples
         .par_iter()
         .enumerate()
@@ -262,7 +269,7 @@ fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ParamSet, max_
             let started = std::time::Instant::now();
             let (image, cv_web) = match (&smp.source, grid, &render) {
                 (Source::File(path), _, _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
-                (Source::Grid(pt, r), Some(g), Some((bonded, plain))) => g.render(*pt, *r, bonded, plain)?,
+                (Source::Grid(pt, r), Some(g), Some((bonded, plain))) => g.render(*pt, *r, bonded, plain, coverage.as_ref())?,
                 (Source::Grid(..), _, _) => unreachable!("grid samples come with the grid"),
             };
             let (rows, cols) = image.dim();

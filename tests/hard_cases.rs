@@ -124,3 +124,65 @@ fn noise_and_saturated_bonds() {
     // but most of the excess CV is gone.
     assert!(a.cv_corr - cv_web < 0.5 * (a.cv_raw - cv_web), "CV_corr {} raw {} web {cv_web}", a.cv_corr, a.cv_raw);
 }
+
+/// The image hard cases through the pipeline (synthetic source, reduced size; full size
+/// in pipelines/stability/images.yaml): a constant grey image gives CV 0, no notches
+/// and a warning; noise gives no notches and its CV unchanged, and a threshold sweep on
+/// noise counts the false peaks; bonds that clip to white on noise give finite results
+/// with most of the excess CV removed, and a warning.
+#[test]
+fn image_hard_cases_through_the_pipeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run_pipeline(
+        dir.path(),
+        "pipeline: hard_images
+archive: hard.h5
+seed: 4
+stages:
+  - name: constant
+    kind: image
+    params: {synthetic: constant, synthetic.count: 2, synthetic.rows: 128, synthetic.cols: 160}
+  - name: noise
+    kind: image
+    params: {synthetic: noise, synthetic.count: 6, synthetic.rows: 128, synthetic.cols: 160, panels: false}
+    sweep: {false_alarm_rate: [1.0e-3, 0.5]}
+  - name: saturated
+    kind: image
+    params:
+      synthetic: noise
+      synthetic.count: 2
+      synthetic.rows: 200
+      synthetic.cols: 240
+      pixel_size: 0.00034
+      panels: false
+      bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 1.0, zero_mean: false}
+",
+    );
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("constant image: CV is 0"), "{err}");
+    assert!(err.contains("saturated at 0 or 1"), "{err}");
+
+    assert!(read(dir.path(), "constant", "cv_corr").iter().all(|&v| v == 0.0));
+    assert!(read(dir.path(), "constant", "notches").iter().all(|&v| v == 0.0));
+
+    let (raw, corr, notches) = (read(dir.path(), "noise", "cv_raw"), read(dir.path(), "noise", "cv_corr"), read(dir.path(), "noise", "notches"));
+    assert_eq!(corr.shape(), [2, 6]);
+    // At α = 1e-3 false peaks per image, 6 noise images should show none...
+    for s in 0..6 {
+        assert_eq!(notches[[0, s]], 0.0, "false notches at α = 1e-3 in image {s}");
+        assert!((corr[[0, s]] - raw[[0, s]]).abs() < 1e-9 * raw[[0, s]] + 1e-12, "noise CV changed");
+        assert!((raw[[0, s]] - 0.2).abs() < 0.01, "noise CV {} (asked 0.2)", raw[[0, s]]);
+    }
+    // ...and the CV is kept within 1 % even at a threshold that lets false peaks through.
+    for s in 0..6 {
+        assert!(corr[[1, s]].is_finite() && (corr[[1, s]] / raw[[1, s]] - 1.0).abs() < 0.01, "α = 0.5: {} vs {}", corr[[1, s]], raw[[1, s]]);
+    }
+
+    let (raw, corr, web) = (read(dir.path(), "saturated", "cv_raw"), read(dir.path(), "saturated", "cv_corr"), read(dir.path(), "saturated", "cv_web"));
+    for s in 0..2 {
+        assert!(raw[[s]].is_finite() && corr[[s]].is_finite(), "finite");
+        assert!(raw[[s]] > 1.3 * web[[s]], "the clipped bonds dominate the raw CV: {} vs {}", raw[[s]], web[[s]]);
+        assert!((corr[[s]] - web[[s]]).abs() < 0.5 * (raw[[s]] - web[[s]]), "CV_corr {} raw {} web {}", corr[[s]], raw[[s]], web[[s]]);
+    }
+}

@@ -499,7 +499,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         let sat = raw.iter().filter(|&&v| v <= 0.0 || v >= 1.0).count() as f64 / raw.len() as f64;
         if sat > 0.01 {
             warnings.push(format!(
-                "{:.1} % of pixels are saturated at 0 or 1: clipped bonds are not purely periodic, so part of the pattern survives the notches and CV_corr is biased high",
+                "{:.1} % of pixels are saturated at 0 or 1: the web under clipped pixels is lost and clipped bonds are not purely periodic (part of the pattern survives the notches), so CV_corr is biased (low when bonds clip to white, high when surviving pattern dominates)",
                 100.0 * sat
             ));
         }

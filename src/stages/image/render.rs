@@ -227,15 +227,27 @@ pub fn render_with_coverage(density: &Array2<f64>, cell: f64, p: &RenderParams, 
     if !(p.attenuation >= 0.0 && p.attenuation.is_finite()) {
         return Err(bad("attenuation", p.attenuation, "k ≥ 0 (m²/g)"));
     }
-    if p.bits > 16 {
-        return Err(bad("bits", p.bits as f64, "0 (no quantisation) to 16"));
-    }
     let n_bad = density.iter().filter(|v| !v.is_finite()).count();
     if n_bad > 0 {
         return Err(ImageError::NonFinite { path: None, count: n_bad });
     }
-    let (h, w) = density.dim();
-    let mut grey = density.mapv(|rho| p.black + (p.white - p.black) * (-p.attenuation * rho.max(0.0)).exp());
+    let grey = density.mapv(|rho| p.black + (p.white - p.black) * (-p.attenuation * rho.max(0.0)).exp());
+    overlay(grey, cell, p, coverage)
+}
+
+/// Adds the bond lattice of `p` (if any) to grey levels, then clips to [0, 1] and
+/// quantises to `p.bits`: the part of [`render`] after the transmission, shared by
+/// images that are not rendered from a density map (synthetic test images).
+pub fn overlay(mut grey: Array2<f64>, pixel: f64, p: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<Rendered, ImageError> {
+    let bad = |name: &'static str, value: f64, allowed: &str| ImageError::InvalidParam {
+        name,
+        value: value.to_string(),
+        allowed: allowed.to_string(),
+    };
+    if p.bits > 16 {
+        return Err(bad("bits", p.bits as f64, "0 (no quantisation) to 16"));
+    }
+    let (h, w) = grey.dim();
     let mut bond = Array2::zeros((h, w));
     let mut f = 0.0;
     if let Some(b) = &p.bonds {
@@ -257,7 +269,7 @@ pub fn render_with_coverage(density: &Array2<f64>, cell: f64, p: &RenderParams, 
                 })
             }
             None => {
-                computed = b.coverage(h, w, cell);
+                computed = b.coverage(h, w, pixel);
                 &computed
             }
         };

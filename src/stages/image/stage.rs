@@ -1,7 +1,7 @@
 //! `kind: image` — the pipeline stage around the image numerics (§3.4, Table 4, Figs 11-12):
 //! CV of a bonded nonwoven's grey levels, raw and after notching the bond lattice.
 //!
-//! Two sources, exactly one per stage:
+//! Three sources, exactly one per stage:
 //! * **files**: `files:` lists paths or globs (relative to the pipeline file), read as
 //!   grey levels (PNG/TIFF/JPEG, 8/16 bit, RGB → BT.601 luma). `groups:` (optional, same
 //!   length) labels each entry with its condition, e.g. one glob of 8 scans per belt speed;
@@ -13,6 +13,16 @@
 //!   overlaid; the group is the grid point (labelled by the grid's swept parameters).
 //!   `cv_web` is then the CV of the same rendering without bonds: the truth the filter
 //!   should recover.
+//! * **synthetic test images** (`synthetic: constant | noise`, `synthetic.*`): constant
+//!   grey or smoothed noise of a known CV, `synthetic.count` images of
+//!   `synthetic.rows` × `synthetic.cols` px (default 617 × 871, the paper's scans), with
+//!   `bonds.*` overlaid; `cv_web` is the CV without bonds. For calibration (sweep
+//!   `false_alarm_rate` on noise and count the peaks) and the hard cases
+//!   (pipelines/stability/images.yaml).
+//!
+//! **Sweeps** of the analysis, `render.*`, `bonds.*` or `synthetic.mean/cv/correlation`
+//! run every point on the same samples; each result gains a leading `point` dimension
+//! (schemas/archive_layout.md).
 //!
 //! Bad input (exit 2, nothing written): missing/unreadable/corrupt files, empty globs,
 //! images under 16 px, an image with a non-positive mean (black), NaN density.
@@ -32,6 +42,7 @@ use std::path::{Path, PathBuf};
 pub struct ImageStage;
 
 const SHAPES: &[&str] = &["none", "circle", "ellipse", "rectangle"];
+const SYNTHETIC: &[&str] = &["none", "constant", "noise"];
 /// Spectrum range of the PNG panels (decades below the largest non-DC value).
 const PANEL_DECADES: f64 = 6.0;
 
@@ -48,6 +59,8 @@ struct Sample {
 
 enum Source {
     File(PathBuf),
+    /// A synthetic test image (`synthetic.*`) drawn from this seed.
+    Synthetic(u64),
     /// (point, realisation) of the grid input.
     Grid(usize, usize),
 }
@@ -101,6 +114,13 @@ impl Stage for ImageStage {
     fn params(&self) -> Vec<ParamSpec> {
         let mut v = vec![
             ParamSpec::text_list("files", "image files or glob patterns (PNG, TIFF, JPEG; 8/16 bit; grey or RGB), relative to the pipeline file; empty with a grid input"),
+            ParamSpec::choice("synthetic", SYNTHETIC, "none", "a synthetic test image source instead of files or a grid: constant grey, or noise (uniform white noise smoothed by a Gaussian of synthetic.correlation pixels, scaled to synthetic.mean and synthetic.cv); bonds.* may be overlaid; for calibration (false alarms on noise) and hard cases"),
+            ParamSpec::int("synthetic.count", "1", 8, 1, 10_000, "synthetic images (one condition; each its own random stream of the stage's seed)"),
+            ParamSpec::int("synthetic.rows", "1", 617, 16, 20_000, "synthetic image height (pixels); default 617, the paper's A4 scans at 871 px wide"),
+            ParamSpec::int("synthetic.cols", "1", 871, 16, 20_000, "synthetic image width (pixels)"),
+            ParamSpec::float("synthetic.mean", "1", 0.5, 0.0, 1.0, "mean grey level of a synthetic image (full scale 1)"),
+            ParamSpec::float("synthetic.cv", "1", 0.2, 0.0, 10.0, "CV of the noise before clipping to [0, 1]"),
+            ParamSpec::float("synthetic.correlation", "1", 1.0, 0.0, 100.0, "standard deviation (pixels) of the Gaussian that smooths the noise; 0 = white"),
             ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group"),
             ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files; give this or dpi; neither: 297/871 mm (A4 at 871 px); grid input: the grid's cell_size").auto_default(),
             ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m); give this or pixel_size").auto_default(),
@@ -154,6 +174,9 @@ impl Stage for ImageStage {
                 format!("{} group labels for {} `files` entries; allowed: one label per entry, or none", groups.len(), files.len()),
             ));
         }
+        if !files.is_empty() && p.text("synthetic") != "none" {
+            return Err(("synthetic".into(), "give `files` or a synthetic source, not both; allowed with `files`: none".into()));
+        }
         if !files.is_empty() && p.text("bonds.shape") != "none" {
             return Err((
                 "bonds.shape".into(),
@@ -191,11 +214,15 @@ impl Stage for ImageStage {
                 if p.f64_or_auto("pixel_size").is_some() || p.f64_or_auto("dpi").is_some() {
                     return Err(BadInput("with a grid input the pixel size is the grid's cell_size; remove pixel_size/dpi".into()).into());
                 }
+                if p.text("synthetic") != "none" {
+                    return Err(BadInput("give a grid `input` or a `synthetic` source, not both".into()).into());
+                }
                 grid_samples(input)?
             }
+            None if p.text("synthetic") != "none" => (synthetic_samples(ctx, p), vec![], None),
             None => {
                 if p.text_list("files").is_empty() {
-                    return Err(BadInput("an image stage needs `files` (paths or globs) or an `input` grid stage".into()).into());
+                    return Err(BadInput("an image stage needs `files` (paths or globs), an `input` grid stage or a `synthetic` source".into()).into());
                 }
                 if ctx.points.iter().any(|p| p.text("bonds.shape") != "none") {
                     return Err(BadInput("bonds.* overlay rendered grid images; image files are analysed as they are (set bonds.shape: none)".into()).into());
@@ -246,7 +273,21 @@ impl Stage for ImageStage {
 
 /// Parameters that decide which images are read or how the results are laid out; the
 /// same at every point of a sweep, so that the points' datasets stack.
-const NOT_SWEPT: &[&str] = &["files", "groups", "pixel_size", "dpi", "zone_min", "zone_max", "zones_per_octave", "max_stored_images", "panels"];
+const NOT_SWEPT: &[&str] = &[
+    "files",
+    "groups",
+    "pixel_size",
+    "dpi",
+    "zone_min",
+    "zone_max",
+    "zones_per_octave",
+    "max_stored_images",
+    "panels",
+    "synthetic",
+    "synthetic.count",
+    "synthetic.rows",
+    "synthetic.cols",
+];
 
 /// Variables that describe the samples and conditions, not their analysis: the same at
 /// every sweep point, stored once.
@@ -256,21 +297,24 @@ const SAMPLE_DESCRIPTORS: &[&str] = &["sample", "grid_point", "realisation", "pi
 /// first `max_store` keep their images.
 fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ParamSet, max_store: usize) -> Result<Vec<Kept>> {
     let ip = image_params(p);
-    let render = grid.map(|_| render_params(p));
-    // The bond coverage of the grid's map size, once for all its maps.
-    let coverage = match (grid, &render) {
-        (Some(g), Some((bonded, _))) => bonded.bonds.as_ref().map(|b| b.coverage(g.density.shape()[2], g.density.shape()[3], g.cell)),
+    let (bonded, plain) = render_params(p);
+    // The bond coverage of the map size, once for all maps (grid maps, synthetic images).
+    let size = match (grid, samples.first().map(|s| &s.source)) {
+        (Some(g), _) => Some((g.density.shape()[2], g.density.shape()[3], g.cell)),
+        (None, Some(Source::Synthetic(_))) => Some((p.usize("synthetic.rows"), p.usize("synthetic.cols"), samples[0].pixel)),
         _ => None,
     };
+    let coverage = size.and_then(|(rows, cols, pixel)| bonded.bonds.as_ref().map(|b| b.coverage(rows, cols, pixel)));
     samples
         .par_iter()
         .enumerate()
         .map(|(i, smp)| {
             let started = std::time::Instant::now();
-            let (image, cv_web) = match (&smp.source, grid, &render) {
-                (Source::File(path), _, _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
-                (Source::Grid(pt, r), Some(g), Some((bonded, plain))) => g.render(*pt, *r, bonded, plain, coverage.as_ref())?,
-                (Source::Grid(..), _, _) => unreachable!("grid samples come with the grid"),
+            let (image, cv_web) = match (&smp.source, grid) {
+                (Source::File(path), _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
+                (Source::Grid(pt, r), Some(g)) => g.render(*pt, *r, &bonded, &plain, coverage.as_ref())?,
+                (Source::Grid(..), None) => unreachable!("grid samples come with the grid"),
+                (Source::Synthetic(seed), _) => synthetic_image(p, *seed, smp.pixel, &bonded, &plain, coverage.as_ref())?,
             };
             let (rows, cols) = image.dim();
             let a = analyze(&image, smp.pixel, &ip).map_err(|e| {
@@ -412,6 +456,36 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
         .collect())
 }
 
+/// One image per `synthetic.count`, each with its own random stream of the stage seed.
+fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
+    let kind = p.text("synthetic");
+    let pixel = image_params(p).pixel_size_m();
+    (0..p.usize("synthetic.count"))
+        .map(|k| Sample {
+            group: kind.to_string(),
+            file: String::new(),
+            source: Source::Synthetic(rand::RngCore::next_u64(&mut crate::stages::stream_rng(ctx.seed, k as u64, 0))),
+            pixel,
+            grid_point: -1,
+            realisation: k as i64,
+        })
+        .collect()
+}
+
+/// A synthetic test image with the bond lattice overlaid, and the CV of the same image
+/// without bonds (the truth, after clipping to [0, 1]).
+fn synthetic_image(p: &ParamSet, seed: u64, pixel: f64, bonded: &RenderParams, plain: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<(Array2<f64>, f64)> {
+    let (rows, cols, mean) = (p.usize("synthetic.rows"), p.usize("synthetic.cols"), p.f64("synthetic.mean"));
+    let grey = match p.text("synthetic") {
+        "constant" => Array2::from_elem((rows, cols), mean),
+        _ => super::render::smoothed_noise(rows, cols, p.f64("synthetic.correlation"), mean, p.f64("synthetic.cv"), seed),
+    };
+    let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("synthetic image: {e}")));
+    let web = super::render::overlay(grey.clone(), pixel, plain, None).map_err(bad)?.grey;
+    let image = super::render::overlay(grey, pixel, bonded, coverage).map_err(bad)?.grey;
+    Ok((image, crate::uniformity::coefficient_of_variation(web.iter().copied())))
+}
+
 /// How grid maps become images: (with the bond lattice, without it).
 fn render_params(p: &ParamSet) -> (RenderParams, RenderParams) {
     let bonded = RenderParams {
@@ -533,8 +607,8 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.i64("sample", &["sample"], Array1::from_iter(0..n as i64), "1", "sample index (files in list order, globs sorted; or grid point × realisation)");
     out.strings("group", "sample", samples.iter().map(|s| s.group.clone()).collect(), "condition (group) of each sample");
     out.strings("file", "sample", samples.iter().map(|s| s.file.clone()).collect(), "image file (empty for rendered grid samples)");
-    out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point index of a rendered sample (−1 for files)");
-    out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "grid realisation of a rendered sample (−1 for files)");
+    out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point index of a rendered sample (−1 for files and synthetic images)");
+    out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "grid realisation of a rendered sample, or index of a synthetic image (−1 for files)");
     out.f64("pixel_size", &["sample"], Array1::from_iter(samples.iter().map(|s| s.pixel)), "m", "pixel size");
     out.i64("rows", &["sample"], Array1::from_iter(kept.iter().map(|k| k.rows as i64)), "1", "image height (pixels; rows = MD for grid samples)");
     out.i64("cols", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cols as i64)), "1", "image width (pixels)");
@@ -544,7 +618,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.f64("cv_corr_compensated", &["sample"], col(&|a| a.cv_corr_compensated), "1", "CV_corr with the web variance removed under the notches added back (background model)");
     out.f64("cv_corr_one_sided", &["sample"], col(&|a| nan_if_none(a.cv_corr_one_sided)), "1", "compensated CV about the mean without an estimated one-sided bond brightening (NaN when undefined)");
     out.f64("bond_mean_estimate", &["sample"], col(&|a| a.bond_mean_estimate), "1", "grey level the bonds add on average if they are one-sided");
-    out.f64("cv_web", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cv_web)), "1", "CV of the same rendering without bonds: the truth (grid samples; NaN for files)");
+    out.f64("cv_web", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cv_web)), "1", "CV of the same rendering without bonds: the truth (grid and synthetic samples; NaN for files)");
     out.i64("notches", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.notch_count as i64)), "1", "Gaussian notches applied (2 per peak: peak and conjugate)");
     out.i64("peak_count", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.peaks.len() as i64)), "1", "detected bond peaks (half plane)");
     out.f64("variance_removed_fraction", &["sample"], col(&|a| a.fraction_variance_removed), "1", "1 − Var(filtered)/Var(raw), whole images");

@@ -373,16 +373,45 @@ where
         }
     }
     if labelled {
+        let corner = legend_corner(&chart, p);
         chart
             .configure_series_labels()
             .label_font((FONT, 13))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(180, 180, 180))
-            .position(SeriesLabelPosition::UpperRight)
+            .position(corner)
             .draw()
             .map_err(plot_err)?;
     }
     Ok(())
+}
+
+/// The corner of the plotting area whose quarter holds the fewest data points (upper
+/// right on a tie), so the legend hides as little as possible.
+fn legend_corner<'a, DB, X, Y>(chart: &ChartContext<'a, DB, Cartesian2d<X, Y>>, p: &LinePanel) -> SeriesLabelPosition
+where
+    DB: DrawingBackend + 'a,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let (xm, ym) = ((xs.start + xs.end) / 2, (ys.start + ys.end) / 2);
+    let mut counts = [0usize; 4]; // upper right, upper left, lower right, lower left
+    for (x, y) in p.series.iter().flat_map(|s| s.points.iter()) {
+        if !(x.is_finite() && y.is_finite()) {
+            continue;
+        }
+        let (px, py) = chart.backend_coord(&(*x, *y));
+        let (right, upper) = (px >= xm, py <= ym);
+        counts[match (upper, right) {
+            (true, true) => 0,
+            (true, false) => 1,
+            (false, true) => 2,
+            (false, false) => 3,
+        }] += 1;
+    }
+    let best = (0..4).min_by_key(|&i| (counts[i], i)).unwrap_or(0);
+    [SeriesLabelPosition::UpperRight, SeriesLabelPosition::UpperLeft, SeriesLabelPosition::LowerRight, SeriesLabelPosition::LowerLeft][best].clone()
 }
 
 /// Block-average `values` so neither side exceeds `max_side` cells.

@@ -2,7 +2,7 @@
 //! the random-line reference, ρ_av and CV against the swept parameters (Fig 10d,e) and,
 //! with `compare_with: table4`, against the paper's measured values (Fig 13).
 use super::figure::{Figure, LinePanel, MapPanel, Panel, Series, Style};
-use super::{labelled, StageData};
+use super::{labelled, StageData, Swept};
 use anyhow::Result;
 use ndarray::{Array2, ArrayD, Axis, Ix1, Ix3, Ix4};
 
@@ -105,13 +105,31 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             continue;
         }
         orders_seen.push(order.clone());
-        let line = |name: &str, scale: f64, colour: usize| -> Result<Series> {
+        // One line per value of the other swept parameters (e.g. per spectrum in Fig 10d,e);
+        // parameters zipped with this one are not separate lines.
+        let others: Vec<&Swept> = swept.iter().filter(|t| t.name != s.name && !determined_by(s, t)).collect();
+        let mut lines: Vec<(String, Vec<usize>)> = vec![];
+        for &p in &order {
+            let key = others.iter().map(|t| format!("{} = {}", t.parameter, t.labels[p])).collect::<Vec<_>>().join(", ");
+            match lines.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, ps)) => ps.push(p),
+                None => lines.push((key, vec![p])),
+            }
+        }
+        let series = |name: &str| -> Result<Vec<Series>> {
             let (m, sd): (ArrayD<f64>, ArrayD<f64>) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
-            Ok(Series::new(Some("simulated"), order.iter().map(|&p| (s.values[p], m[[p]] * scale)).collect(), Style::LineMarkers, colour)
-                .with_error(order.iter().map(|&p| sd[[p]] * scale).collect()))
+            Ok(lines
+                .iter()
+                .enumerate()
+                .map(|(i, (key, ps))| {
+                    let label = if key.is_empty() { "simulated" } else { key.as_str() };
+                    Series::new(Some(label), ps.iter().map(|&p| (s.values[p], m[[p]])).collect(), Style::LineMarkers, if i >= 3 { i + 1 } else { i })
+                        .with_error(ps.iter().map(|&p| sd[[p]]).collect())
+                })
+                .collect())
         };
-        let mut rho = vec![line("mean_areal_density", 1.0, 0)?];
-        let mut cv = vec![line("cv", 1.0, 0)?];
+        let mut rho = series("mean_areal_density")?;
+        let mut cv = series("cv")?;
         if reference && s.parameter == "belt_speed_ratio" {
             let c = d.f64("reference_belt_speed_ratio")?;
             let r = d.f64("reference_areal_density")?;
@@ -134,4 +152,10 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         ));
     }
     Ok(figs)
+}
+
+/// Whether `t`'s value at every point follows from `s`'s (swept together, `zip`).
+fn determined_by(s: &Swept, t: &Swept) -> bool {
+    let n = s.labels.len().min(t.labels.len());
+    (0..n).all(|p| (0..n).all(|q| s.labels[p] != s.labels[q] || t.labels[p] == t.labels[q]))
 }

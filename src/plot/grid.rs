@@ -159,3 +159,22 @@ fn determined_by(s: &Swept, t: &Swept) -> bool {
     let n = s.labels.len().min(t.labels.len());
     (0..n).all(|p| (0..n).all(|q| s.labels[p] != s.labels[q] || t.labels[p] == t.labels[q]))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn swept(name: &str, labels: &[&str]) -> Swept {
+        Swept { name: name.into(), parameter: name.into(), values: vec![], labels: labels.iter().map(|s| s.to_string()).collect(), units: String::new() }
+    }
+
+    #[test]
+    fn zipped_parameters_are_one_line_and_a_product_is_one_line_per_value() {
+        let c = swept("c", &["0.02", "0.05", "0.02", "0.05"]);
+        let preset = swept("preset", &["s1", "s1", "s2", "s2"]);
+        let zipped = swept("dw", &["1", "2", "1", "2"]);
+        assert!(!determined_by(&c, &preset), "a grid sweep: one line per preset");
+        assert!(determined_by(&c, &zipped), "swept together with c: not a separate line");
+        assert!(determined_by(&preset, &swept("n", &["1", "1", "2", "2"])));
+    }
+}

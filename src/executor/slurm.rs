@@ -146,10 +146,11 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
 }
 
 fn units_text(units: Units) -> String {
+    let points = if units.points == 1 { "1 point".to_string() } else { format!("{} points", units.points) };
     if units.per_point == 1 {
-        format!("{} points", units.points)
+        points
     } else {
-        format!("{} units: {} points × {} replicates", units.count(), units.points, units.per_point)
+        format!("{} units: {points} × {} replicates", units.count(), units.per_point)
     }
 }
 

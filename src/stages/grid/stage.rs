@@ -12,9 +12,13 @@
 //!   may be evaluated at the grid's own sweep points. `cell_size`, `window_side` and the
 //!   zone-size parameters must be the same at every point (the maps share `md`, `cd`
 //!   and `zone_size` coordinates).
-//! - **Check.** Before gridding, the stage regenerates the web's stored fibres of
+//! - **Check.** Before its output is made, the stage regenerates the web's stored fibres of
 //!   realisation 0 and requires them to equal the stored ones bit for bit.
 //! - `compare_with: table4` adds the paper's measured Table 4 as `reference_*` datasets.
+//! - **Units.** An executor may compute every (point, realisation) apart
+//!   ([`Stage::run_units`]); [`Stage::reduce`] places them and takes the means and
+//!   standard deviations over realisations, for the local run and a gathered Slurm array
+//!   alike. The regeneration check runs in the reduce.
 use super::{grid_realisation, Boundary, Deposit, GridParams, GridResult, GRID_PARAMS};
 use crate::archive::data::{Attr, Output};
 use crate::params::{ParamSet, ParamSpec};

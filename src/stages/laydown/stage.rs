@@ -13,6 +13,12 @@
 //! with NaN and `valid` = false, `invalid_reason` = "not attempted"); `used` marks the
 //! first T valid ones in replicate order, over which the means and standard deviations
 //! are taken; `valid_shortfall` = T − used (0 when the target was met).
+//!
+//! Executors ([`crate::executor`]): a unit of work is one (point, replicate), or a whole
+//! point when it has a target (its rounds depend on earlier results). The replicates are
+//! computed as per-replicate rows ([`Stage::run_units`]) and placed on the (point,
+//! replicate) axes with the statistics by [`Stage::reduce`], for the local run and for a
+//! gathered Slurm array alike.
 use super::params::{BounceCheck, Effects, Integrator, LaydownParams, ParamKind as LKind, PARAMETERS};
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
@@ -143,7 +149,7 @@ impl Stage for LaydownStage {
     /// and replicate only ([`RunContext::rng`]), so any share of the units computes what
     /// the whole run computes. With a `valid_replicates_target` at some point, the
     /// extra replicates are drawn in rounds that depend on how many earlier ones were
-    /// valid ([`run_until_valid`]); then a unit is a whole point with its rounds.
+    /// valid (`run_until_valid`); then a unit is a whole point with its rounds.
     fn units(&self, ctx: &RunContext) -> Result<Option<Units>> {
         let rounds = ctx.points.iter().any(|p| p.usize(TARGET) > 0);
         Ok(Some(if rounds {

@@ -674,5 +674,22 @@ stages:
             }
             cleanup(&p.archive, name, &fp);
         }
+
+        // A rerun with another --units-per-task keeps the split whose partials exist.
+        let decl = p.stage("single").unwrap();
+        let stage = stages::find(&decl.kind).unwrap();
+        let fp = runner::fingerprint(decl, stage.cache_version(), decl.seed.unwrap_or(p.seed), &[]);
+        let ctx = runner::stage_context(&p, decl, &[], false, 0);
+        let units = stage.units(&ctx).unwrap().unwrap();
+        let job = StageJob { pipeline: &p, stage_name: "single", fingerprint: &fp, inputs: &[] };
+        let one = ExecutorConfig { units_per_task: Some(1), ..Default::default() };
+        let four = ExecutorConfig { units_per_task: Some(4), ..Default::default() };
+        let (dir, first) = prepare(&one, &job, units).unwrap();
+        assert_eq!(first.len(), 6);
+        assert_eq!(prepare(&four, &job, units).unwrap().1.len(), 2, "nothing complete yet: the new split");
+        prepare(&one, &job, units).unwrap();
+        worker(&dir.join("plan.json"), 3).unwrap();
+        assert_eq!(prepare(&four, &job, units).unwrap().1, first, "task 3 is complete: the earlier split is kept");
+        cleanup(&p.archive, "single", &fp);
     }
 }

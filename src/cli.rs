@@ -49,6 +49,9 @@ pub enum Command {
         /// Run at most this many Slurm array tasks at once.
         #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
         max_parallel: Option<u32>,
+        /// Units of work (replicates of a sweep point) per Slurm array task; default 1.
+        #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
+        units_per_task: Option<u32>,
         /// Extra argument for sbatch, e.g. `--sbatch-arg=--time=01:00:00` (repeatable).
         #[arg(long, value_name = "ARG", allow_hyphen_values = true)]
         sbatch_arg: Vec<String>,
@@ -96,7 +99,7 @@ pub enum Command {
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
     match cli.command {
-        Command::Run { pipeline: path, only, from, force, archive, executor, partition, max_parallel, sbatch_arg } => {
+        Command::Run { pipeline: path, only, from, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg } => {
             let mut p = match pipeline::load(&path) {
                 Ok(p) => p,
                 Err(d) => {
@@ -115,6 +118,9 @@ pub fn main_with(cli: Cli) -> i32 {
             }
             if let Some(m) = max_parallel {
                 p.executor.max_parallel = Some(m as usize);
+            }
+            if let Some(k) = units_per_task {
+                p.executor.units_per_task = Some(k as usize);
             }
             if !sbatch_arg.is_empty() {
                 p.executor.sbatch_args = sbatch_arg;

@@ -126,6 +126,7 @@ pub fn pipeline_schema() -> Value {
                             "kind": {"enum": crate::executor::ExecutorKind::NAMES},
                             "partition": {"type": "string", "description": "Slurm partition (sbatch --partition)"},
                             "max_parallel": {"type": "integer", "minimum": 1, "maximum": 1000000, "description": "At most this many array tasks at once"},
+                            "units_per_task": {"type": "integer", "minimum": 1, "maximum": 1000000, "description": "Units (replicates of a sweep point) per array task; default 1"},
                             "sbatch_args": {"type": "array", "items": {"type": "string"}, "description": "Extra sbatch arguments, e.g. --time=01:00:00"}
                         }
                     }

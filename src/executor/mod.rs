@@ -1,14 +1,19 @@
 //! Where a stage's units of work run: in this process on all cores (the default local
 //! executor, rayon) or as a Slurm job array ([`slurm`]).
 //!
-//! The unit of distribution is the sweep point. A stage that can be split says which
-//! dimensions of its output stack the points ([`crate::stages::Stage::point_dims`]);
-//! every array task runs `laydown worker` on a contiguous range of points, with the
-//! points' global indices kept ([`crate::stages::RunContext::point_offset`]) so that
-//! every random stream is the one the local executor would draw, and writes a partial
-//! output ([`partial`]). The driver gathers the partials along those dimensions into
-//! exactly the output the local executor would have produced, and commits it through
-//! the normal archive path.
+//! The unit of distribution is one replicate of one sweep point. A stage that can be
+//! split says how many units it has ([`crate::stages::Stage::units`]: points ×
+//! replicates, or points alone when its replicates must stay together), computes any
+//! contiguous range of them ([`crate::stages::Stage::run_units`]) as per-replicate rows,
+//! and reduces the rows of all units to its output ([`crate::stages::Stage::reduce`]:
+//! placing the replicates, per-point means, standard deviations and valid counts). The
+//! local executor runs all units in this process and reduces them
+//! ([`crate::stages::run_by_units`]); the Slurm executor ([`slurm`]) runs ranges of units
+//! as the tasks of a job array, each writing its rows to a partial file ([`partial`]),
+//! gathers the rows in unit order and reduces them by the same call. Random streams are
+//! keyed by a unit's global point and replicate, never by the process that computes it,
+//! so both give exactly the same output, which is committed through the normal archive
+//! path.
 pub mod local;
 pub mod partial;
 pub mod slurm;
@@ -54,6 +59,9 @@ pub struct ExecutorConfig {
     pub partition: Option<String>,
     /// At most this many array tasks at once (`--array=...%N`).
     pub max_parallel: Option<usize>,
+    /// Units (replicates) per array task; 1 when unset (more when a stage has over
+    /// [`slurm::MAX_TASKS`] units).
+    pub units_per_task: Option<usize>,
     /// Extra `sbatch` arguments, e.g. `--time=02:00:00`, `--mem=4G`.
     pub sbatch_args: Vec<String>,
 }
@@ -78,20 +86,15 @@ pub fn run_stage(
 ) -> Result<(Output, BTreeMap<String, Attr>)> {
     match cfg.kind {
         ExecutorKind::Local => local::run_stage(stage, ctx),
-        ExecutorKind::Slurm => {
-            if stage.point_dims().is_empty() {
-                println!(
-                    "{}: a {} stage cannot be split over Slurm tasks; running it here",
-                    job.stage_name,
-                    stage.kind()
-                );
+        ExecutorKind::Slurm => match stage.units(ctx)? {
+            Some(units) if units.count() > 0 => slurm::run_stage(cfg, stage, ctx, job, units),
+            _ => {
+                println!("{}: a {} stage cannot be split over Slurm tasks; running it here", job.stage_name, stage.kind());
                 let (out, mut attrs) = local::run_stage(stage, ctx)?;
                 attrs.insert("executor".into(), Attr::Str("local (stage cannot be split)".into()));
                 Ok((out, attrs))
-            } else {
-                slurm::run_stage(cfg, stage, ctx, job)
             }
-        }
+        },
     }
 }
 
@@ -121,7 +124,7 @@ mod tests {
     #[test]
     fn executor_block_and_shorthand() {
         assert_eq!(parse("executor: slurm\n").unwrap().executor.kind, ExecutorKind::Slurm);
-        let e = parse("executor:\n  kind: slurm\n  partition: short\n  max_parallel: 3\n  sbatch_args: [--time=00:10:00, --mem=1G]\n")
+        let e = parse("executor:\n  kind: slurm\n  partition: short\n  max_parallel: 3\n  units_per_task: 4\n  sbatch_args: [--time=00:10:00, --mem=1G]\n")
             .unwrap()
             .executor;
         assert_eq!(
@@ -130,6 +133,7 @@ mod tests {
                 kind: ExecutorKind::Slurm,
                 partition: Some("short".into()),
                 max_parallel: Some(3),
+                units_per_task: Some(4),
                 sbatch_args: vec!["--time=00:10:00".into(), "--mem=1G".into()],
             }
         );

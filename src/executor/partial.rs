@@ -81,12 +81,13 @@ pub fn read(path: &Path) -> Result<(Output, BTreeMap<String, Attr>)> {
     Ok((out, attrs))
 }
 
-/// Concatenate `parts` (in point order) along the leading dimension of every variable
-/// whose first dimension is one of `point_dims`; every other variable must be
+/// Concatenate `parts` (in unit order) along the leading dimension of every variable
+/// whose first dimension is one of `stack_dims` (the executors pass
+/// [`crate::stages::UNIT_DIM`], the per-replicate rows); every other variable must be
 /// identical in all parts. Trailing dimensions that differ between parts (a stage pads
 /// ragged data to the longest unit, with NaN) are padded to the longest with NaN, as
 /// the stage does when it computes all points at once.
-pub fn gather(parts: &[Output], point_dims: &[&str]) -> Result<Output> {
+pub fn gather(parts: &[Output], stack_dims: &[&str]) -> Result<Output> {
     let first = parts.first().ok_or_else(|| anyhow!("no partial results to gather"))?;
     for (t, p) in parts.iter().enumerate() {
         let names: Vec<&str> = p.variables.iter().map(|v| v.name.as_str()).collect();
@@ -107,10 +108,10 @@ pub fn gather(parts: &[Output], point_dims: &[&str]) -> Result<Output> {
                 bail!("variable `{}` of partial {t} has different dimensions or metadata from partial 0", v0.name);
             }
         }
-        let stacked = v0.dims.first().is_some_and(|d| point_dims.contains(&d.as_str()));
+        let stacked = v0.dims.first().is_some_and(|d| stack_dims.contains(&d.as_str()));
         let values = if !stacked {
             if let Some(t) = vs.iter().position(|v| v.values != v0.values) {
-                bail!("variable `{}` does not depend on the sweep point but differs between partial 0 and partial {t}", v0.name);
+                bail!("variable `{}` is not stacked but differs between partial 0 and partial {t}", v0.name);
             }
             v0.values.clone()
         } else {

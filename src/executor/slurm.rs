@@ -1,18 +1,27 @@
-//! The Slurm executor: a stage's sweep points become one Slurm job array.
+//! The Slurm executor: a stage's units of work become one Slurm job array.
 //!
 //! `laydown run PIPELINE --executor slurm [--partition P] [--max-parallel N]
-//! [--sbatch-arg ARG]...` (or an `executor:` block in the pipeline file) splits every
-//! stage that can be split (its [`crate::stages::Stage::point_dims`]) into array tasks
-//! of contiguous sweep points, submits them with `sbatch --wait --array=...%N`, and
-//! waits. Each task runs `laydown worker --plan PLAN --task I` (a hidden subcommand):
-//! it reloads the pipeline, checks that the stage's fingerprint is still the one
-//! submitted, runs the stage on its points (keeping their global indices, so every
-//! random stream is the local executor's) and writes `task-I.h5`. When the array has
-//! finished the driver gathers the partials into exactly the datasets the local
-//! executor writes and commits them through the normal archive path, with each task's
-//! Slurm job and array IDs, host and log in the provenance (`slurm_tasks`, JSON).
-//! Stages run one after another: the driver waits for a stage's array before
-//! submitting the next, so stages wait for their inputs.
+//! [--units-per-task K] [--sbatch-arg ARG]...` (or an `executor:` block in the pipeline
+//! file) splits every stage that can be split ([`crate::stages::Stage::units`]: today
+//! `laydown` and `grid`) into its units — one (sweep point, replicate) of a laydown, one
+//! (point, realisation) of a grid — cuts them into contiguous ranges of K units (1 by
+//! default; more when the stage has over [`MAX_TASKS`] units), submits one array task per
+//! range with `sbatch --array=...%N`, and waits for the array by polling `squeue`. Each
+//! task runs `laydown worker --plan PLAN --task I` (a hidden subcommand): it reloads the
+//! pipeline, checks that the stage's fingerprint and units are still the ones submitted,
+//! computes its units ([`crate::stages::Stage::run_units`]: every random stream is keyed
+//! by the unit's global point and replicate, so it is the local executor's) and writes
+//! their per-replicate rows to `task-I.h5`. When the array has finished the driver
+//! gathers the rows ([`partial::gather`]) and reduces them to the stage's output with
+//! [`crate::stages::Stage::reduce`] — the same call the local executor makes, so the
+//! per-point statistics over replicates are computed by one piece of code — and commits
+//! it through the normal archive path, with each task's Slurm job and array IDs, host and
+//! log in the provenance (`slurm_tasks`, JSON). Stages run one after another: the driver
+//! waits for a stage's array before submitting the next, so stages wait for their inputs.
+//!
+//! A laydown with `valid_replicates_target` draws extra replicates in rounds that depend
+//! on how many earlier ones were valid; its unit is the whole point (all its rounds run in
+//! one task), and the driver says so.
 //!
 //! Files: `<archive>.slurm/<stage>/<fingerprint>/` holds `plan.json`, `task.sh`,
 //! `task-I.h5` (written to `.tmp` then renamed: a file that exists is complete) and
@@ -21,10 +30,16 @@
 //! the same command submits only the tasks without a partial. The directory is removed
 //! once the stage's version is committed.
 //!
+//! Interrupting the driver: SIGINT (Ctrl-C) or SIGTERM while it waits for an array makes
+//! it `scancel` that array, say so, and die of the signal; complete tasks' partials stay
+//! and a rerun submits only the rest. Other ways of losing the driver (SIGHUP when the
+//! login session ends, SIGKILL) leave the array running; a rerun gathers it.
+//!
 //! Test hooks: `LAYDOWN_FAIL_TASK=I` in the environment of `laydown run` (sbatch passes
 //! the environment on) makes worker task I fail before computing, and
 //! `LAYDOWN_STALL_TASK=I` makes it wait (up to 600 s) to be killed, e.g. by `scancel`;
-//! tests/slurm.rs uses them to check the failure message and the rerun.
+//! tests/slurm.rs uses them to check the failure message, the rerun and the
+//! cancellation of the array when the driver is killed.
 //!
 //! # Running on a real multi-node cluster
 //! - The archive's directory must be on a file system shared by the login node and
@@ -33,17 +48,18 @@
 //! - The `laydown` binary is run on the compute nodes by the absolute path of the
 //!   binary that submitted (`std::env::current_exe`): install or build it on the shared
 //!   file system, for the compute nodes' architecture and libraries (libhdf5).
-//! - Run `laydown run` on a login node (or in a long, cheap allocation): it holds the
-//!   archive's lock and waits for each array (`sbatch --wait`). If it is killed, running
-//!   tasks go on; rerunning the same command later gathers their partials.
+//! - Run `laydown run` on a login node (or in a long, cheap allocation, e.g. in tmux): it
+//!   holds the archive's lock and waits for each array. Ctrl-C cancels the running array.
 //! - Set `--partition`, `--max-parallel` (array throttle) and whatever the site needs
 //!   through `--sbatch-arg`, e.g. `--sbatch-arg=--time=04:00:00 --sbatch-arg=--mem=4G
 //!   --sbatch-arg=--account=proj --sbatch-arg=--cpus-per-task=8`; or in the pipeline:
-//!   `executor: {kind: slurm, partition: compute, max_parallel: 50, sbatch_args:
-//!   [--time=04:00:00]}`. A task uses `SLURM_CPUS_PER_TASK` threads when set.
-//! - Each task takes one or more whole sweep points (at most 1000 tasks per stage):
-//!   sweeps with more points give more parallelism; replicates of a point stay together.
-//!   Stages that cannot be split (today every kind but `laydown`) run in the driver.
+//!   `executor: {kind: slurm, partition: compute, max_parallel: 50, units_per_task: 8,
+//!   sbatch_args: [--time=04:00:00]}`. A task uses `SLURM_CPUS_PER_TASK` threads and
+//!   computes its units in parallel: with `--cpus-per-task=C` set `--units-per-task` to
+//!   C (laydown) so that every core has a replicate; a grid realisation is itself
+//!   parallel, so one per task uses the cores.
+//! - At most [`MAX_TASKS`] tasks per stage (sites often cap MaxArraySize at 1001); a
+//!   stage with more units puts several in each task.
 //! - Where the shared file system has no POSIX locks (some NFS, Lustre mounts), set
 //!   `HDF5_USE_FILE_LOCKING=FALSE` in the environment of `laydown run` (it is passed on).
 //! - The gathered datasets are bit-identical to `--executor local`'s (only measured
@@ -53,13 +69,14 @@ use crate::archive::data::{Attr, Output};
 use crate::archive::{provenance, Archive};
 use crate::pipeline;
 use crate::runner;
-use crate::stages::{self, RunContext, Stage};
+use crate::stages::{self, RunContext, Stage, Units};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::Instant;
+use std::sync::atomic::{AtomicI32, Ordering};
+use std::time::{Duration, Instant};
 
 /// At most this many array tasks per stage (sites cap MaxArraySize, often at 1001).
 pub const MAX_TASKS: usize = 1000;
@@ -73,14 +90,18 @@ pub struct Plan {
     pub fingerprint: String,
     /// Input stage names and the version numbers chosen by the driver.
     pub inputs: Vec<(String, u32)>,
-    /// Half-open ranges of global sweep-point indices, one per task.
+    /// The stage's units: points and units per point ([`Units`]).
+    pub points: usize,
+    pub per_point: usize,
+    /// Half-open ranges of global unit indices, one per task.
     pub tasks: Vec<(usize, usize)>,
 }
 
-/// Contiguous ranges of points, at most [`MAX_TASKS`] of them.
-pub fn split(points: usize) -> Vec<(usize, usize)> {
-    let per = points.div_ceil(MAX_TASKS).max(1);
-    (0..points).step_by(per).map(|a| (a, (a + per).min(points))).collect()
+/// Contiguous ranges of `per_task` units (at least 1, and more when needed to stay within
+/// [`MAX_TASKS`] ranges), covering `0..units` in order.
+pub fn split(units: usize, per_task: usize) -> Vec<(usize, usize)> {
+    let per = per_task.max(units.div_ceil(MAX_TASKS)).max(1);
+    (0..units).step_by(per).map(|a| (a, (a + per).min(units))).collect()
 }
 
 /// `<archive>.slurm/<stage>/<fingerprint>`.
@@ -111,18 +132,51 @@ pub fn cleanup(archive: &Path, stage: &str, fingerprint: &str) {
     }
 }
 
-pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job: &StageJob) -> Result<(Output, BTreeMap<String, Attr>)> {
+pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job: &StageJob, units: Units) -> Result<(Output, BTreeMap<String, Attr>)> {
+    let (dir, tasks) = prepare(cfg, job, units)?;
+    submit_missing(cfg, job.stage_name, &dir, &tasks, units)?;
+    let (out, mut attrs) = collect(stage, ctx, job, units, &dir, &tasks)?;
+    if let Some(p) = &cfg.partition {
+        attrs.insert("slurm_partition".to_string(), Attr::Str(p.clone()));
+    }
+    if !cfg.sbatch_args.is_empty() {
+        attrs.insert("slurm_sbatch_args".to_string(), Attr::Str(cfg.sbatch_args.join(" ")));
+    }
+    Ok((out, attrs))
+}
+
+fn units_text(units: Units) -> String {
+    let points = if units.points == 1 { "1 point".to_string() } else { format!("{} points", units.points) };
+    if units.per_point == 1 {
+        points
+    } else {
+        format!("{} units: {points} × {} replicates", units.count(), units.per_point)
+    }
+}
+
+/// Split the stage's units into tasks and write the work directory's `plan.json` and
+/// `task.sh`: the directory and the tasks' unit ranges.
+pub fn prepare(cfg: &ExecutorConfig, job: &StageJob, units: Units) -> Result<(PathBuf, Vec<(usize, usize)>)> {
     let name = job.stage_name;
-    let points = stage.point_count(ctx)?;
-    let tasks = split(points);
+    let mut tasks = split(units.count(), cfg.units_per_task.unwrap_or(1));
     let dir = work_dir(&job.pipeline.archive, name, job.fingerprint)?;
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    // A rerun keeps the split of the run whose partials are there, whatever
+    // --units-per-task says now, so that no complete task is lost.
+    if let Some(old) = std::fs::read_to_string(dir.join("plan.json")).ok().and_then(|t| serde_json::from_str::<Plan>(&t).ok()) {
+        if (old.points, old.per_point) == (units.points, units.per_point) && old.tasks != tasks && (0..old.tasks.len()).any(|i| task_file(&dir, i).exists()) {
+            println!("{name}: keeping the split of the earlier run ({} tasks) so that its complete tasks are kept", old.tasks.len());
+            tasks = old.tasks;
+        }
+    }
     let plan = Plan {
         pipeline: std::path::absolute(&job.pipeline.file)?,
         archive: std::path::absolute(&job.pipeline.archive)?,
         stage: name.to_string(),
         fingerprint: job.fingerprint.to_string(),
         inputs: job.inputs.iter().map(|v| (v.stage.clone(), v.number)).collect(),
+        points: units.points,
+        per_point: units.per_point,
         tasks: tasks.clone(),
     };
     std::fs::write(dir.join("plan.json"), serde_json::to_string_pretty(&plan)?)?;
@@ -136,8 +190,16 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
             shell_quote(&dir.join("plan.json").display().to_string()),
         ),
     )?;
+    if let Some(note) = units.note {
+        println!("{name}: {note}");
+    }
+    Ok((dir, tasks))
+}
 
-    let missing: Vec<usize> = (0..tasks.len()).filter(|&i| !task_file(&dir, i).exists()).collect();
+/// Submit one array task for every task without a partial, and wait for the array.
+fn submit_missing(cfg: &ExecutorConfig, name: &str, dir: &Path, tasks: &[(usize, usize)], units: Units) -> Result<()> {
+    let what = units_text(units);
+    let missing: Vec<usize> = (0..tasks.len()).filter(|&i| !task_file(dir, i).exists()).collect();
     if !missing.is_empty() {
         let kept = tasks.len() - missing.len();
         let kept_note = if kept > 0 { format!("; {kept} complete from an earlier run kept") } else { String::new() };
@@ -147,34 +209,45 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
             array.push_str(&format!("%{m}"));
         }
         let mut cmd = Command::new("sbatch");
-        cmd.arg("--parsable").arg("--wait").arg(format!("--array={array}")).arg(format!("--job-name=laydown-{name}"));
+        cmd.arg("--parsable").arg(format!("--array={array}")).arg(format!("--job-name=laydown-{name}"));
         cmd.arg(format!("--output={}", dir.join("task-%a.log").display()));
         if let Some(p) = &cfg.partition {
             cmd.arg(format!("--partition={p}"));
         }
-        cmd.args(&cfg.sbatch_args).arg(&script);
+        cmd.args(&cfg.sbatch_args).arg(dir.join("task.sh"));
+        let per = tasks[0].1 - tasks[0].0;
         println!(
-            "{name}: submitting {} of {} Slurm array tasks ({} points){kept_note}; logs in {}",
+            "{name}: submitting {} of {} Slurm array tasks ({what}, {per} per task){kept_note}; logs in {}",
             missing.len(),
             tasks.len(),
-            points,
             dir.display()
         );
+        // From here until the array has left the queue, SIGINT and SIGTERM cancel it.
+        let _guard = SignalGuard::install();
         let out = cmd.output().map_err(|e| {
             anyhow!("cannot run sbatch ({e}): is Slurm installed and on PATH? The local executor needs no Slurm: leave out --executor slurm")
         })?;
         let job_id = String::from_utf8_lossy(&out.stdout).lines().next().unwrap_or("").split(';').next().unwrap_or("").trim().to_string();
-        if job_id.is_empty() {
-            bail!("sbatch submitted nothing (exit {}): {}", out.status, String::from_utf8_lossy(&out.stderr).trim());
+        if job_id.is_empty() || !out.status.success() {
+            bail!("sbatch submitted nothing ({}): {}", out.status, String::from_utf8_lossy(&out.stderr).trim());
         }
-        println!("{name}: Slurm job {job_id} finished ({})", if out.status.success() { "all tasks succeeded".to_string() } else { format!("sbatch --wait: {}", out.status) });
+        println!("{name}: Slurm job {job_id} submitted; waiting for its tasks");
+        wait_for_array(name, &job_id, dir)?;
+        println!("{name}: Slurm job {job_id} finished");
     }
+    Ok(())
+}
 
+/// Read every task's partial (naming the logs of the missing ones), gather their rows in
+/// unit order and reduce them to the stage's output with [`Stage::reduce`], the call the
+/// local executor makes; with the provenance of the tasks.
+pub fn collect(stage: &dyn Stage, ctx: &RunContext, job: &StageJob, units: Units, dir: &Path, tasks: &[(usize, usize)]) -> Result<(Output, BTreeMap<String, Attr>)> {
+    let dir = dir.to_path_buf();
     let failed: Vec<usize> = (0..tasks.len()).filter(|&i| !task_file(&dir, i).exists()).collect();
     if !failed.is_empty() {
         let lines: Vec<String> = failed
             .iter()
-            .map(|&i| format!("  task {i} (points {}..{}): see its log {}", tasks[i].0, tasks[i].1, task_log(&dir, i).display()))
+            .map(|&i| format!("  task {i} ({}): see its log {}", units.describe(tasks[i].0, tasks[i].1), task_log(&dir, i).display()))
             .collect();
         bail!(
             "{} of {} Slurm array tasks failed or were killed:\n{}\nthe {} complete tasks are kept in {}; rerunning the same command submits only the failed ones",
@@ -190,7 +263,7 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
     let mut records = vec![];
     let mut job_ids = vec![];
     let mut hosts = vec![];
-    for i in 0..tasks.len() {
+    for (i, &(a, b)) in tasks.iter().enumerate() {
         let (out, attrs) = partial::read(&task_file(&dir, i))?;
         let s = |k: &str| match attrs.get(k) {
             Some(Attr::Str(s)) => s.clone(),
@@ -201,6 +274,9 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
         if s("fingerprint") != job.fingerprint {
             bail!("{} belongs to another run (fingerprint {}); remove it", task_file(&dir, i).display(), s("fingerprint"));
         }
+        if (s("units_start"), s("units_end")) != (a.to_string(), b.to_string()) {
+            bail!("{} holds units {}..{}, but task {i} is units {a}..{b}; remove it", task_file(&dir, i).display(), s("units_start"), s("units_end"));
+        }
         let array_job = s("slurm_array_job_id");
         if !job_ids.contains(&array_job) {
             job_ids.push(array_job.clone());
@@ -208,9 +284,11 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
         if !hosts.contains(&s("host")) {
             hosts.push(s("host"));
         }
+        let (p0, p1) = units.points_of(a, b);
         records.push(serde_json::json!({
             "task": i,
-            "points": [tasks[i].0, tasks[i].1],
+            "units": [a, b],
+            "points": [p0, p1],
             "slurm_array_job_id": array_job,
             "slurm_array_task_id": s("slurm_array_task_id"),
             "slurm_job_id": s("slurm_job_id"),
@@ -225,19 +303,127 @@ pub fn run_stage(cfg: &ExecutorConfig, stage: &dyn Stage, ctx: &RunContext, job:
         }));
         parts.push(out);
     }
-    let gathered = partial::gather(&parts, stage.point_dims()).with_context(|| format!("gathering the partial results in {}", dir.display()))?;
+    let rows = partial::gather(&parts, &[stages::UNIT_DIM]).with_context(|| format!("gathering the partial results in {}", dir.display()))?;
+    let gathered = stage.reduce(ctx, rows).with_context(|| format!("reducing the gathered partial results in {}", dir.display()))?;
     let mut attrs = BTreeMap::new();
     attrs.insert("executor".to_string(), Attr::Str("slurm".into()));
     attrs.insert("slurm_job_ids".to_string(), Attr::Str(job_ids.join(" ")));
     attrs.insert("slurm_hosts".to_string(), Attr::Str(hosts.join(" ")));
     attrs.insert("slurm_tasks".to_string(), Attr::Str(serde_json::to_string(&records)?));
-    if let Some(p) = &cfg.partition {
-        attrs.insert("slurm_partition".to_string(), Attr::Str(p.clone()));
-    }
-    if !cfg.sbatch_args.is_empty() {
-        attrs.insert("slurm_sbatch_args".to_string(), Attr::Str(cfg.sbatch_args.join(" ")));
-    }
+    attrs.insert("slurm_units".to_string(), Attr::Str(units_text(units)));
     Ok((gathered, attrs))
+}
+
+/// The signal (SIGINT or SIGTERM) received while a [`SignalGuard`] was installed; 0: none.
+static INTERRUPTED: AtomicI32 = AtomicI32::new(0);
+
+extern "C" fn on_signal(sig: libc::c_int) {
+    // Only an atomic store: async-signal-safe. The waiting loop acts on it.
+    INTERRUPTED.store(sig, Ordering::SeqCst);
+}
+
+/// SIGINT and SIGTERM recorded in [`INTERRUPTED`] instead of ending the process, while
+/// the guard lives; the previous dispositions are restored when it is dropped.
+struct SignalGuard {
+    old: Vec<(libc::c_int, libc::sigaction)>,
+}
+
+impl SignalGuard {
+    fn install() -> Self {
+        INTERRUPTED.store(0, Ordering::SeqCst);
+        let mut old = vec![];
+        for sig in [libc::SIGINT, libc::SIGTERM] {
+            // SAFETY: a plain sigaction with a handler that only stores an atomic.
+            unsafe {
+                let mut act: libc::sigaction = std::mem::zeroed();
+                act.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+                act.sa_flags = libc::SA_RESTART;
+                libc::sigemptyset(&mut act.sa_mask);
+                let mut prev: libc::sigaction = std::mem::zeroed();
+                if libc::sigaction(sig, &act, &mut prev) == 0 {
+                    old.push((sig, prev));
+                }
+            }
+        }
+        SignalGuard { old }
+    }
+}
+
+impl Drop for SignalGuard {
+    fn drop(&mut self) {
+        for (sig, prev) in &self.old {
+            // SAFETY: restoring the disposition saved by `install`.
+            unsafe {
+                libc::sigaction(*sig, prev, std::ptr::null_mut());
+            }
+        }
+    }
+}
+
+/// Whether Slurm still has tasks of `job_id` pending or running: `Some(true/false)`, or
+/// `None` when `squeue` could not tell.
+fn in_queue(job_id: &str) -> Option<bool> {
+    let out = Command::new("squeue").args(["-h", "-j", job_id, "-o", "%i"]).output().ok()?;
+    if out.status.success() {
+        return Some(!String::from_utf8_lossy(&out.stdout).trim().is_empty());
+    }
+    // A job purged from slurmctld's memory (MinJobAge) is unknown: it has finished.
+    let err = String::from_utf8_lossy(&out.stderr);
+    if err.contains("Invalid job id") {
+        return Some(false);
+    }
+    None
+}
+
+/// Wait until the array `job_id` has left the queue (polling `squeue` every 0.5 s at
+/// first, backing off to 5 s). On SIGINT or SIGTERM, `scancel` it and die of the signal.
+fn wait_for_array(name: &str, job_id: &str, dir: &Path) -> Result<()> {
+    let mut delay = Duration::from_millis(500);
+    let mut failures = 0;
+    loop {
+        let until = Instant::now() + delay;
+        while Instant::now() < until {
+            let sig = INTERRUPTED.load(Ordering::SeqCst);
+            if sig != 0 {
+                cancel_and_die(name, job_id, dir, sig);
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        match in_queue(job_id) {
+            Some(false) => return Ok(()),
+            Some(true) => failures = 0,
+            None => {
+                failures += 1;
+                if failures == 20 {
+                    bail!("squeue cannot tell whether Slurm job {job_id} is still running (20 tries); its tasks may still run: rerun the same command later to gather them ({})", dir.display());
+                }
+            }
+        }
+        delay = (delay * 3 / 2).min(Duration::from_secs(5));
+    }
+}
+
+fn cancel_and_die(name: &str, job_id: &str, dir: &Path, sig: i32) -> ! {
+    let signame = if sig == libc::SIGINT { "SIGINT" } else { "SIGTERM" };
+    let status = Command::new("scancel").arg(job_id).status();
+    match status {
+        Ok(s) if s.success() => eprintln!(
+            "{name}: interrupted ({signame}): cancelled Slurm job {job_id} (scancel {job_id}); complete tasks are kept in {} and a rerun submits only the rest",
+            dir.display()
+        ),
+        Ok(s) => eprintln!("{name}: interrupted ({signame}): scancel {job_id} failed ({s}); cancel the array by hand"),
+        Err(e) => eprintln!("{name}: interrupted ({signame}): cannot run scancel {job_id} ({e}); cancel the array by hand"),
+    }
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+    let _ = std::io::stderr().flush();
+    // Die of the signal itself, so that the caller sees what happened.
+    // SAFETY: resetting the default disposition and raising the signal.
+    unsafe {
+        libc::signal(sig, libc::SIG_DFL);
+        libc::raise(sig);
+    }
+    std::process::exit(128 + sig)
 }
 
 fn shell_quote(s: &str) -> String {
@@ -257,7 +443,7 @@ pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
     }
     let env = |k: &str| std::env::var(k).unwrap_or_default();
     println!(
-        "laydown worker: stage {} task {task} (points {a}..{b}) on {} as Slurm job {} (array {}_{})",
+        "laydown worker: stage {} task {task} (units {a}..{b}) on {} as Slurm job {} (array {}_{})",
         plan.stage,
         provenance::hostname(),
         env("SLURM_JOB_ID"),
@@ -292,10 +478,22 @@ pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
     if fp != plan.fingerprint {
         bail!("the stage `{}` in {} has changed since it was submitted (fingerprint {fp}, submitted {}); rerun laydown run", plan.stage, plan.pipeline.display(), plan.fingerprint);
     }
-    let ctx = runner::stage_context(&p, decl, &inputs, false, 0).restrict(a, b);
+    let ctx = runner::stage_context(&p, decl, &inputs, false, 0);
+    let units = stage.units(&ctx)?.ok_or_else(|| anyhow!("stage `{}` cannot be split into units any more", plan.stage))?;
+    if (units.points, units.per_point) != (plan.points, plan.per_point) {
+        bail!(
+            "stage `{}` now has {} points × {} units per point, the plan {} × {}; rerun laydown run",
+            plan.stage,
+            units.points,
+            units.per_point,
+            plan.points,
+            plan.per_point
+        );
+    }
+    println!("laydown worker: {}", units.describe(a, b));
     let start = provenance::utc_now();
     let t0 = Instant::now();
-    let out = stage.run(&ctx).with_context(|| format!("stage `{}` task {task}", plan.stage))?;
+    let out = stage.run_units(&ctx, a..b).with_context(|| format!("stage `{}` task {task}", plan.stage))?;
     let wall = t0.elapsed().as_secs_f64();
     let mut attrs = BTreeMap::new();
     let mut put = |k: &str, v: Attr| {
@@ -304,8 +502,8 @@ pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
     put("stage", Attr::Str(plan.stage.clone()));
     put("fingerprint", Attr::Str(plan.fingerprint.clone()));
     put("task", Attr::I64(task as i64));
-    put("points_start", Attr::I64(a as i64));
-    put("points_end", Attr::I64(b as i64));
+    put("units_start", Attr::I64(a as i64));
+    put("units_end", Attr::I64(b as i64));
     put("host", Attr::Str(provenance::hostname()));
     put("slurm_job_id", Attr::Str(env("SLURM_JOB_ID")));
     put("slurm_array_job_id", Attr::Str(env("SLURM_ARRAY_JOB_ID")));
@@ -321,13 +519,177 @@ pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
 mod tests {
     use super::*;
 
+    fn covers(s: &[(usize, usize)], n: usize) -> bool {
+        s.first().map(|t| t.0) == Some(0) && s.last().map(|t| t.1) == Some(n) && s.windows(2).all(|w| w[0].1 == w[1].0) && s.iter().all(|t| t.1 > t.0)
+    }
+
     #[test]
-    fn split_covers_every_point_once() {
-        assert_eq!(split(4), vec![(0, 1), (1, 2), (2, 3), (3, 4)]);
-        let s = split(2500);
-        assert!(s.len() <= MAX_TASKS);
-        assert_eq!(s.first().unwrap().0, 0);
-        assert_eq!(s.last().unwrap().1, 2500);
-        assert!(s.windows(2).all(|w| w[0].1 == w[1].0));
+    fn split_covers_every_unit_once() {
+        assert_eq!(split(4, 1), vec![(0, 1), (1, 2), (2, 3), (3, 4)]);
+        assert_eq!(split(10, 4), vec![(0, 4), (4, 8), (8, 10)]);
+        assert_eq!(split(3, 8), vec![(0, 3)]);
+        assert!(split(0, 1).is_empty());
+        // Over MAX_TASKS units: more per task, never more than MAX_TASKS tasks.
+        for (n, k) in [(2500, 1), (1000, 1), (1001, 1), (40_000, 3), (7, 2)] {
+            let s = split(n, k);
+            assert!(s.len() <= MAX_TASKS, "{n} units, {k} per task: {} tasks", s.len());
+            assert!(covers(&s, n), "{n} units, {k} per task: {s:?}");
+        }
+        assert_eq!(split(1000, 1).len(), 1000);
+        assert_eq!(split(1001, 1).len(), 501);
+    }
+
+    #[test]
+    fn a_single_point_with_many_replicates_becomes_many_tasks() {
+        // The case issue 8 left open: one point, 40 replicates, one per task.
+        let u = Units { points: 1, per_point: 40, note: None };
+        let s = split(u.count(), 1);
+        assert_eq!(s.len(), 40);
+        assert_eq!(u.describe(s[7].0, s[7].1), "point 0 replicates 7..8");
+        let s = split(u.count(), 16);
+        assert_eq!(s, vec![(0, 16), (16, 32), (32, 40)]);
+        assert_eq!(u.describe(32, 40), "point 0 replicates 32..40");
+        let u = Units { points: 4, per_point: 2, note: None };
+        assert_eq!(u.describe(2, 4), "point 1 replicates 0..2");
+        assert_eq!(u.describe(2, 6), "points 1..3");
+        assert_eq!(u.describe(1, 4), "units 1..4 (points 0..2)");
+        assert_eq!(u.points_of(1, 4), (0, 2));
+        let whole = Units { points: 5, per_point: 1, note: Some("rounds") };
+        assert_eq!(whole.describe(1, 2), "point 1");
+        assert_eq!(whole.describe(1, 3), "points 1..3");
+    }
+
+    /// Every variable of `b` equals `a`'s (f64 by bit pattern, so NaN padding counts),
+    /// with the same names, order, dimensions and metadata; `wall_seconds` (measured
+    /// times) only in shape.
+    fn assert_same(a: &Output, b: &Output, what: &str) {
+        use crate::archive::data::Values;
+        let names = |o: &Output| o.variables.iter().map(|v| v.name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(a), names(b), "{what}: variables");
+        assert_eq!(a.attrs, b.attrs, "{what}: attributes");
+        for (x, y) in a.variables.iter().zip(&b.variables) {
+            assert_eq!((&x.dims, &x.units, &x.long_name, &x.attrs), (&y.dims, &y.units, &y.long_name, &y.attrs), "{what}: {}", x.name);
+            assert_eq!(x.values.shape(), y.values.shape(), "{what}: shape of {}", x.name);
+            if x.name == "wall_seconds" {
+                continue;
+            }
+            let same = match (&x.values, &y.values) {
+                (Values::F64(p), Values::F64(q)) => p.iter().zip(q.iter()).all(|(u, v)| u.to_bits() == v.to_bits()),
+                (p, q) => p == q,
+            };
+            assert!(same, "{what}: values of {} differ", x.name);
+        }
+    }
+
+    const PIPELINE: &str = "pipeline: units
+archive: units.h5
+seed: 5
+stages:
+  - name: single
+    kind: laydown
+    params: {length: 0.06, laydown_height: 0.03, elements: 30}
+    replicates: 6
+  - name: ragged
+    kind: laydown
+    params: {length: 0.06, laydown_height: 0.03}
+    sweep: {elements: [30, 45]}
+    replicates: 3
+  - name: rounds
+    kind: laydown
+    params: {length: 0.06, laydown_height: 0.03, elements: 30, valid_replicates_target: 3, max_replicates: 7, bounce_tolerance: 1e-9}
+    sweep: {elements: [30, 40]}
+    replicates: 2
+  - name: web
+    kind: web
+    params: {preset: spectrum1, points_per_segment: 100, fibres_across: 20, fibre_spacing: 0.005, segments_per_fibre: 3}
+  - name: grid
+    kind: grid
+    input: web
+    params: {cell_size: 0.01, window_side: 0.1, boundary: periodic}
+    replicates: 5
+";
+
+    /// What an array task does, without Slurm: the driver's plan, every task's worker in
+    /// this process (each writes its partial file), then the driver's gather and reduce.
+    /// The result must be the local executor's output, variable for variable.
+    #[test]
+    fn units_run_by_workers_and_reduced_at_gather_equal_the_local_run() {
+        let tmp = tempfile::tempdir().unwrap();
+        let file = tmp.path().join("units.yaml");
+        std::fs::write(&file, PIPELINE).unwrap();
+        let mut p = pipeline::load(&file).unwrap();
+        p.archive = tmp.path().join("units.h5");
+        runner::run(&p, &runner::RunOptions::default()).unwrap();
+        let archive = Archive::open_read(&p.archive).unwrap();
+        // (stage, units per task, expected tasks, expected units)
+        let cases = [
+            ("single", 1, 6, (1, 6)),
+            ("single", 4, 2, (1, 6)),
+            ("ragged", 1, 6, (2, 3)),
+            ("ragged", 4, 2, (2, 3)),
+            ("rounds", 1, 2, (2, 1)),
+            ("grid", 1, 5, (1, 5)),
+            ("grid", 2, 3, (1, 5)),
+        ];
+        for (name, per_task, ntasks, (points, per_point)) in cases {
+            let what = format!("{name}, {per_task} per task");
+            let decl = p.stage(name).unwrap();
+            let stage = stages::find(&decl.kind).unwrap();
+            let inputs: Vec<_> = decl.inputs.iter().map(|i| archive.version(i, Some(1)).unwrap()).collect();
+            let hashes: Vec<(String, String)> = inputs.iter().map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string())).collect();
+            let fp = runner::fingerprint(decl, stage.cache_version(), decl.seed.unwrap_or(p.seed), &hashes);
+            let ctx = runner::stage_context(&p, decl, &inputs, false, 0);
+            let units = stage.units(&ctx).unwrap().unwrap();
+            assert_eq!((units.points, units.per_point), (points, per_point), "{what}");
+            assert_eq!(units.note.is_some(), name == "rounds", "{what}");
+            let job = StageJob { pipeline: &p, stage_name: name, fingerprint: &fp, inputs: &inputs };
+            let cfg = ExecutorConfig { units_per_task: Some(per_task), ..Default::default() };
+            let (dir, tasks) = prepare(&cfg, &job, units).unwrap();
+            assert_eq!(tasks.len(), ntasks, "{what}: {tasks:?}");
+            for i in 0..tasks.len() {
+                worker(&dir.join("plan.json"), i).unwrap();
+            }
+            let (gathered, attrs) = collect(stage, &ctx, &job, units, &dir, &tasks).unwrap();
+            let local = stage.run(&ctx).unwrap();
+            assert_same(&local, &gathered, &what);
+            let Some(Attr::Str(records)) = attrs.get("slurm_tasks") else { panic!("{what}: no slurm_tasks") };
+            let records: serde_json::Value = serde_json::from_str(records).unwrap();
+            assert_eq!(records.as_array().unwrap().len(), ntasks, "{what}");
+            assert_eq!(records[0]["units"], serde_json::json!([tasks[0].0, tasks[0].1]), "{what}");
+            if name == "rounds" {
+                let attempted = local.get("attempted_replicates").unwrap();
+                let crate::archive::data::Values::I64(a) = &attempted.values else { panic!() };
+                assert!(a.iter().any(|&n| n > 2), "{what}: the target needs extra rounds, attempted {a:?}");
+            }
+            // A missing partial is named with its units and log; nothing is reduced.
+            std::fs::remove_file(task_file(&dir, 1)).unwrap();
+            let e = collect(stage, &ctx, &job, units, &dir, &tasks).unwrap_err().to_string();
+            let want = format!("task 1 ({}): see its log {}", units.describe(tasks[1].0, tasks[1].1), task_log(&dir, 1).display());
+            assert!(e.contains(&want), "{what}: {e}");
+            // A partial of another split is refused.
+            if tasks.len() > 2 {
+                std::fs::copy(task_file(&dir, 2), task_file(&dir, 1)).unwrap();
+                let e = collect(stage, &ctx, &job, units, &dir, &tasks).unwrap_err().to_string();
+                assert!(e.contains("but task 1 is units"), "{what}: {e}");
+            }
+            cleanup(&p.archive, name, &fp);
+        }
+
+        // A rerun with another --units-per-task keeps the split whose partials exist.
+        let decl = p.stage("single").unwrap();
+        let stage = stages::find(&decl.kind).unwrap();
+        let fp = runner::fingerprint(decl, stage.cache_version(), decl.seed.unwrap_or(p.seed), &[]);
+        let ctx = runner::stage_context(&p, decl, &[], false, 0);
+        let units = stage.units(&ctx).unwrap().unwrap();
+        let job = StageJob { pipeline: &p, stage_name: "single", fingerprint: &fp, inputs: &[] };
+        let one = ExecutorConfig { units_per_task: Some(1), ..Default::default() };
+        let four = ExecutorConfig { units_per_task: Some(4), ..Default::default() };
+        let (dir, first) = prepare(&one, &job, units).unwrap();
+        assert_eq!(first.len(), 6);
+        assert_eq!(prepare(&four, &job, units).unwrap().1.len(), 2, "nothing complete yet: the new split");
+        prepare(&one, &job, units).unwrap();
+        worker(&dir.join("plan.json"), 3).unwrap();
+        assert_eq!(prepare(&four, &job, units).unwrap().1, first, "task 3 is complete: the earlier split is kept");
+        cleanup(&p.archive, "single", &fp);
     }
 }

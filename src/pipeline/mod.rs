@@ -222,7 +222,7 @@ struct Checker {
 }
 
 const TOP_KEYS: &[&str] = &["pipeline", "archive", "seed", "description", "executor", "stages"];
-const EXECUTOR_KEYS: &[&str] = &["kind", "partition", "max_parallel", "sbatch_args"];
+const EXECUTOR_KEYS: &[&str] = &["kind", "partition", "max_parallel", "units_per_task", "sbatch_args"];
 const STAGE_KEYS: &[&str] = &["name", "kind", "input", "params", "sweep", "sweep_mode", "replicates", "seed", "description"];
 const MAX_SWEEP_POINTS: usize = 100_000;
 
@@ -340,7 +340,7 @@ impl Checker {
         })
     }
 
-    /// `executor: slurm` or `executor: {kind: slurm, partition: P, max_parallel: N, sbatch_args: [...]}`.
+    /// `executor: slurm` or `executor: {kind: slurm, partition: P, max_parallel: N, units_per_task: K, sbatch_args: [...]}`.
     fn executor(&mut self, node: &Node) -> Option<ExecutorConfig> {
         let kind = |c: &mut Self, n: &Node, key: &str| -> Option<ExecutorKind> {
             let s = c.string(n, key)?;
@@ -370,6 +370,9 @@ impl Checker {
         }
         if let Some(n) = get("max_parallel") {
             cfg.max_parallel = self.uint(n, "executor.max_parallel", 1, 1_000_000).map(|m| m as usize);
+        }
+        if let Some(n) = get("units_per_task") {
+            cfg.units_per_task = self.uint(n, "executor.units_per_task", 1, 1_000_000).map(|m| m as usize);
         }
         if let Some(n) = get("sbatch_args") {
             match &n.kind {

@@ -58,18 +58,125 @@ pub trait Stage: Send + Sync {
     fn input_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
         Ok(vec![])
     }
-    /// Dimensions of this stage's output that stack the sweep points (a variable whose
-    /// first dimension is one of them holds one slice per point, in point order), when
-    /// the stage's points can be computed separately and concatenated: that is what
-    /// lets an executor split the stage over processes (e.g. a Slurm job array). Empty
-    /// (the default): the stage runs as a whole.
-    fn point_dims(&self) -> &'static [&'static str] {
-        &[]
+    /// How the stage's work splits into units that can be computed apart (e.g. in
+    /// different processes of a Slurm job array), or `None` (the default): the stage
+    /// runs as a whole. A stage that returns `Some` implements [`Stage::run_units`] and
+    /// [`Stage::reduce`], and its [`Stage::run`] is [`run_by_units`].
+    fn units(&self, _ctx: &RunContext) -> Result<Option<Units>> {
+        Ok(None)
     }
-    /// How many sweep points the stage computes: its own, unless it takes them from its
-    /// input (a grid of a swept web). An executor splits this range.
-    fn point_count(&self, ctx: &RunContext) -> Result<usize> {
-        Ok(ctx.points.len())
+    /// Compute the units `range` (global unit indices, see [`Units`]) and return their
+    /// per-replicate results: an output whose per-replicate variables have the leading
+    /// dimension [`UNIT_DIM`] (one row per (point, replicate) computed, with the row's
+    /// global point and replicate in the i64 variables `unit_point` and
+    /// `unit_replicate`), and whose other variables and attributes do not depend on the
+    /// range. The rows of consecutive ranges concatenated along [`UNIT_DIM`] (ragged
+    /// trailing dimensions NaN-padded, [`crate::executor::partial::gather`]) equal the
+    /// rows of the whole range.
+    fn run_units(&self, _ctx: &RunContext, _range: std::ops::Range<usize>) -> Result<Output> {
+        anyhow::bail!("stage kind `{}` cannot be run by units", self.kind())
+    }
+    /// Turn the rows of every unit (what [`Stage::run_units`] returns for the whole
+    /// range, or the executor's gather of its parts) into the stage's output: the
+    /// per-point statistics over replicates are computed here, by the same code for the
+    /// local executor and for a gathered Slurm array.
+    fn reduce(&self, _ctx: &RunContext, _rows: Output) -> Result<Output> {
+        anyhow::bail!("stage kind `{}` cannot be run by units", self.kind())
+    }
+}
+
+/// The leading dimension of the per-replicate rows of [`Stage::run_units`].
+pub const UNIT_DIM: &str = "unit";
+
+/// A stage's units of work: `points` × `per_point`, numbered `u = point * per_point + k`.
+/// With `per_point` = the stage's replicates, a unit is one (point, replicate); with
+/// `per_point` = 1, a unit is a whole point with all its replicates (`note` says why).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Units {
+    pub points: usize,
+    pub per_point: usize,
+    /// Why the replicates of a point are not separate units, when they are not.
+    pub note: Option<&'static str>,
+}
+
+impl Units {
+    pub fn count(&self) -> usize {
+        self.points * self.per_point
+    }
+    /// The (point, replicate) of unit `u` when a unit is one replicate; (point, 0) for a
+    /// whole point.
+    pub fn split(&self, u: usize) -> (usize, usize) {
+        (u / self.per_point, u % self.per_point)
+    }
+    /// The points that the units `a..b` touch (half-open).
+    pub fn points_of(&self, a: usize, b: usize) -> (usize, usize) {
+        (a / self.per_point, b.div_ceil(self.per_point))
+    }
+    /// What the units `a..b` are, for messages: `points 2..4`, `point 0 replicates 5..10`,
+    /// `units 3..7 (points 1..3)`.
+    pub fn describe(&self, a: usize, b: usize) -> String {
+        let (p0, p1) = self.points_of(a, b);
+        if self.per_point == 1 {
+            if b == a + 1 {
+                format!("point {a}")
+            } else {
+                format!("points {a}..{b}")
+            }
+        } else if p1 == p0 + 1 {
+            format!("point {p0} replicates {}..{}", a - p0 * self.per_point, b - p0 * self.per_point)
+        } else if a % self.per_point == 0 && b % self.per_point == 0 {
+            format!("points {p0}..{p1}")
+        } else {
+            format!("units {a}..{b} (points {p0}..{p1})")
+        }
+    }
+}
+
+/// The local run of a stage that splits into units: all its units, then [`Stage::reduce`].
+pub fn run_by_units(stage: &dyn Stage, ctx: &RunContext) -> Result<Output> {
+    let units = stage.units(ctx)?.ok_or_else(|| anyhow::anyhow!("stage kind `{}` has no units", stage.kind()))?;
+    let rows = stage.run_units(ctx, 0..units.count())?;
+    stage.reduce(ctx, rows)
+}
+
+/// Reading the per-replicate rows of [`Stage::run_units`] back by name.
+pub mod rows {
+    use crate::archive::data::{Output, Values};
+    use anyhow::{anyhow, bail, Result};
+    use ndarray::ArrayD;
+
+    fn var<'a>(rows: &'a Output, name: &str) -> Result<&'a Values> {
+        rows.get(name).map(|v| &v.values).ok_or_else(|| anyhow!("the per-replicate rows lack `{name}`"))
+    }
+    pub fn f64<'a>(rows: &'a Output, name: &str) -> Result<&'a ArrayD<f64>> {
+        match var(rows, name)? {
+            Values::F64(a) => Ok(a),
+            _ => bail!("`{name}` in the per-replicate rows is not f64"),
+        }
+    }
+    pub fn i64<'a>(rows: &'a Output, name: &str) -> Result<&'a ArrayD<i64>> {
+        match var(rows, name)? {
+            Values::I64(a) => Ok(a),
+            _ => bail!("`{name}` in the per-replicate rows is not i64"),
+        }
+    }
+    pub fn u8<'a>(rows: &'a Output, name: &str) -> Result<&'a ArrayD<u8>> {
+        match var(rows, name)? {
+            Values::U8(a) => Ok(a),
+            _ => bail!("`{name}` in the per-replicate rows is not a flag"),
+        }
+    }
+    pub fn strings<'a>(rows: &'a Output, name: &str) -> Result<&'a [String]> {
+        match var(rows, name)? {
+            Values::Str(a) => Ok(a),
+            _ => bail!("`{name}` in the per-replicate rows is not text"),
+        }
+    }
+    /// The (point, replicate) of every row.
+    pub fn index(rows: &Output) -> Result<Vec<(usize, usize)>> {
+        let p = i64(rows, "unit_point")?;
+        let r = i64(rows, "unit_replicate")?;
+        Ok(p.iter().zip(r.iter()).map(|(&p, &r)| (p as usize, r as usize)).collect())
     }
 }
 
@@ -119,13 +226,12 @@ pub struct RunContext {
     /// Where this run may write figures: `<archive dir>/<archive stem>_figures/<stage>/v<N>`
     /// with N the version this run will become. Not created by the runner.
     pub figure_dir: std::path::PathBuf,
-    /// Global index of `points[0]` in the stage's whole sweep: non-zero when an
-    /// executor runs a share of the points ([`RunContext::restrict`]). Anything keyed
-    /// by the point (random streams, file names) must use [`RunContext::point_index`].
+    /// Global index of `points[0]` in the stage's whole sweep (0 unless a caller runs a
+    /// share of the points). Anything keyed by the point (random streams, file names)
+    /// must use [`RunContext::point_index`]. The executors no longer cut contexts (they
+    /// split by [`Stage::units`]), so both this and `point_range` are 0 and `None` there.
     pub point_offset: usize,
-    /// Set by [`RunContext::restrict`]: the global points `a..b` this run computes. A
-    /// stage whose points come from its input (see [`Stage::point_count`]) computes only
-    /// these; for the others `points` is already cut to them.
+    /// The global points `a..b` a run computes, when it computes a share.
     pub point_range: Option<(usize, usize)>,
 }
 
@@ -139,23 +245,6 @@ impl RunContext {
     /// Global sweep index of the local point `local` (`points[local]`).
     pub fn point_index(&self, local: usize) -> usize {
         self.point_offset + local
-    }
-
-    /// The same run restricted to the global points `a..b` (their indices kept). A
-    /// stage's own sweep points are cut to the range; a single point is kept whole (the
-    /// stage may take its points from its input and reads [`RunContext::point_range`]).
-    pub fn restrict(mut self, a: usize, b: usize) -> Self {
-        if self.points.len() > 1 {
-            let a0 = a - self.point_offset;
-            let b0 = b - self.point_offset;
-            self.points = self.points[a0..b0].to_vec();
-            for (_, values) in self.sweep.iter_mut() {
-                *values = values[a0..b0].to_vec();
-            }
-        }
-        self.point_offset = a;
-        self.point_range = Some((a, b));
-        self
     }
 
     pub fn input(&self, index: usize) -> &Input {

@@ -12,16 +12,20 @@
 //!   may be evaluated at the grid's own sweep points. `cell_size`, `window_side` and the
 //!   zone-size parameters must be the same at every point (the maps share `md`, `cd`
 //!   and `zone_size` coordinates).
-//! - **Check.** Before gridding, the stage regenerates the web's stored fibres of
+//! - **Check.** Before its output is made, the stage regenerates the web's stored fibres of
 //!   realisation 0 and requires them to equal the stored ones bit for bit.
 //! - `compare_with: table4` adds the paper's measured Table 4 as `reference_*` datasets.
+//! - **Units.** An executor may compute every (point, realisation) apart
+//!   ([`Stage::run_units`]); [`Stage::reduce`] places them and takes the means and
+//!   standard deviations over realisations, for the local run and a gathered Slurm array
+//!   alike. The regeneration check runs in the reduce.
 use super::{grid_realisation, Boundary, Deposit, GridParams, GridResult, GRID_PARAMS};
 use crate::archive::data::{Attr, Output};
 use crate::params::{ParamSet, ParamSpec};
 use crate::stages::web::{web_from_input, Web};
-use crate::stages::{BadInput, InputRule, RunContext, Stage};
-use anyhow::{anyhow, Result};
-use ndarray::{Array1, Array2, Array3, Array4, ArrayD, Axis, IxDyn};
+use crate::stages::{BadInput, InputRule, RunContext, Stage, Units};
+use anyhow::{anyhow, bail, Result};
+use ndarray::{Array1, Array2, Array3, ArrayD, Axis, IxDyn};
 use std::time::Instant;
 
 pub struct GridStage;
@@ -42,14 +46,6 @@ impl Stage for GridStage {
     }
     fn summary(&self) -> &'static str {
         "areal density of a web on a Δh grid over an H×H window: ρ_av (eq 16), CV, CV by zone size and formation number"
-    }
-    /// Points are independent (one web point each): an executor may split them.
-    fn point_dims(&self) -> &'static [&'static str] {
-        &["point"]
-    }
-    fn point_count(&self, ctx: &RunContext) -> Result<usize> {
-        let web_points = ctx.input(0).read_f64("point")?.len();
-        Ok(if web_points > 1 { web_points } else { ctx.points.len() })
     }
     fn cache_version(&self) -> u32 {
         1
@@ -75,53 +71,36 @@ impl Stage for GridStage {
     }
 
     fn run(&self, ctx: &RunContext) -> Result<Output> {
-        let input = ctx.input(0);
-        let webs = web_from_input(input)?;
-        let nw = webs.len();
-        if nw > 1 && !ctx.sweep.is_empty() {
-            return Err(BadInput(format!(
-                "the input web {} has {nw} points; a grid reading it takes the web's points and cannot have a sweep of its own (use one grid stage per setting)",
-                input.version.group_path()
-            ))
-            .into());
-        }
-        // One point per web point (a swept web), or per own sweep point of one web. An
-        // executor may ask for a share of the web's points (`point_range`); the grid's own
-        // points arrive already cut to the share.
-        let units: Vec<(usize, GridParams)> = if nw > 1 {
-            let (lo, hi) = ctx.point_range.unwrap_or((0, nw));
-            (lo..hi).map(|i| (i, grid_params(&ctx.points[0]))).collect()
-        } else {
-            ctx.points.iter().map(|p| (0, grid_params(p))).collect()
-        };
-        let npoints = units.len();
-        let first = units[0].1;
-        for (i, (_, g)) in units.iter().enumerate() {
-            let same = g.cell_size == first.cell_size
-                && g.window_side == first.window_side
-                && g.zone_size_min == first.zone_size_min
-                && g.zone_size_max == first.zone_size_max
-                && g.zones_per_octave == first.zones_per_octave;
-            if !same {
-                return Err(BadInput(format!("point {i}: cell_size, window_side and the zone-size parameters must be the same at every point (the maps share md, cd and zone_size); use one grid stage per setting")).into());
-            }
-        }
-        let regen = check_regeneration(input, &webs)?;
-
+        crate::stages::run_by_units(self, ctx)
+    }
+    /// A unit is one (point, realisation): realisation k of a web is keyed by the web
+    /// and k only, so any share of the units grids what the whole run grids.
+    fn units(&self, ctx: &RunContext) -> Result<Option<Units>> {
+        let (units, _) = grid_units(ctx)?;
+        Ok(Some(Units { points: units.len(), per_point: ctx.replicates, note: None }))
+    }
+    fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
+        let (units, webs) = grid_units(ctx)?;
         let reps = ctx.replicates;
-        let bar = crate::progress::bar(ctx.progress, (npoints * reps) as u64, &format!("{} realisations", ctx.stage_name));
-        let mut results: Vec<(GridResult, f64)> = Vec::with_capacity(npoints * reps);
-        for (i, (w, g)) in units.iter().enumerate() {
-            for r in 0..reps {
-                let t = Instant::now();
-                let res = grid_realisation(&webs[*w], g, r as u32).map_err(|e| BadInput(format!("point {i} (web point {w}), realisation {r}: {e}")))?;
-                results.push((res, t.elapsed().as_secs_f64()));
-                bar.inc(1);
-            }
+        let bar = crate::progress::bar(ctx.progress, range.len() as u64, &format!("{} realisations", ctx.stage_name));
+        let mut results: Vec<Row> = Vec::with_capacity(range.len());
+        for u in range {
+            let (i, r) = (u / reps, u % reps);
+            let (w, g) = &units[i];
+            let t = Instant::now();
+            let res = grid_realisation(&webs[*w], g, r as u32).map_err(|e| BadInput(format!("point {i} (web point {w}), realisation {r}: {e}")))?;
+            results.push((i, r, res, t.elapsed().as_secs_f64()));
+            bar.inc(1);
         }
         bar.finish_and_clear();
-        let mut out = assemble(&units, &webs, &results, reps, ctx.points[0].bool("store_density"));
-        if nw > 1 {
+        Ok(unit_rows(&results, ctx.points[0].bool("store_density")))
+    }
+    fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
+        let input = ctx.input(0);
+        let (units, webs) = grid_units(ctx)?;
+        let regen = check_regeneration(input, &webs)?;
+        let mut out = assemble(&units, &webs, &rows, ctx.replicates, ctx.points[0].bool("store_density"))?;
+        if webs.len() > 1 {
             let web_points: Vec<usize> = units.iter().map(|u| u.0).collect();
             copy_web_sweep(input, &mut out, &web_points)?;
         }
@@ -131,6 +110,41 @@ impl Stage for GridStage {
         out.attrs.insert("regeneration_check".into(), Attr::Str(regen));
         Ok(out)
     }
+}
+
+/// The grid's points as (web point, grid parameters).
+type Points = Vec<(usize, GridParams)>;
+
+/// The grid's points — one per web point of a swept web, else one per own sweep point
+/// of a one-point web — and the webs.
+fn grid_units(ctx: &RunContext) -> Result<(Points, Vec<Web>)> {
+    let input = ctx.input(0);
+    let webs = web_from_input(input)?;
+    let nw = webs.len();
+    if nw > 1 && !ctx.sweep.is_empty() {
+        return Err(BadInput(format!(
+            "the input web {} has {nw} points; a grid reading it takes the web's points and cannot have a sweep of its own (use one grid stage per setting)",
+            input.version.group_path()
+        ))
+        .into());
+    }
+    let units: Vec<(usize, GridParams)> = if nw > 1 {
+        (0..nw).map(|i| (i, grid_params(&ctx.points[0]))).collect()
+    } else {
+        ctx.points.iter().map(|p| (0, grid_params(p))).collect()
+    };
+    let first = units[0].1;
+    for (i, (_, g)) in units.iter().enumerate() {
+        let same = g.cell_size == first.cell_size
+            && g.window_side == first.window_side
+            && g.zone_size_min == first.zone_size_min
+            && g.zone_size_max == first.zone_size_max
+            && g.zones_per_octave == first.zones_per_octave;
+        if !same {
+            return Err(BadInput(format!("point {i}: cell_size, window_side and the zone-size parameters must be the same at every point (the maps share md, cd and zone_size); use one grid stage per setting")).into());
+        }
+    }
+    Ok((units, webs))
 }
 
 pub fn grid_params(p: &ParamSet) -> GridParams {
@@ -175,15 +189,70 @@ fn check_regeneration(input: &crate::stages::Input, webs: &[Web]) -> Result<Stri
     Ok(format!("{compared} stored fibres of realisation 0 regenerated bit-identically"))
 }
 
-fn assemble(units: &[(usize, GridParams)], webs: &[Web], results: &[(GridResult, f64)], reps: usize, store_density: bool) -> Output {
+/// One computed realisation: (point, realisation, result, wall seconds).
+type Row = (usize, usize, GridResult, f64);
+
+/// The per-realisation rows of `results`: everything of a realisation that the stage
+/// output holds.
+fn unit_rows(results: &[Row], store_density: bool) -> Output {
+    let unit = crate::stages::UNIT_DIM;
+    let n = results.len();
+    let col = |f: &dyn Fn(&GridResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
+    let nz = results.first().map(|r| r.2.zone_curve.len()).unwrap_or(0);
+    let zone = |f: &dyn Fn(&super::ZonePoint) -> f64| Array2::from_shape_fn((n, nz), |(u, z)| f(&results[u].2.zone_curve[z]));
+    let zone_i = |f: &dyn Fn(&super::ZonePoint) -> usize| Array2::from_shape_fn((n, nz), |(u, z)| f(&results[u].2.zone_curve[z]) as i64);
+    let mut out = Output::new();
+    out.i64("unit_point", &[unit], Array1::from_iter(results.iter().map(|r| r.0 as i64)), "1", "point of the row");
+    out.i64("unit_replicate", &[unit], Array1::from_iter(results.iter().map(|r| r.1 as i64)), "1", "realisation of the row");
+    if store_density && n > 0 {
+        let cells = results[0].2.density.shape().to_vec();
+        let mut density = Array3::zeros((n, cells[0], cells[1]));
+        for (u, r) in results.iter().enumerate() {
+            density.index_axis_mut(Axis(0), u).assign(&(&r.2.density * 1e3));
+        }
+        out.f64("density", &[unit, "md", "cd"], density, "g m-2", "");
+    }
+    out.f64("window_corner_md", &[unit], col(&|g| g.window_corner[0]), "m", "");
+    out.f64("window_corner_cd", &[unit], col(&|g| g.window_corner[1]), "m", "");
+    out.f64("mean_areal_density", &[unit], col(&|g| g.mean_areal_density_gsm), "g m-2", "");
+    out.f64("cv", &[unit], col(&|g| g.cv), "1", "");
+    out.f64("fibre_length_per_area", &[unit], col(&|g| g.fibre_length_per_area), "m-1", "");
+    out.f64("spread_cd", &[unit], col(&|g| g.spreads.cross_direction), "m", "");
+    out.f64("spread_md", &[unit], col(&|g| g.spreads.machine_direction), "m", "");
+    out.f64("nodes_generated", &[unit], col(&|g| g.nodes_generated as f64), "1", "");
+    out.f64("wall_seconds", &[unit], Array1::from_iter(results.iter().map(|r| r.3)), "s", "");
+    out.f64("zone_size", &[unit, "zone_size"], zone(&|z| z.zone_size), "m", "");
+    out.i64("zone_cells", &[unit, "zone_size"], zone_i(&|z| z.cells_per_side), "1", "");
+    out.i64("zone_count", &[unit, "zone_size"], zone_i(&|z| z.zones), "1", "");
+    out.f64("cv_zone", &[unit, "zone_size"], zone(&|z| z.cv), "1", "");
+    out.f64("random_line_cv", &[unit, "zone_size"], zone(&|z| z.random_line_cv), "1", "");
+    out.f64("formation_number", &[unit, "zone_size"], zone(&|z| z.formation_number), "1", "");
+    out
+}
+
+/// The stage output from the rows of every (point, realisation) ([`unit_rows`], whole or
+/// gathered from the parts of a job array): the maps and per-realisation values on the
+/// (point, realisation) axes and the means and standard deviations over realisations.
+fn assemble(units: &[(usize, GridParams)], webs: &[Web], rows: &Output, reps: usize, store_density: bool) -> Result<Output> {
+    use crate::stages::rows as get;
     let np = units.len();
+    let index = get::index(rows)?;
+    let expected: Vec<(usize, usize)> = (0..np).flat_map(|p| (0..reps).map(move |r| (p, r))).collect();
+    if index != expected {
+        bail!("the per-realisation rows are not every (point, realisation) of {np} points × {reps} realisations in order");
+    }
+    // Rows (point * reps + realisation, rest…) as (point, realisation, rest…).
+    let by_rep = |a: &ArrayD<f64>| -> Result<ArrayD<f64>> {
+        let mut shape = vec![np, reps];
+        shape.extend_from_slice(&a.shape()[1..]);
+        Ok(ArrayD::from_shape_vec(IxDyn(&shape), a.iter().copied().collect())?)
+    };
+    let row_f = |name: &str| get::f64(rows, name);
+    let per_rep = |name: &str| -> Result<Array2<f64>> { Ok(by_rep(row_f(name)?)?.into_dimensionality()?) };
     let g0 = units[0].1;
     let cells = g0.validate().expect("validated");
     let h = g0.cell_size;
-    let at = |p: usize, r: usize| &results[p * reps + r].0;
-    let per_rep = |f: &dyn Fn(&GridResult) -> f64| Array2::from_shape_fn((np, reps), |(p, r)| f(at(p, r)));
-    let nz = results.first().map(|r| r.0.zone_curve.len()).unwrap_or(0);
-    let zone = |f: &dyn Fn(&super::ZonePoint) -> f64| Array3::from_shape_fn((np, reps, nz), |(p, r, z)| f(&at(p, r).zone_curve[z]));
+    let nz = row_f("zone_size")?.shape()[1];
     let mut out = Output::new();
     let centres = Array1::from_iter((0..cells).map(|k| (k as f64 + 0.5) * h));
     out.f64("md", &["md"], centres.clone(), "m", "machine-direction cell centre, measured from the window's lower MD edge window_corner_md");
@@ -191,23 +260,21 @@ fn assemble(units: &[(usize, GridParams)], webs: &[Web], results: &[(GridResult,
     out.f64("cell_size", &[], ndarray::arr0(h), "m", "Δh, grid cell side");
     out.f64("window_side", &[], ndarray::arr0(g0.window_side), "m", "H, window side");
     if store_density && reps > 0 {
-        let mut density = Array4::zeros((np, reps, cells, cells));
-        for p in 0..np {
-            for r in 0..reps {
-                density.index_axis_mut(Axis(0), p).index_axis_mut(Axis(0), r).assign(&(&at(p, r).density * 1e3));
-            }
-        }
-        out.f64("density", &["point", "realisation", "md", "cd"], density, "g m-2", "areal density of each Δh × Δh cell");
+        out.f64("density", &["point", "realisation", "md", "cd"], by_rep(row_f("density")?)?, "g m-2", "areal density of each Δh × Δh cell");
     }
-    let corner = |c: usize| Array1::from_iter((0..np).map(|p| results[p * reps].0.window_corner[c]));
+    // Realisation 0's window (the window is placed the same for every realisation).
+    let corner = |name: &str| -> Result<Array1<f64>> {
+        let a = row_f(name)?;
+        Ok(Array1::from_iter((0..np).map(|p| a[[p * reps]])))
+    };
     if reps > 0 {
-        out.f64("window_corner_md", &["point"], corner(0), "m", "MD position of the window's lower edge in web coordinates (fibres start at x = 0)");
-        out.f64("window_corner_cd", &["point"], corner(1), "m", "CD position of the window's lower edge (web centre line y = 0)");
+        out.f64("window_corner_md", &["point"], corner("window_corner_md")?, "m", "MD position of the window's lower edge in web coordinates (fibres start at x = 0)");
+        out.f64("window_corner_cd", &["point"], corner("window_corner_cd")?, "m", "CD position of the window's lower edge (web centre line y = 0)");
     }
     out.i64("web_point", &["point"], Array1::from_iter(units.iter().map(|u| u.0 as i64)), "1", "point of the input web evaluated");
     out.f64("expected_interior_density", &["point"], Array1::from_iter(units.iter().map(|u| webs[u.0].params().interior_areal_density() * 1e3)), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
-    let rho = per_rep(&|g| g.mean_areal_density_gsm);
-    let cv = per_rep(&|g| g.cv);
+    let rho = per_rep("mean_areal_density")?;
+    let cv = per_rep("cv")?;
     for (name, values, unit, long) in [
         ("mean_areal_density", &rho, "g m-2", "ρ_av = Σ m_k / H² over the window (eq 16)"),
         ("cv", &cv, "1", "coefficient of variation of the cell densities"),
@@ -217,25 +284,25 @@ fn assemble(units: &[(usize, GridParams)], webs: &[Web], results: &[(GridResult,
         out.f64(&format!("{name}_mean"), &["point"], m, unit, &format!("mean over realisations of {long}"));
         out.f64(&format!("{name}_std"), &["point"], s, unit, &format!("sample standard deviation over realisations of {long}"));
     }
-    out.f64("fibre_length_per_area", &["point", "realisation"], per_rep(&|g| g.fibre_length_per_area), "m-1", "L_A = ρ_av/(ρπd²/4), fibre length per window area");
-    out.f64("spread_cd", &["point", "realisation"], per_rep(&|g| g.spreads.cross_direction), "m", "σ_CD, RMS CD displacement of the fibres where the drift reaches the window's far edge");
-    out.f64("spread_md", &["point", "realisation"], per_rep(&|g| g.spreads.machine_direction), "m", "σ_MD, RMS MD displacement of the fibre ends from c·n_l·L");
-    out.f64("nodes_generated", &["point", "realisation"], per_rep(&|g| g.nodes_generated as f64), "1", "fibre nodes generated for the realisation");
-    out.f64("wall_seconds", &["point", "realisation"], Array2::from_shape_fn((np, reps), |(p, r)| results[p * reps + r].1), "s", "wall time of generating and gridding the realisation");
+    out.f64("fibre_length_per_area", &["point", "realisation"], per_rep("fibre_length_per_area")?, "m-1", "L_A = ρ_av/(ρπd²/4), fibre length per window area");
+    out.f64("spread_cd", &["point", "realisation"], per_rep("spread_cd")?, "m", "σ_CD, RMS CD displacement of the fibres where the drift reaches the window's far edge");
+    out.f64("spread_md", &["point", "realisation"], per_rep("spread_md")?, "m", "σ_MD, RMS MD displacement of the fibre ends from c·n_l·L");
+    out.f64("nodes_generated", &["point", "realisation"], per_rep("nodes_generated")?, "1", "fibre nodes generated for the realisation");
+    out.f64("wall_seconds", &["point", "realisation"], per_rep("wall_seconds")?, "s", "wall time of generating and gridding the realisation");
     if nz > 0 {
-        let z0 = &results[0].0.zone_curve;
-        out.f64("zone_size", &["zone_size"], Array1::from_iter(z0.iter().map(|z| z.zone_size)), "m", "zone side x = cells·Δh (log-spaced from zone_size_min, sizes below Δh skipped)");
-        out.i64("zone_cells", &["zone_size"], Array1::from_iter(z0.iter().map(|z| z.cells_per_side as i64)), "1", "cells per zone side");
-        out.i64("zone_count", &["zone_size"], Array1::from_iter(z0.iter().map(|z| z.zones as i64)), "1", "zones the CV is taken over");
-        let cvz = zone(&|z| z.cv);
-        let nf = zone(&|z| z.formation_number);
+        // The zone sizes of the first realisation (they depend only on the parameters).
+        out.f64("zone_size", &["zone_size"], row_f("zone_size")?.index_axis(Axis(0), 0).to_owned(), "m", "zone side x = cells·Δh (log-spaced from zone_size_min, sizes below Δh skipped)");
+        out.i64("zone_cells", &["zone_size"], get::i64(rows, "zone_cells")?.index_axis(Axis(0), 0).to_owned(), "1", "cells per zone side");
+        out.i64("zone_count", &["zone_size"], get::i64(rows, "zone_count")?.index_axis(Axis(0), 0).to_owned(), "1", "zones the CV is taken over");
+        let cvz = by_rep(row_f("cv_zone")?)?;
+        let nf = by_rep(row_f("formation_number")?)?;
         out.f64("cv_zone", &["point", "realisation", "zone_size"], cvz.clone(), "1", "CV of the zone densities at zone size x");
-        out.f64("random_line_cv", &["point", "realisation", "zone_size"], zone(&|z| z.random_line_cv), "1", "CV of a Poisson network of straight lines with the same L_A: sqrt(E1/(π L_A x)) (REFERENCE.md §2)");
+        out.f64("random_line_cv", &["point", "realisation", "zone_size"], by_rep(row_f("random_line_cv")?)?, "1", "CV of a Poisson network of straight lines with the same L_A: sqrt(E1/(π L_A x)) (REFERENCE.md §2)");
         out.f64("formation_number", &["point", "realisation", "zone_size"], nf.clone(), "1", "n_f(x) = CV²/CV²_random-line");
         out.f64("cv_zone_mean", &["point", "zone_size"], cvz.mean_axis(Axis(1)).unwrap(), "1", "mean over realisations of cv_zone");
         out.f64("formation_number_mean", &["point", "zone_size"], nf.mean_axis(Axis(1)).unwrap(), "1", "mean over realisations of formation_number");
     }
-    out
+    Ok(out)
 }
 
 fn mean_std(v: &Array2<f64>) -> (Array1<f64>, Array1<f64>) {

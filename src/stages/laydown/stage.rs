@@ -13,13 +13,19 @@
 //! with NaN and `valid` = false, `invalid_reason` = "not attempted"); `used` marks the
 //! first T valid ones in replicate order, over which the means and standard deviations
 //! are taken; `valid_shortfall` = T − used (0 when the target was met).
+//!
+//! Executors ([`crate::executor`]): a unit of work is one (point, replicate), or a whole
+//! point when it has a target (its rounds depend on earlier results). The replicates are
+//! computed as per-replicate rows ([`Stage::run_units`]) and placed on the (point,
+//! replicate) axes with the statistics by [`Stage::reduce`], for the local run and for a
+//! gathered Slurm array alike.
 use super::params::{BounceCheck, Effects, Integrator, LaydownParams, ParamKind as LKind, PARAMETERS};
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParamValue};
-use crate::stages::{InputRule, RunContext, Stage};
-use anyhow::Result;
-use ndarray::{Array1, Array2, Array3, Array4};
+use crate::stages::{InputRule, RunContext, Stage, Units};
+use anyhow::{bail, Result};
+use ndarray::{Array1, Array2, Array3, Axis};
 use rayon::prelude::*;
 
 /// Stage-level parameters (not scene parameters): the valid-replicate target and its cap.
@@ -137,18 +143,54 @@ impl Stage for LaydownStage {
     }
 
     fn run(&self, ctx: &RunContext) -> Result<Output> {
-        let scenes: Vec<LaydownParams> = ctx.points.iter().map(|p| scene(p).expect("checked")).collect();
-        let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
-        let results = run_until_valid(&scenes, &targets, ctx.replicates, ctx.progress, &ctx.stage_name, |p, r| {
-            simulate(&scenes[p], &mut ctx.rng(r, 0))
-        });
-        Ok(assemble(&scenes, &results, &targets))
+        crate::stages::run_by_units(self, ctx)
     }
-    /// Points are independent (every replicate's random stream is keyed by seed and
-    /// replicate only, not by the point), and `assemble` stacks them along `point` and
-    /// `run` (point * replicates + replicate), padding ragged node counts with NaN.
-    fn point_dims(&self) -> &'static [&'static str] {
-        &["point", "run"]
+    /// A unit is one (point, replicate): every replicate's random stream is keyed by seed
+    /// and replicate only ([`RunContext::rng`]), so any share of the units computes what
+    /// the whole run computes. With a `valid_replicates_target` at some point, the
+    /// extra replicates are drawn in rounds that depend on how many earlier ones were
+    /// valid (`run_until_valid`); then a unit is a whole point with its rounds.
+    fn units(&self, ctx: &RunContext) -> Result<Option<Units>> {
+        let rounds = ctx.points.iter().any(|p| p.usize(TARGET) > 0);
+        Ok(Some(if rounds {
+            Units {
+                points: ctx.points.len(),
+                per_point: 1,
+                note: Some("valid_replicates_target draws extra replicates in rounds that depend on earlier results: a unit is a whole point"),
+            }
+        } else {
+            Units { points: ctx.points.len(), per_point: ctx.replicates, note: None }
+        }))
+    }
+    fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
+        let units = self.units(ctx)?.expect("laydown has units");
+        let scenes: Vec<LaydownParams> = ctx.points.iter().map(|p| scene(p).expect("checked")).collect();
+        let sim = |p: usize, r: usize| simulate(&scenes[p], &mut ctx.rng(r, 0));
+        let rows: Vec<(usize, usize, LaydownResult)> = if units.per_point == 1 {
+            // Whole points, with their rounds of extra replicates.
+            let (a, b) = (range.start, range.end);
+            let targets: Vec<(usize, usize)> = ctx.points[a..b].iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
+            let results = run_until_valid(&scenes[a..b], &targets, ctx.replicates, ctx.progress, &ctx.stage_name, |p, r| sim(a + p, r));
+            results.into_iter().enumerate().flat_map(|(p, rs)| rs.into_iter().enumerate().map(move |(r, res)| (a + p, r, res))).collect()
+        } else {
+            let jobs: Vec<(usize, usize)> = range.map(|u| units.split(u)).collect();
+            let bar = crate::progress::bar(ctx.progress, jobs.len() as u64, &format!("{} units", ctx.stage_name));
+            let out = jobs
+                .par_iter()
+                .map(|&(p, r)| {
+                    let res = sim(p, r);
+                    bar.inc(1);
+                    (p, r, res)
+                })
+                .collect();
+            bar.finish_and_clear();
+            out
+        };
+        Ok(unit_rows(&scenes, &rows))
+    }
+    fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
+        let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
+        assemble(&rows, &targets)
     }
 }
 
@@ -216,80 +258,153 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
     (mean, var.sqrt(), n)
 }
 
-fn assemble(scenes: &[LaydownParams], results: &[Vec<LaydownResult>], targets: &[(usize, usize)]) -> Output {
+/// The per-replicate rows of `results` ((point, replicate, result), in any order):
+/// everything of a replicate that the stage output holds, with the laid polylines
+/// computed here. Node, laid-node and record axes are padded with NaN to the longest
+/// replicate (the laid axis to the node count, as the output's is).
+fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]) -> Output {
     let nan = f64::NAN;
-    let npoints = results.len();
-    let nreps = results.iter().map(|r| r.len()).max().unwrap_or(0);
-    let nodes = results.iter().flatten().map(|r| r.positions.len()).max().unwrap_or(0);
-    let ndiag = results.iter().flatten().map(|r| r.diagnostics.len()).max().unwrap_or(0);
-    let mut positions = Array4::from_elem((npoints, nreps, nodes, 3), nan);
+    let n = results.len();
+    let nodes = results.iter().map(|r| r.2.positions.len()).max().unwrap_or(0);
+    let ndiag = results.iter().map(|r| r.2.diagnostics.len()).max().unwrap_or(0);
+    let mut positions = Array3::from_elem((n, nodes, 3), nan);
     let mut laid = positions.clone();
     let mut laid_removed = positions.clone();
-    let mut landing = Array3::from_elem((npoints, nreps, nodes), nan);
-    let mut valid = Array2::from_elem((npoints, nreps), false);
-    let per_rep = |f: &dyn Fn(&LaydownResult) -> f64| {
-        Array2::from_shape_fn((npoints, nreps), |(p, r)| results[p].get(r).map_or(nan, f))
-    };
+    let mut landing = Array2::from_elem((n, nodes), nan);
+    let mut diag = Array3::from_elem((n, ndiag, 8), nan);
+    let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
     let ok = |r: &LaydownResult, v: f64| if r.error.is_none() { v } else { f64::NAN };
-    let s = per_rep(&|r| ok(r, r.radius_of_gyration));
-    let e = per_rep(&|r| ok(r, r.bending_energy));
-    let s_b = per_rep(&|r| ok(r, r.radius_of_gyration_belt_removed));
-    let e_b = per_rep(&|r| ok(r, r.bending_energy_belt_removed));
-    let steps = per_rep(&|r| r.steps as f64);
-    let wall = per_rep(&|r| r.wall_seconds);
-    let dt = per_rep(&|r| r.time_step);
-    let lift = per_rep(&|r| r.max_lift_after_landing);
-    let final_lift = per_rep(&|r| r.final_lift_of_landed);
-    let laid_length = per_rep(&|r| r.laid_length);
-    let elements = per_rep(&|r| r.elements as f64);
-    let mut diag = Array4::from_elem((npoints, nreps, ndiag, 8), nan);
+    for (u, (p, _, res)) in results.iter().enumerate() {
+        for (i, x) in res.positions.iter().enumerate() {
+            for k in 0..3 {
+                positions[[u, i, k]] = x[k];
+            }
+            landing[[u, i]] = res.landing_time[i];
+        }
+        for (i, x) in laid_polyline(&res.positions, &res.landing_time, None).iter().enumerate() {
+            for k in 0..3 {
+                laid[[u, i, k]] = x[k];
+            }
+        }
+        let removed = laid_polyline(&res.positions, &res.landing_time, Some((scenes[*p].belt_speed, res.end_time)));
+        for (i, x) in removed.iter().enumerate() {
+            for k in 0..3 {
+                laid_removed[[u, i, k]] = x[k];
+            }
+        }
+        for (i, d) in res.diagnostics.iter().enumerate() {
+            let w = &d.work;
+            let row = [d.time, d.kinetic, d.elastic, w.drag, w.friction, w.gravity, w.oscillation, w.damping];
+            for (k, v) in row.iter().enumerate() {
+                diag[[u, i, k]] = *v;
+            }
+        }
+    }
+    let unit = crate::stages::UNIT_DIM;
+    let mut out = Output::new();
+    out.i64("unit_point", &[unit], Array1::from_iter(results.iter().map(|r| r.0 as i64)), "1", "point of the row");
+    out.i64("unit_replicate", &[unit], Array1::from_iter(results.iter().map(|r| r.1 as i64)), "1", "replicate of the row");
+    out.f64("positions", &[unit, "node", "xyz"], positions, "m", "");
+    out.f64("laid_positions", &[unit, "node", "xyz"], laid, "m", "");
+    out.f64("laid_positions_belt_removed", &[unit, "node", "xyz"], laid_removed, "m", "");
+    out.f64("landing_time", &[unit, "node"], landing, "s", "");
+    out.flags("valid", &[unit], Array1::from_iter(results.iter().map(|r| r.2.valid && r.2.error.is_none())), "");
+    out.strings("invalid_reason", unit, results.iter().map(|r| r.2.invalid_reason.clone().unwrap_or_default()).collect(), "");
+    out.strings("error", unit, results.iter().map(|r| r.2.error.clone().unwrap_or_default()).collect(), "");
+    out.f64("radius_of_gyration", &[unit], column(&|r| ok(r, r.radius_of_gyration)), "m", "");
+    out.f64("bending_energy", &[unit], column(&|r| ok(r, r.bending_energy)), "1", "");
+    out.f64("radius_of_gyration_belt_removed", &[unit], column(&|r| ok(r, r.radius_of_gyration_belt_removed)), "m", "");
+    out.f64("bending_energy_belt_removed", &[unit], column(&|r| ok(r, r.bending_energy_belt_removed)), "1", "");
+    out.f64("steps", &[unit], column(&|r| r.steps as f64), "1", "");
+    out.f64("time_step", &[unit], column(&|r| r.time_step), "s", "");
+    out.f64("wall_seconds", &[unit], column(&|r| r.wall_seconds), "s", "");
+    out.f64("max_lift_after_landing", &[unit], column(&|r| r.max_lift_after_landing), "m", "");
+    out.f64("final_lift_of_landed", &[unit], column(&|r| r.final_lift_of_landed), "m", "");
+    out.f64("laid_length", &[unit], column(&|r| r.laid_length), "m", "");
+    out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
+    out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
+    out
+}
+
+/// The row values of `name` placed at (point, replicate): shape (npoints, nreps, rest…),
+/// `fill` where a replicate was not attempted.
+fn place<T: Clone>(a: &ndarray::ArrayD<T>, index: &[(usize, usize)], npoints: usize, nreps: usize, fill: T) -> ndarray::ArrayD<T> {
+    let mut shape = vec![npoints, nreps];
+    shape.extend_from_slice(&a.shape()[1..]);
+    let mut out = ndarray::ArrayD::from_elem(ndarray::IxDyn(&shape), fill);
+    for (row, &(p, r)) in index.iter().enumerate() {
+        out.index_axis_mut(Axis(0), p).index_axis_mut(Axis(0), r).assign(&a.index_axis(Axis(0), row));
+    }
+    out
+}
+
+/// The stage output from the per-replicate rows of every point ([`unit_rows`], whole or
+/// gathered from the parts of a job array): the replicates placed on the (point,
+/// replicate) axes, `used` (the first T valid in replicate order), the shortfall, and the
+/// per-point means and standard deviations over the used replicates.
+fn assemble(rows: &Output, targets: &[(usize, usize)]) -> Result<Output> {
+    use crate::stages::rows as get;
+    let nan = f64::NAN;
+    let index = get::index(rows)?;
+    let npoints = targets.len();
+    if let Some(&(p, r)) = index.iter().find(|(p, _)| *p >= npoints) {
+        bail!("per-replicate row of point {p} replicate {r}, but the stage has {npoints} points");
+    }
+    let nreps = index.iter().map(|&(_, r)| r + 1).max().unwrap_or(0);
+    let mut attempted = vec![0i64; npoints];
+    let mut row_of = Array2::from_elem((npoints, nreps), usize::MAX);
+    for (row, &(p, r)) in index.iter().enumerate() {
+        if row_of[[p, r]] != usize::MAX {
+            bail!("point {p} replicate {r} appears twice in the per-replicate rows");
+        }
+        row_of[[p, r]] = row;
+        attempted[p] += 1;
+    }
+    for p in 0..npoints {
+        if (0..attempted[p] as usize).any(|r| row_of[[p, r]] == usize::MAX) {
+            bail!("point {p}: the replicates computed are not 0..{}", attempted[p]);
+        }
+    }
+    let f = |name: &str| -> Result<ndarray::ArrayD<f64>> { Ok(place(get::f64(rows, name)?, &index, npoints, nreps, nan)) };
+    let per_rep = |name: &str| -> Result<Array2<f64>> { Ok(f(name)?.into_dimensionality()?) };
+    let positions = f("positions")?;
+    let laid = f("laid_positions")?;
+    let laid_removed = f("laid_positions_belt_removed")?;
+    let landing = f("landing_time")?;
+    let diag = f("energy_diagnostics")?;
+    let valid: Array2<bool> = place(get::u8(rows, "valid")?, &index, npoints, nreps, 0).mapv(|v| v != 0).into_dimensionality()?;
+    let (row_reasons, row_errors) = (get::strings(rows, "invalid_reason")?, get::strings(rows, "error")?);
+    let s = per_rep("radius_of_gyration")?;
+    let e = per_rep("bending_energy")?;
+    let s_b = per_rep("radius_of_gyration_belt_removed")?;
+    let e_b = per_rep("bending_energy_belt_removed")?;
+    let steps = per_rep("steps")?;
+    let wall = per_rep("wall_seconds")?;
+    let dt = per_rep("time_step")?;
+    let lift = per_rep("max_lift_after_landing")?;
+    let final_lift = per_rep("final_lift_of_landed")?;
+    let laid_length = per_rep("laid_length")?;
+    let elements = per_rep("elements")?;
     let mut reasons = vec![];
     let mut errors = vec![];
     let mut used = Array2::from_elem((npoints, nreps), false);
-    let mut attempted = vec![];
     let mut shortfall = vec![];
     for p in 0..npoints {
-        attempted.push(results[p].len() as i64);
         let target = if targets[p].0 > 0 { targets[p].0 } else { usize::MAX };
         let mut n_used = 0;
         for r in 0..nreps {
-            let Some(res) = results[p].get(r) else {
+            let row = row_of[[p, r]];
+            if row == usize::MAX {
                 reasons.push("not attempted".to_string());
                 errors.push(String::new());
                 continue;
-            };
-            valid[[p, r]] = res.valid && res.error.is_none();
+            }
             if valid[[p, r]] && n_used < target {
                 used[[p, r]] = true;
                 n_used += 1;
             }
-            reasons.push(res.invalid_reason.clone().unwrap_or_default());
-            errors.push(res.error.clone().unwrap_or_default());
-            for (i, x) in res.positions.iter().enumerate() {
-                for k in 0..3 {
-                    positions[[p, r, i, k]] = x[k];
-                }
-                landing[[p, r, i]] = res.landing_time[i];
-            }
-            let t_end = res.end_time;
-            for (i, x) in laid_polyline(&res.positions, &res.landing_time, None).iter().enumerate() {
-                for k in 0..3 {
-                    laid[[p, r, i, k]] = x[k];
-                }
-            }
-            let removed = laid_polyline(&res.positions, &res.landing_time, Some((scenes[p].belt_speed, t_end)));
-            for (i, x) in removed.iter().enumerate() {
-                for k in 0..3 {
-                    laid_removed[[p, r, i, k]] = x[k];
-                }
-            }
-            for (i, d) in res.diagnostics.iter().enumerate() {
-                let w = &d.work;
-                let row = [d.time, d.kinetic, d.elastic, w.drag, w.friction, w.gravity, w.oscillation, w.damping];
-                for (k, v) in row.iter().enumerate() {
-                    diag[[p, r, i, k]] = *v;
-                }
-            }
+            reasons.push(row_reasons[row].clone());
+            errors.push(row_errors[row].clone());
         }
         shortfall.push(if targets[p].0 > 0 { targets[p].0.saturating_sub(n_used) as i64 } else { 0 });
     }
@@ -340,5 +455,5 @@ fn assemble(scenes: &[LaydownParams], results: &[Vec<LaydownResult>], targets: &
         "energy diagnostic: time (s), energies and cumulative work (J)",
     );
     out.f64("energy_diagnostics", &["point", "replicate", "record", "diagnostic"], diag, "J", "energy diagnostics every diagnostic_stride steps (the `time` column is in s)");
-    out
+    Ok(out)
 }

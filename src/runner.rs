@@ -298,8 +298,6 @@ pub fn stage_context(pipeline: &Pipeline, decl: &StageDecl, inputs: &[VersionInf
         progress,
         pipeline_dir: pipeline_dir(pipeline),
         figure_dir: crate::archive::figure_dir(&pipeline.archive, &decl.name, version),
-        point_offset: 0,
-        point_range: None,
     }
 }
 

@@ -226,13 +226,6 @@ pub struct RunContext {
     /// Where this run may write figures: `<archive dir>/<archive stem>_figures/<stage>/v<N>`
     /// with N the version this run will become. Not created by the runner.
     pub figure_dir: std::path::PathBuf,
-    /// Global index of `points[0]` in the stage's whole sweep (0 unless a caller runs a
-    /// share of the points). Anything keyed by the point (random streams, file names)
-    /// must use [`RunContext::point_index`]. The executors no longer cut contexts (they
-    /// split by [`Stage::units`]), so both this and `point_range` are 0 and `None` there.
-    pub point_offset: usize,
-    /// The global points `a..b` a run computes, when it computes a share.
-    pub point_range: Option<(usize, usize)>,
 }
 
 impl RunContext {
@@ -240,11 +233,6 @@ impl RunContext {
     /// independent of thread count and of the order in which items are computed.
     pub fn rng(&self, replicate: usize, item: u64) -> ChaCha8Rng {
         stream_rng(self.seed, replicate as u64, item)
-    }
-
-    /// Global sweep index of the local point `local` (`points[local]`).
-    pub fn point_index(&self, local: usize) -> usize {
-        self.point_offset + local
     }
 
     pub fn input(&self, index: usize) -> &Input {

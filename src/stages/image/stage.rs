@@ -234,7 +234,7 @@ impl Stage for ImageStage {
         // Sweep points one after another, the samples of a point in parallel.
         let mut per_point = Vec::with_capacity(ctx.points.len());
         for (k, p) in ctx.points.iter().enumerate() {
-            let point = if ctx.sweep.is_empty() { String::new() } else { format!("point {}: ", ctx.point_index(k)) };
+            let point = if ctx.sweep.is_empty() { String::new() } else { format!("point {}: ", k) };
             let kept = analyse_point(&samples, grid.as_ref(), p, max_store)?;
             for (smp, k) in samples.iter().zip(&kept) {
                 for w in &k.a.warnings {
@@ -243,7 +243,7 @@ impl Stage for ImageStage {
                 }
             }
             let groups = group_stats(&samples, &kept);
-            let label = if ctx.sweep.is_empty() { ctx.stage_name.clone() } else { format!("{} point {}", ctx.stage_name, ctx.point_index(k)) };
+            let label = if ctx.sweep.is_empty() { ctx.stage_name.clone() } else { format!("{} point {}", ctx.stage_name, k) };
             eprint!("{}", table(&label, &groups, &kept));
             per_point.push(kept);
         }
@@ -258,7 +258,7 @@ impl Stage for ImageStage {
         if p.bool("panels") && per_point.iter().flatten().any(|k| k.store) {
             std::fs::create_dir_all(&ctx.figure_dir).map_err(|e| anyhow!("creating {}: {e}", ctx.figure_dir.display()))?;
             for (k, kept) in per_point.iter().enumerate() {
-                let prefix = if ctx.sweep.is_empty() { String::new() } else { format!("point{:03}_", ctx.point_index(k)) };
+                let prefix = if ctx.sweep.is_empty() { String::new() } else { format!("point{:03}_", k) };
                 for (i, (smp, kp)) in samples.iter().zip(kept).enumerate().filter(|(_, (_, kp))| kp.store) {
                     let path = ctx.figure_dir.join(format!("{prefix}sample{i:03}_{}.png", sanitise(&smp.group)));
                     super::panel::write_panel_png(&path, &kp.a, PANEL_DECADES).map_err(|e| anyhow!("{e}"))?;

@@ -49,8 +49,6 @@ fn ctx(dir: &Path, input: Vec<Input>, given: &[(&str, ParamValue)]) -> RunContex
         progress: false,
         pipeline_dir: dir.to_path_buf(),
         figure_dir: dir.join("figures"),
-        point_offset: 0,
-        point_range: None,
     }
 }
 

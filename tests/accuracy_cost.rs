@@ -148,3 +148,70 @@ fn image_accuracy_against_the_known_web_cv() {
     assert_eq!(hdf::read_f64(&n, "cv_corr").unwrap().shape(), [2, 2]);
     assert_eq!(hdf::read_f64(&n, "notch_sigma_bins").unwrap().as_slice().unwrap(), [1.5, 6.0]);
 }
+
+/// Web and grid part: candidates over n_l, N and Δh against a reference grid of the same
+/// web. The grid's mass in the window does not depend on the cell size, so ρ_av of a
+/// 2 mm or 4 mm grid of the reference webs must equal the reference's to round-off; CV,
+/// the CV of Δh-sized cells, falls as the cells grow.
+const GRID: &str = "\
+pipeline: accuracy_grid
+archive: acc.h5
+seed: 5
+stages:
+  - name: web_reference
+    kind: web
+    params: {preset: spectrum1, fibres_across: 120, fibre_spacing: 0.001, segments_per_fibre: 12, points_per_segment: 500}
+  - name: grid_reference
+    kind: grid
+    input: web_reference
+    params: {cell_size: 0.001, window_side: 0.1, boundary: periodic}
+    replicates: 3
+  - name: web_points
+    kind: web
+    params: {preset: spectrum1, fibres_across: 120, fibre_spacing: 0.001, segments_per_fibre: 12}
+    sweep: {points_per_segment: [250, 1000]}
+  - name: grid_points
+    kind: grid
+    input: web_points
+    params: {cell_size: 0.001, window_side: 0.1, boundary: periodic}
+    replicates: 3
+  - name: grid_cell_2mm
+    kind: grid
+    input: web_reference
+    params: {cell_size: 0.002, window_side: 0.1, boundary: periodic}
+    replicates: 3
+  - name: grid_cell_4mm
+    kind: grid
+    input: web_reference
+    params: {cell_size: 0.004, window_side: 0.1, boundary: periodic}
+    replicates: 3
+  - name: cost
+    kind: accuracy
+    input: [grid_reference, grid_points, grid_cell_2mm, grid_cell_4mm]
+";
+
+#[test]
+fn grid_accuracy_over_points_and_cell_size() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", GRID);
+    let o = run_in(dir.path(), &["run", "p.yaml"]);
+    let (_, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let a = Archive::open_read(&dir.path().join("acc.h5")).unwrap();
+    let g = a.version("cost", None).unwrap().open().unwrap();
+    assert_eq!(hdf::read_strings(&g, "metric").unwrap(), ["mean_areal_density", "cv"]);
+    assert_eq!(hdf::read_strings(&g, "candidate_stage").unwrap(), ["grid_points", "grid_points", "grid_cell_2mm", "grid_cell_4mm"]);
+    let error = hdf::read_f64(&g, "relative_error").unwrap();
+    let value = hdf::read_f64(&g, "value").unwrap();
+    for c in 0..4 {
+        assert!(error[[c, 0]].is_finite() && error[[c, 1]].is_finite(), "candidate {c}");
+    }
+    // Same webs, coarser cells: the same mass in the window, a lower CV.
+    for c in [2, 3] {
+        assert!(error[[c, 0]].abs() < 1e-12, "ρ_av moved with Δh: {:e}", error[[c, 0]]);
+        assert!(error[[c, 1]] < -0.05, "CV of bigger cells should be lower: {:+.3}", error[[c, 1]]);
+    }
+    assert!(value[[3, 1]] < value[[2, 1]], "4 mm cells vary less than 2 mm cells");
+    // Point masses every Δs = 4 mm on a 1 mm grid (N = 250) add sampling noise to CV.
+    assert!(error[[0, 1]] > 0.05, "N = 250 CV error {:+.3}", error[[0, 1]]);
+}

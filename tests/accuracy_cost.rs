@@ -201,6 +201,8 @@ fn grid_accuracy_over_points_and_cell_size() {
     let g = a.version("cost", None).unwrap().open().unwrap();
     assert_eq!(hdf::read_strings(&g, "metric").unwrap(), ["mean_areal_density", "cv"]);
     assert_eq!(hdf::read_strings(&g, "candidate_stage").unwrap(), ["grid_points", "grid_points", "grid_cell_2mm", "grid_cell_4mm"]);
+    // Unswept candidates are named by what they change from the reference.
+    assert_eq!(hdf::read_strings(&g, "candidate_label").unwrap()[2..], ["cell_size = 0.002", "cell_size = 0.004"]);
     let error = hdf::read_f64(&g, "relative_error").unwrap();
     let value = hdf::read_f64(&g, "value").unwrap();
     for c in 0..4 {

@@ -90,6 +90,36 @@ fn wall_per_point(input: &Input, points: usize) -> Result<Vec<f64>> {
     Ok(vec![total / points as f64; points])
 }
 
+/// `name = value, ...` of the resolved parameters in which `input` differs from
+/// `reference` (both from their versions' `params_yaml`; dotted names for nested ones).
+fn differing_params(reference: &Input, input: &Input) -> String {
+    fn flatten(prefix: &str, v: &serde_yaml_ng::Value, out: &mut Vec<(String, String)>) {
+        match v {
+            serde_yaml_ng::Value::Mapping(m) => {
+                for (k, v) in m {
+                    let key = k.as_str().unwrap_or("?");
+                    flatten(&if prefix.is_empty() { key.to_string() } else { format!("{prefix}.{key}") }, v, out);
+                }
+            }
+            other => out.push((prefix.to_string(), serde_yaml_ng::to_string(other).unwrap_or_default().trim().to_string())),
+        }
+    }
+    let params = |i: &Input| {
+        let mut out = vec![];
+        if let Some(y) = i.version.attr_str("params_yaml").and_then(|t| serde_yaml_ng::from_str::<serde_yaml_ng::Value>(t).ok()) {
+            flatten("", &y, &mut out);
+        }
+        out
+    };
+    let base = params(reference);
+    params(input)
+        .into_iter()
+        .filter(|(k, v)| base.iter().find(|(b, _)| b == k).map(|(_, w)| w) != Some(v))
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn default_metrics(kind: &str) -> Vec<String> {
     match kind {
         "laydown" => vec!["radius_of_gyration".into(), "bending_energy".into()],
@@ -209,11 +239,13 @@ impl Stage for AccuracyStage {
             let values: Vec<Vec<f64>> = metrics.iter().map(|m| metric(input, m, points)).collect::<Result<_>>()?;
             let wall = wall_per_point(input, points)?;
             let swept = hdf::swept_coordinates(&input.version.open()?);
+            // An unswept candidate is named by the parameters it changes from the reference.
+            let unswept = if swept.is_empty() { differing_params(reference, input) } else { String::new() };
             for p in 0..points {
                 cands.push(Candidate {
                     stage: input.name.clone(),
                     point: p,
-                    label: hdf::point_label(&swept, p),
+                    label: if swept.is_empty() { unswept.clone() } else { hdf::point_label(&swept, p) },
                     values: values.iter().map(|v| v[p]).collect(),
                     wall_seconds: wall[p],
                 });

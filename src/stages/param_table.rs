@@ -1,4 +1,4 @@
-//! Static parameter tables shared by the numerics stages (spectra, web, grid).
+//! Static parameter tables shared by the stages (laydown, spectra, web, grid, image).
 //!
 //! Each stage exposes `PARAMS: &[ParamSpec]`, one row per field of its params
 //! struct. The pipeline uses the rows for YAML validation, `--help` and a JSON
@@ -45,9 +45,33 @@ pub struct ParamError {
 }
 
 impl ParamSpec {
+    /// A real-valued row.
+    pub const fn real(name: &'static str, unit: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> Self {
+        ParamSpec { name, unit, default: ParamDefault::Real(default), min, max, choices: &[], doc }
+    }
+
+    /// A dimensionless integer row.
+    pub const fn integer(name: &'static str, default: u64, min: f64, max: f64, doc: &'static str) -> Self {
+        ParamSpec { name, unit: "1", default: ParamDefault::Integer(default), min, max, choices: &[], doc }
+    }
+
+    /// The default of a numeric row as a number (None for choices, switches, unset).
+    pub fn default_number(&self) -> Option<f64> {
+        match self.default {
+            ParamDefault::Real(v) => Some(v),
+            ParamDefault::Integer(n) => Some(n as f64),
+            _ => None,
+        }
+    }
+
+    /// Whether the row takes whole numbers only.
+    pub fn is_integer(&self) -> bool {
+        matches!(self.default, ParamDefault::Integer(_))
+    }
+
     /// Checks a numeric value against the row's bounds (NaN is always rejected).
     pub fn check(&self, value: f64) -> Result<(), ParamError> {
-        let integer_ok = !matches!(self.default, ParamDefault::Integer(_)) || value.fract() == 0.0;
+        let integer_ok = !self.is_integer() || value.fract() == 0.0;
         if value >= self.min && value <= self.max && integer_ok {
             Ok(())
         } else {

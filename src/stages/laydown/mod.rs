@@ -232,7 +232,7 @@ mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, LaydownResult};
-pub use params::{parameter_table_markdown, BounceCheck, Effects, Integrator, LaydownParams, ParamError, ParamKind, ParamSpec, PARAMETERS};
+pub use params::{parameter_table_markdown, BounceCheck, Effects, Integrator, LaydownParams, ParamError, PARAMETERS};
 pub use integrator::{Simulator, Snapshot};
 pub use scene::{prepared_simulator, replicate_rng, run_jobs, simulate, LaydownJob};
 

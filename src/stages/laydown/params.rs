@@ -232,37 +232,20 @@ impl Default for LaydownParams {
     }
 }
 
-/// Kind of a numeric parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ParamKind {
-    Real,
-    Integer,
-}
-
-/// One row of the parameter table.
-#[derive(Clone, Copy, Debug)]
-pub struct ParamSpec {
-    pub name: &'static str,
-    pub unit: &'static str,
-    pub default: f64,
-    pub min: f64,
-    pub max: f64,
-    pub kind: ParamKind,
-    pub doc: &'static str,
-}
+pub use crate::stages::param_table::ParamSpec;
 
 const fn real(name: &'static str, unit: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec { name, unit, default, min, max, kind: ParamKind::Real, doc }
+    ParamSpec::real(name, unit, default, min, max, doc)
 }
-const fn int(name: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec { name, unit: "1", default, min, max, kind: ParamKind::Integer, doc }
+const fn int(name: &'static str, default: u64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
+    ParamSpec::integer(name, default, min, max, doc)
 }
 
 /// Every numeric parameter with unit, default (Table 1 baseline), inclusive range and doc.
 /// The effect flags are in [`Effects::FLAGS`], the integrator names in [`Integrator::NAMES`].
 pub const PARAMETERS: &[ParamSpec] = &[
     real("length", "m", 1.0, 1e-3, 100.0, "fibre length L"),
-    int("elements", 1000.0, 2.0, 1e6, "rod segments N (N+1 nodes), raised if coil_resolution asks for more"),
+    int("elements", 1000, 2.0, 1e6, "rod segments N (N+1 nodes), raised if coil_resolution asks for more"),
     real("fibre_speed", "m/s", 5.0, 1e-3, 200.0, "feed speed v_f of the fibre, downward (Table 1: 5)"),
     real("belt_speed", "m/s", 0.2, 0.0, 200.0, "belt speed along +x, machine direction (Table 1: 0.2)"),
     real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1)"),
@@ -283,7 +266,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("imperfection_std", "m", 1e-6, 0.0, 1e-2, "std of the initial x/y node imperfections"),
     real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
     real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step"),
-    int("diagnostic_stride", 1000.0, 1.0, 1e9, "record energy diagnostics every this many steps"),
+    int("diagnostic_stride", 1000, 1.0, 1e9, "record energy diagnostics every this many steps"),
     real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
     real("coil_resolution", "1", 2.0, 0.0, 100.0, "minimum elements per inertial coil scale sqrt(EI/(rho A v_f^2)); 0 = off"),
@@ -459,7 +442,7 @@ fn check(spec: &ParamSpec, value: f64) -> Result<(), ParamError> {
     if value < spec.min || value > spec.max {
         return Err(ParamError::OutOfRange { name: spec.name, value, min: spec.min, max: spec.max, unit: spec.unit });
     }
-    if spec.kind == ParamKind::Integer && value.fract() != 0.0 {
+    if spec.is_integer() && value.fract() != 0.0 {
         return Err(ParamError::Inconsistent(format!("parameter `{}` = {} must be an integer", spec.name, value)));
     }
     Ok(())
@@ -473,10 +456,11 @@ mod tests {
     fn table_matches_default_and_validates() {
         let p = LaydownParams::default();
         for spec in PARAMETERS {
-            assert_eq!(p.get(spec.name), Some(spec.default), "{}", spec.name);
-            assert!(spec.min <= spec.default && spec.default <= spec.max, "{}", spec.name);
+            let default = spec.default_number().unwrap();
+            assert_eq!(p.get(spec.name), Some(default), "{}", spec.name);
+            assert!(spec.min <= default && default <= spec.max, "{}", spec.name);
             let mut q = p.clone();
-            q.set(spec.name, spec.default).unwrap();
+            q.set(spec.name, default).unwrap();
             assert_eq!(q, p);
         }
         p.validate().unwrap();
@@ -505,7 +489,7 @@ mod tests {
 pub fn parameter_table_markdown() -> String {
     let mut s = String::from("| name | unit | default | min | max | description |\n|---|---|---|---|---|---|\n");
     for p in PARAMETERS {
-        s += &format!("| {} | {} | {} | {} | {} | {} |\n", p.name, p.unit, p.default, p.min, p.max, p.doc);
+        s += &format!("| {} | {} | {} | {} | {} | {} |\n", p.name, p.unit, p.default_number().unwrap_or(f64::NAN), p.min, p.max, p.doc);
     }
     for (name, doc) in Effects::FLAGS {
         s += &format!("| effects.{name} | bool | true | | | {doc} |\n");

@@ -19,10 +19,10 @@
 //! computed as per-replicate rows ([`Stage::run_units`]) and placed on the (point,
 //! replicate) axes with the statistics by [`Stage::reduce`], for the local run and for a
 //! gathered Slurm array alike.
-use super::params::{BounceCheck, Effects, Integrator, LaydownParams, ParamKind as LKind, PARAMETERS};
+use super::params::{BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
-use crate::params::{ParamKind, ParamSet, ParamSpec, ParamValue};
+use crate::params::{ParamSet, ParamSpec, ParamValue};
 use crate::stages::{InputRule, RunContext, Stage, Units};
 use anyhow::{bail, Result};
 use ndarray::{Array1, Array2, Array3, Axis};
@@ -74,23 +74,7 @@ impl Stage for LaydownStage {
         InputRule { kinds: &[], min: 0, max: 0 }
     }
     fn params(&self) -> Vec<ParamSpec> {
-        let mut v: Vec<ParamSpec> = PARAMETERS
-            .iter()
-            .map(|p| ParamSpec {
-                name: p.name,
-                unit: p.unit,
-                kind: match p.kind {
-                    LKind::Real => ParamKind::Float { min: p.min, max: p.max },
-                    LKind::Integer => ParamKind::Int { min: p.min as i64, max: p.max as i64 },
-                },
-                default: match p.kind {
-                    LKind::Real => ParamValue::Float(p.default),
-                    LKind::Integer => ParamValue::Int(p.default as i64),
-                },
-                auto: false,
-                doc: p.doc,
-            })
-            .collect();
+        let mut v: Vec<ParamSpec> = PARAMETERS.iter().map(ParamSpec::from).collect();
         v.push(ParamSpec::choice(
             "integrator",
             &Integrator::NAMES,

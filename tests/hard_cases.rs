@@ -141,18 +141,15 @@ seed: 4
 stages:
   - name: constant
     kind: image
-    params: {synthetic: constant, synthetic.count: 2, synthetic.rows: 128, synthetic.cols: 160}
+    params: {synthetic: {kind: constant, count: 2, rows: 128, cols: 160}}
   - name: noise
     kind: image
-    params: {synthetic: noise, synthetic.count: 6, synthetic.rows: 128, synthetic.cols: 160, panels: false}
+    params: {synthetic: {kind: noise, count: 6, rows: 128, cols: 160}, panels: false}
     sweep: {false_alarm_rate: [1.0e-3, 0.5]}
   - name: saturated
     kind: image
     params:
-      synthetic: noise
-      synthetic.count: 2
-      synthetic.rows: 200
-      synthetic.cols: 240
+      synthetic: {kind: noise, count: 2, rows: 200, cols: 240}
       pixel_size: 0.00034
       panels: false
       bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 1.0, zero_mean: false}

@@ -39,10 +39,7 @@ stages:
   - name: swept_scans
     kind: image
     params:
-      synthetic: noise
-      synthetic.count: 2
-      synthetic.rows: 96
-      synthetic.cols: 128
+      synthetic: {kind: noise, count: 2, rows: 96, cols: 128}
       panels: false
       bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 0.15}
     sweep: {notch_sigma_bins: [1.5, 4.0]}

@@ -280,3 +280,21 @@ pub fn find(kind: &str) -> Option<&'static dyn Stage> {
 pub fn kinds() -> Vec<&'static str> {
     registry().iter().map(|s| s.kind()).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    /// A parameter `a` and another `a.b` cannot both be written in YAML (`a` would be a
+    /// value and a mapping at once); the JSON schema nests dotted names, so it could not
+    /// describe such a pair either.
+    #[test]
+    fn no_parameter_name_is_a_group_of_another() {
+        for stage in super::registry() {
+            let names: Vec<&str> = stage.params().iter().map(|p| p.name).collect();
+            for a in &names {
+                for b in &names {
+                    assert!(!b.starts_with(&format!("{a}.")), "{}: `{a}` and `{b}`", stage.kind());
+                }
+            }
+        }
+    }
+}

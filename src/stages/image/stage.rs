@@ -13,7 +13,7 @@
 //!   overlaid; the group is the grid point (labelled by the grid's swept parameters).
 //!   `cv_web` is then the CV of the same rendering without bonds: the truth the filter
 //!   should recover.
-//! * **synthetic test images** (`synthetic: constant | noise`, `synthetic.*`): constant
+//! * **synthetic test images** (`synthetic.kind: constant | noise`, `synthetic.*`): constant
 //!   grey or smoothed noise of a known CV, `synthetic.count` images of
 //!   `synthetic.rows` × `synthetic.cols` px (default 617 × 871, the paper's scans), with
 //!   `bonds.*` overlaid; `cv_web` is the CV without bonds. For calibration (sweep
@@ -114,7 +114,7 @@ impl Stage for ImageStage {
     fn params(&self) -> Vec<ParamSpec> {
         let mut v = vec![
             ParamSpec::text_list("files", "image files or glob patterns (PNG, TIFF, JPEG; 8/16 bit; grey or RGB), relative to the pipeline file; empty with a grid input"),
-            ParamSpec::choice("synthetic", SYNTHETIC, "none", "a synthetic test image source instead of files or a grid: constant grey, or noise (uniform white noise smoothed by a Gaussian of synthetic.correlation pixels, scaled to synthetic.mean and synthetic.cv); bonds.* may be overlaid; for calibration (false alarms on noise) and hard cases"),
+            ParamSpec::choice("synthetic.kind", SYNTHETIC, "none", "synthetic test images instead of files or a grid: constant grey, or noise (uniform white noise smoothed by a Gaussian of synthetic.correlation pixels, scaled to synthetic.mean and synthetic.cv); bonds.* may be overlaid; for calibration (false alarms on noise) and hard cases"),
             ParamSpec::int("synthetic.count", "1", 8, 1, 10_000, "synthetic images (one condition; each its own random stream of the stage's seed)"),
             ParamSpec::int("synthetic.rows", "1", 617, 16, 20_000, "synthetic image height (pixels); default 617, the paper's A4 scans at 871 px wide"),
             ParamSpec::int("synthetic.cols", "1", 871, 16, 20_000, "synthetic image width (pixels)"),
@@ -174,8 +174,8 @@ impl Stage for ImageStage {
                 format!("{} group labels for {} `files` entries; allowed: one label per entry, or none", groups.len(), files.len()),
             ));
         }
-        if !files.is_empty() && p.text("synthetic") != "none" {
-            return Err(("synthetic".into(), "give `files` or a synthetic source, not both; allowed with `files`: none".into()));
+        if !files.is_empty() && p.text("synthetic.kind") != "none" {
+            return Err(("synthetic.kind".into(), "give `files` or a synthetic source, not both; allowed with `files`: none".into()));
         }
         if !files.is_empty() && p.text("bonds.shape") != "none" {
             return Err((
@@ -214,15 +214,15 @@ impl Stage for ImageStage {
                 if p.f64_or_auto("pixel_size").is_some() || p.f64_or_auto("dpi").is_some() {
                     return Err(BadInput("with a grid input the pixel size is the grid's cell_size; remove pixel_size/dpi".into()).into());
                 }
-                if p.text("synthetic") != "none" {
-                    return Err(BadInput("give a grid `input` or a `synthetic` source, not both".into()).into());
+                if p.text("synthetic.kind") != "none" {
+                    return Err(BadInput("give a grid `input` or a synthetic source (synthetic.kind), not both".into()).into());
                 }
                 grid_samples(input)?
             }
-            None if p.text("synthetic") != "none" => (synthetic_samples(ctx, p), vec![], None),
+            None if p.text("synthetic.kind") != "none" => (synthetic_samples(ctx, p), vec![], None),
             None => {
                 if p.text_list("files").is_empty() {
-                    return Err(BadInput("an image stage needs `files` (paths or globs), an `input` grid stage or a `synthetic` source".into()).into());
+                    return Err(BadInput("an image stage needs `files` (paths or globs), an `input` grid stage or a synthetic source (synthetic.kind)".into()).into());
                 }
                 if ctx.points.iter().any(|p| p.text("bonds.shape") != "none") {
                     return Err(BadInput("bonds.* overlay rendered grid images; image files are analysed as they are (set bonds.shape: none)".into()).into());
@@ -283,7 +283,7 @@ const NOT_SWEPT: &[&str] = &[
     "zones_per_octave",
     "max_stored_images",
     "panels",
-    "synthetic",
+    "synthetic.kind",
     "synthetic.count",
     "synthetic.rows",
     "synthetic.cols",
@@ -458,7 +458,7 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
 
 /// One image per `synthetic.count`, each with its own random stream of the stage seed.
 fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
-    let kind = p.text("synthetic");
+    let kind = p.text("synthetic.kind");
     let pixel = image_params(p).pixel_size_m();
     (0..p.usize("synthetic.count"))
         .map(|k| Sample {
@@ -476,7 +476,7 @@ fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
 /// without bonds (the truth, after clipping to [0, 1]).
 fn synthetic_image(p: &ParamSet, seed: u64, pixel: f64, bonded: &RenderParams, plain: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<(Array2<f64>, f64)> {
     let (rows, cols, mean) = (p.usize("synthetic.rows"), p.usize("synthetic.cols"), p.f64("synthetic.mean"));
-    let grey = match p.text("synthetic") {
+    let grey = match p.text("synthetic.kind") {
         "constant" => Array2::from_elem((rows, cols), mean),
         _ => super::render::smoothed_noise(rows, cols, p.f64("synthetic.correlation"), mean, p.f64("synthetic.cv"), seed),
     };

@@ -73,44 +73,40 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     // CV per condition, or against the swept parameter.
     let conditions = d.strings("condition")?;
     let metrics = [("cv_raw", "CV raw"), ("cv_corr", "CV_corr"), ("cv_corr_compensated", "CV_corr compensated"), ("cv_web", "CV of the web (truth)")];
-    let mut series = vec![];
-    let mut log_x = false;
-    let x_label = if swept {
+    // The x values and one line per condition (swept: a line along the points for each
+    // condition; unswept: one line across the conditions).
+    let (x, x_label, log_x, lines): (Vec<f64>, String, bool, Vec<(String, Option<usize>)>) = if swept {
         let sweep = d.swept();
         let first = sweep.iter().find(|s| s.values.iter().all(|v| v.is_finite()));
         let x: Vec<f64> = first.map(|s| s.values.clone()).unwrap_or_else(|| (0..points).map(|p| p as f64).collect());
         // A threshold swept over decades reads best on a log axis.
         let (lo, hi) = x.iter().fold((f64::INFINITY, 0.0f64), |(l, h), &v| (l.min(v), h.max(v)));
-        log_x = lo > 0.0 && hi / lo > 100.0;
-        for (c, condition) in conditions.iter().enumerate() {
-            for (i, (name, label)) in metrics.iter().enumerate() {
-                let (m, s) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
-                let (m, s) = (m.index_axis(Axis(1), c).to_owned(), s.index_axis(Axis(1), c).to_owned());
-                if m.iter().all(|v| !v.is_finite()) {
-                    continue;
-                }
-                let label = if conditions.len() > 1 { format!("{label}, {condition}") } else { label.to_string() };
-                let style = if i == 3 { Style::Dashed } else { Style::LineMarkers };
-                series.push(Series::new(Some(&label), x.iter().zip(m.iter()).map(|(&a, &b)| (a, b)).collect(), style, i + 4 * c).with_error(s.iter().copied().collect()));
-            }
-        }
-        first.map(|s| super::labelled(&s.parameter, &s.units)).unwrap_or_else(|| "sweep point".into())
+        let label = first.map(|s| super::labelled(&s.parameter, &s.units)).unwrap_or_else(|| "sweep point".into());
+        let lines = conditions.iter().enumerate().map(|(c, name)| (if conditions.len() > 1 { format!(", {name}") } else { String::new() }, Some(c))).collect();
+        (x, label, lo > 0.0 && hi / lo > 100.0, lines)
     } else {
-        let x: Vec<f64> = (0..conditions.len()).map(|i| i as f64).collect();
-        let (x, x_label) = match d.swept_conditions() {
+        let (x, label) = match d.swept_conditions() {
             Some((name, values)) => (values, name),
-            None => (x, format!("condition ({})", conditions.join(", "))),
+            None => ((0..conditions.len()).map(|i| i as f64).collect(), format!("condition ({})", conditions.join(", "))),
         };
+        (x, label, false, vec![(String::new(), None)])
+    };
+    let mut series = vec![];
+    for (k, (suffix, condition)) in lines.iter().enumerate() {
         for (i, (name, label)) in metrics.iter().enumerate() {
             let (m, s) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
+            let (m, s) = match condition {
+                Some(c) => (m.index_axis(Axis(1), *c).to_owned(), s.index_axis(Axis(1), *c).to_owned()),
+                None => (m, s),
+            };
             if m.iter().all(|v| !v.is_finite()) {
                 continue;
             }
             let style = if i == 3 { Style::Dashed } else { Style::LineMarkers };
-            series.push(Series::new(Some(label), x.iter().zip(m.iter()).map(|(&a, &b)| (a, b)).collect(), style, i).with_error(s.iter().copied().collect()));
+            let label = format!("{label}{suffix}");
+            series.push(Series::new(Some(&label), x.iter().zip(m.iter()).map(|(&a, &b)| (a, b)).collect(), style, i + 4 * k).with_error(s.iter().copied().collect()));
         }
-        x_label
-    };
+    }
     let zone = d.f64("zone_size")?;
     let (raw, filtered) = (d.f64("zone_cv_raw")?, d.f64("zone_cv_filtered")?);
     let zone_series = |a: ndarray::ArrayD<f64>, label: &str, style, colour| -> Result<Series> {

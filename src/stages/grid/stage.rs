@@ -70,46 +70,62 @@ impl Stage for GridStage {
         })
     }
 
+    /// All units, then the reduce, on one read of the input web (the trait's
+    /// [`Stage::run_units`] and [`Stage::reduce`] read it for themselves, as an array task
+    /// and the gathering driver must).
     fn run(&self, ctx: &RunContext) -> Result<Output> {
-        crate::stages::run_by_units(self, ctx)
+        let (points, webs) = grid_units(ctx)?;
+        let rows = grid_rows(ctx, &points, &webs, 0..points.len() * ctx.replicates)?;
+        grid_output(ctx, &points, &webs, rows)
     }
     /// A unit is one (point, realisation): realisation k of a web is keyed by the web
     /// and k only, so any share of the units grids what the whole run grids.
     fn units(&self, ctx: &RunContext) -> Result<Option<Units>> {
-        let (units, _) = grid_units(ctx)?;
-        Ok(Some(Units { points: units.len(), per_point: ctx.replicates, note: None }))
+        let (points, _) = grid_units(ctx)?;
+        Ok(Some(Units { points: points.len(), per_point: ctx.replicates, note: None }))
     }
     fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
-        let (units, webs) = grid_units(ctx)?;
-        let reps = ctx.replicates;
-        let bar = crate::progress::bar(ctx.progress, range.len() as u64, &format!("{} realisations", ctx.stage_name));
-        let mut results: Vec<Row> = Vec::with_capacity(range.len());
-        for u in range {
-            let (i, r) = (u / reps, u % reps);
-            let (w, g) = &units[i];
-            let t = Instant::now();
-            let res = grid_realisation(&webs[*w], g, r as u32).map_err(|e| BadInput(format!("point {i} (web point {w}), realisation {r}: {e}")))?;
-            results.push((i, r, res, t.elapsed().as_secs_f64()));
-            bar.inc(1);
-        }
-        bar.finish_and_clear();
-        Ok(unit_rows(&results, ctx.points[0].bool("store_density")))
+        let (points, webs) = grid_units(ctx)?;
+        grid_rows(ctx, &points, &webs, range)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
-        let input = ctx.input(0);
-        let (units, webs) = grid_units(ctx)?;
-        let regen = check_regeneration(input, &webs)?;
-        let mut out = assemble(&units, &webs, &rows, ctx.replicates, ctx.points[0].bool("store_density"))?;
-        if webs.len() > 1 {
-            let web_points: Vec<usize> = units.iter().map(|u| u.0).collect();
-            copy_web_sweep(input, &mut out, &web_points)?;
-        }
-        if ctx.points[0].text("compare_with") == "table4" {
-            add_table4(&mut out);
-        }
-        out.attrs.insert("regeneration_check".into(), Attr::Str(regen));
-        Ok(out)
+        let (points, webs) = grid_units(ctx)?;
+        grid_output(ctx, &points, &webs, rows)
     }
+}
+
+/// The per-realisation rows of the units `range` ([`Stage::run_units`]).
+fn grid_rows(ctx: &RunContext, points: &Points, webs: &[Web], range: std::ops::Range<usize>) -> Result<Output> {
+    let reps = ctx.replicates;
+    let bar = crate::progress::bar(ctx.progress, range.len() as u64, &format!("{} realisations", ctx.stage_name));
+    let mut results: Vec<Row> = Vec::with_capacity(range.len());
+    for u in range {
+        let (i, r) = (u / reps, u % reps);
+        let (w, g) = &points[i];
+        let t = Instant::now();
+        let res = grid_realisation(&webs[*w], g, r as u32).map_err(|e| BadInput(format!("point {i} (web point {w}), realisation {r}: {e}")))?;
+        results.push((i, r, res, t.elapsed().as_secs_f64()));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(unit_rows(&results, ctx.points[0].bool("store_density")))
+}
+
+/// The stage output from the rows of every unit ([`Stage::reduce`]), with the
+/// regeneration check, the web's swept parameters and the optional Table 4.
+fn grid_output(ctx: &RunContext, points: &Points, webs: &[Web], rows: Output) -> Result<Output> {
+    let input = ctx.input(0);
+    let regen = check_regeneration(input, webs)?;
+    let mut out = assemble(points, webs, &rows, ctx.replicates, ctx.points[0].bool("store_density"))?;
+    if webs.len() > 1 {
+        let web_points: Vec<usize> = points.iter().map(|u| u.0).collect();
+        copy_web_sweep(input, &mut out, &web_points)?;
+    }
+    if ctx.points[0].text("compare_with") == "table4" {
+        add_table4(&mut out);
+    }
+    out.attrs.insert("regeneration_check".into(), Attr::Str(regen));
+    Ok(out)
 }
 
 /// The grid's points as (web point, grid parameters).

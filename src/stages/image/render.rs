@@ -207,6 +207,11 @@ pub struct Rendered {
     pub saturated_fraction: f64,
 }
 
+/// A rendering parameter outside its allowed values.
+fn bad(name: &'static str, value: f64, allowed: &str) -> ImageError {
+    ImageError::InvalidParam { name, value: value.to_string(), allowed: allowed.to_string() }
+}
+
 /// Renders an areal-density map (g/m², cell size `cell` m) as a transmission image.
 pub fn render(density: &Array2<f64>, cell: f64, p: &RenderParams) -> Result<Rendered, ImageError> {
     render_with_coverage(density, cell, p, None)
@@ -216,11 +221,6 @@ pub fn render(density: &Array2<f64>, cell: f64, p: &RenderParams) -> Result<Rend
 /// ([`BondPattern::coverage`] for this image size and `cell`): maps of one size share it,
 /// and it costs more than the rest of the rendering.
 pub fn render_with_coverage(density: &Array2<f64>, cell: f64, p: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<Rendered, ImageError> {
-    let bad = |name: &'static str, value: f64, allowed: &str| ImageError::InvalidParam {
-        name,
-        value: value.to_string(),
-        allowed: allowed.to_string(),
-    };
     if !(cell > 0.0 && cell.is_finite()) {
         return Err(bad("cell_size", cell, "a positive length in metres"));
     }
@@ -239,11 +239,6 @@ pub fn render_with_coverage(density: &Array2<f64>, cell: f64, p: &RenderParams, 
 /// quantises to `p.bits`: the part of [`render`] after the transmission, shared by
 /// images that are not rendered from a density map (synthetic test images).
 pub fn overlay(mut grey: Array2<f64>, pixel: f64, p: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<Rendered, ImageError> {
-    let bad = |name: &'static str, value: f64, allowed: &str| ImageError::InvalidParam {
-        name,
-        value: value.to_string(),
-        allowed: allowed.to_string(),
-    };
     if p.bits > 16 {
         return Err(bad("bits", p.bits as f64, "0 (no quantisation) to 16"));
     }
@@ -262,11 +257,7 @@ pub fn overlay(mut grey: Array2<f64>, pixel: f64, p: &RenderParams, coverage: Op
         let c = match coverage {
             Some(c) if c.dim() == (h, w) => c,
             Some(c) => {
-                return Err(ImageError::InvalidParam {
-                    name: "coverage",
-                    value: format!("{:?}", c.dim()),
-                    allowed: format!("the image size {h} × {w}"),
-                })
+                return Err(ImageError::InvalidParam { name: "coverage", value: format!("{:?}", c.dim()), allowed: format!("the image size {h} × {w}") })
             }
             None => {
                 computed = b.coverage(h, w, pixel);

@@ -258,24 +258,19 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
     let mut diag = Array3::from_elem((n, ndiag, 8), nan);
     let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
     let ok = |r: &LaydownResult, v: f64| if r.error.is_none() { v } else { f64::NAN };
+    // Row u of an (unit, node, xyz) array from a polyline (the rest stays NaN).
+    let put = |a: &mut Array3<f64>, u: usize, nodes: &[[f64; 3]]| {
+        for (i, x) in nodes.iter().enumerate() {
+            a.slice_mut(ndarray::s![u, i, ..]).assign(&ndarray::aview1(x));
+        }
+    };
     for (u, (p, _, res)) in results.iter().enumerate() {
-        for (i, x) in res.positions.iter().enumerate() {
-            for k in 0..3 {
-                positions[[u, i, k]] = x[k];
-            }
-            landing[[u, i]] = res.landing_time[i];
+        put(&mut positions, u, &res.positions);
+        for (i, &t) in res.landing_time.iter().enumerate() {
+            landing[[u, i]] = t;
         }
-        for (i, x) in laid_polyline(&res.positions, &res.landing_time, None).iter().enumerate() {
-            for k in 0..3 {
-                laid[[u, i, k]] = x[k];
-            }
-        }
-        let removed = laid_polyline(&res.positions, &res.landing_time, Some((scenes[*p].belt_speed, res.end_time)));
-        for (i, x) in removed.iter().enumerate() {
-            for k in 0..3 {
-                laid_removed[[u, i, k]] = x[k];
-            }
-        }
+        put(&mut laid, u, &laid_polyline(&res.positions, &res.landing_time, None));
+        put(&mut laid_removed, u, &laid_polyline(&res.positions, &res.landing_time, Some((scenes[*p].belt_speed, res.end_time))));
         for (i, d) in res.diagnostics.iter().enumerate() {
             let w = &d.work;
             let row = [d.time, d.kinetic, d.elastic, w.drag, w.friction, w.gravity, w.oscillation, w.damping];

@@ -50,7 +50,7 @@ use std::sync::Mutex;
 /// Fibres generated up front to reject a window that is clearly too close to an edge.
 const PRECHECK_FIBRES: usize = 48;
 
-use crate::stages::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
 use crate::stages::web::Web;
 use crate::uniformity::{coefficient_of_variation, cv_by_zone_size, formation_number, log_zone_sizes, random_line_cv_squared};
 

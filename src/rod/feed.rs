@@ -9,10 +9,12 @@
 //! node is added above it at z_f (same x, y and velocity), so material enters at the
 //! feed point at v_f for as long as the run lasts.
 //!
-//! **Freezing.** A landed node that sticks to the belt (friction stick state, no more
-//! than `lift_tolerance` above it) for `settle_time` without interruption is
-//! frozen once a run of at least `freeze_batch` such nodes has formed at the start of
-//! the active rod: those nodes leave the simulation and are carried with the belt at
+//! **Freezing.** A landed node that has settled (no more than `lift_tolerance` above
+//! the belt and crept less than `creep_tolerance`·Δs relative to it for `settle_time`;
+//! the laid fibre slips in short bursts of ~10⁻⁴ m/s as tension waves from the hanging
+//! part pass, so the friction state alone flickers), or that has been on the belt for
+//! `age_limit`, is frozen once a run of at least `freeze_batch` such nodes has formed
+//! at the start of the active rod: those nodes leave the simulation and are carried with the belt at
 //! no cost (x ← x + v_b (t_end − t_freeze)); the two nodes after them are clamped to
 //! the belt, so the bending of the next free node still sees the laid tangent. With
 //! `freeze` off every node stays active (the reference the frozen runs are checked
@@ -31,7 +33,6 @@
 use super::integrator::{Simulator, StepControl};
 use super::params::LaydownParams;
 use super::scene::{build, CustomStart};
-use super::state::NodeContact;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 use std::time::Instant;
@@ -45,15 +46,20 @@ pub struct FeedSettings {
     pub freeze: bool,
     /// Time a landed node must have stuck without interruption before it may freeze (s).
     pub settle_time: f64,
-    /// Highest a stuck node may be above the belt to count as stuck (m).
+    /// Highest a settled node may be above the belt (m).
     pub lift_tolerance: f64,
+    /// Largest creep relative to the belt during the settling time, in elements Δs.
+    pub creep_tolerance: f64,
     /// Nodes frozen at once (the active rod is rebuilt each time).
     pub freeze_batch: usize,
+    /// A node on the belt for this long is frozen even if it still creeps (s): slow
+    /// creep of the fibre's start-up end would otherwise keep the whole laid fibre active.
+    pub age_limit: f64,
 }
 
 impl Default for FeedSettings {
     fn default() -> Self {
-        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, freeze_batch: 32 }
+        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2 }
     }
 }
 
@@ -132,6 +138,9 @@ pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64,
     // Frozen nodes: position at freezing, freezing time, landing time.
     let mut frozen: Vec<([f64; 3], f64, f64)> = Vec::new();
     let mut stuck_since: Vec<f64> = vec![f64::NAN; sim.rod.nodes()];
+    // belt-frame position of each node when its settling started
+    let mut anchors: Vec<[f64; 2]> = vec![[0.0; 2]; sim.rod.nodes()];
+    let creep_tolerance = settings.creep_tolerance * ds;
     let mut node_steps = 0u64;
     let mut max_active = sim.rod.nodes();
     let mut error = None;
@@ -144,10 +153,13 @@ pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64,
             let (x, v) = (sim.rod.x[top], sim.rod.v[top]);
             sim.push_top([x[0], x[1], x[2] + ds], v, ds, mpl);
             stuck_since.push(f64::NAN);
+            anchors.push([0.0; 2]);
             max_active = max_active.max(sim.rod.nodes());
         }
         if settings.freeze {
-            freeze_stuck(&mut sim, &mut stuck_since, &mut frozen, settings, belt);
+            if freeze_stuck(&mut sim, &mut stuck_since, &mut frozen, settings, belt) {
+                anchors.drain(..anchors.len() - stuck_since.len());
+            }
         }
         node_steps += sim.rod.nodes() as u64;
         if let Err(f) = control.advance(&mut sim, end_time) {
@@ -157,14 +169,18 @@ pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64,
         if sim.steps % 256 == 0 {
             last_good.clone_from(&sim.rod.x);
         }
-        // stuck-time bookkeeping of the active nodes
+        // settling bookkeeping: a node on the belt is settled once it has crept less
+        // than creep_tolerance relative to the belt for settle_time
         let t = sim.t;
-        for (i, since) in stuck_since.iter_mut().enumerate() {
-            let stuck = sim.ws.contact[i] == NodeContact::Stick && sim.rod.x[i][2] <= settings.lift_tolerance;
-            if !stuck {
+        for (i, (since, anchor)) in stuck_since.iter_mut().zip(anchors.iter_mut()).enumerate() {
+            let x = sim.rod.x[i];
+            let on_belt = sim.landing_time[i].is_finite() && x[2] <= settings.lift_tolerance;
+            let here = [x[0] - p.belt_speed * t, x[1]];
+            if !on_belt {
                 *since = f64::NAN;
-            } else if since.is_nan() {
+            } else if since.is_nan() || (here[0] - anchor[0]).hypot(here[1] - anchor[1]) > creep_tolerance {
                 *since = t;
+                *anchor = here;
             }
         }
     }
@@ -201,15 +217,20 @@ pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64,
 
 /// Freeze the leading run of nodes that have stuck for the settling time, once it is
 /// `freeze_batch` long; the two nodes after it become the clamped (belt-carried) end.
-fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Vec<([f64; 3], f64, f64)>, s: &FeedSettings, belt: [f64; 3]) {
+fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Vec<([f64; 3], f64, f64)>, s: &FeedSettings, belt: [f64; 3]) -> bool {
     const CLAMPED: usize = 2;
     let t = sim.t;
     let clamped = sim.clamped.len();
-    let settled = stuck_since[clamped..].iter().take_while(|&&since| since.is_finite() && t - since >= s.settle_time).count();
+    let settled = (clamped..stuck_since.len())
+        .take_while(|&i| {
+            let since = stuck_since[i];
+            (since.is_finite() && t - since >= s.settle_time) || t - sim.landing_time[i] >= s.age_limit
+        })
+        .count();
     // nodes clamped now are settled by construction
     let run = clamped + settled;
     if run < s.freeze_batch + CLAMPED || run + 2 >= sim.rod.nodes() {
-        return;
+        return false;
     }
     let count = run - CLAMPED;
     for i in 0..count {
@@ -220,4 +241,5 @@ fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Ve
     for since in stuck_since.iter_mut().take(CLAMPED) {
         *since = t;
     }
+    true
 }

@@ -161,9 +161,12 @@ impl LaidWebParams {
 
     /// Checks every parameter: `Err((parameter, message))`.
     pub fn validate(&self) -> Result<(), (String, String)> {
-        let mut s = self.fibre_scene(1.0, 1.0);
-        // the scene's own checks, with the fed length as its length
-        s.duration = 0.0;
+        if !(self.scene.belt_speed > 0.0) {
+            return Err(("belt_speed".into(), "a laid web needs a moving belt (belt_speed > 0): its length is the belt travel".into()));
+        }
+        // the scene's own checks; its length and elements are the laid web's (fed
+        // length, element length), checked below
+        let s = LaydownParams { length: 1.0, elements: 1000, duration: 0.0, ..self.scene.clone() };
         s.validate().map_err(|e| {
             let name = match &e {
                 crate::rod::ParamError::OutOfRange { name, .. } | crate::rod::ParamError::NotFinite { name, .. } => name.to_string(),
@@ -171,9 +174,6 @@ impl LaidWebParams {
             };
             (name, e.to_string())
         })?;
-        if !(self.scene.belt_speed > 0.0) {
-            return Err(("belt_speed".into(), "a laid web needs a moving belt (belt_speed > 0): its length is the belt travel".into()));
-        }
         if self.fed_length() <= 2.0 * self.scene.laydown_height {
             return Err(("belt_travel".into(), format!(
                 "belt_travel {} m feeds only {:.4} m of fibre at v_f/v_b = {:.1}, less than twice the laydown height {} m: nothing would be laid",
@@ -181,6 +181,16 @@ impl LaidWebParams {
                 self.fed_length(),
                 1.0 / self.belt_speed_ratio(),
                 self.scene.laydown_height
+            )));
+        }
+        let nodes = self.fed_length() / self.resolved_element_length();
+        if !(nodes <= 1e9) {
+            return Err(("belt_travel".into(), format!(
+                "belt_travel {} m feeds {:.3e} m of fibre per hole in {:.3e} elements of {:.3e} m: more than 10⁹ elements per fibre",
+                self.belt_travel,
+                self.fed_length(),
+                nodes,
+                self.resolved_element_length()
             )));
         }
         if !(self.frequency_jitter < 1.0 / 3.0) || !(self.amplitude_jitter < 1.0) {

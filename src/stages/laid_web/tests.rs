@@ -111,13 +111,18 @@ fn laid_length_per_belt_length_is_feed_over_belt_speed() {
     let total = (f.fed.positions.len() - 1) as f64 * ds;
     let fed = p.feed_height() + scene.fibre_speed * f.fed.end_time;
     assert!((total - fed).abs() < 1.01 * ds, "fibre length {total} against fed {fed}");
+    // over whole oscillation periods (v_b/f of belt each): within one period the fibre
+    // lays its coils in bursts (±15 % in 10 mm bins at f = 10 Hz)
     let [a, b] = web.interior_md;
-    assert!(b - a > 0.02, "interior {a}..{b}");
+    let period = scene.belt_speed / scene.oscillation_frequency;
+    let b = a + ((b - a) / period).floor() * period;
+    assert!(b - a >= period, "interior {a}..{b} shorter than an oscillation period {period}");
     // nodes (segments) whose x lies in the interior, per metre of belt
     let inside = f.fed.positions.iter().zip(&f.fed.landing_time).filter(|(x, t)| t.is_finite() && x[0] >= a && x[0] < b).count();
     let ratio = inside as f64 * ds / (b - a);
     let expected = scene.fibre_speed / scene.belt_speed;
-    assert!((ratio / expected - 1.0).abs() < 0.05, "laid length per belt length {ratio} against v_f/v_b = {expected}");
+    println!("laid length per belt length {ratio} against v_f/v_b = {expected}");
+    assert!((ratio / expected - 1.0).abs() < 0.02, "laid length per belt length {ratio} against v_f/v_b = {expected}");
 }
 
 /// Fibres are independent and own their random streams: any thread count gives the
@@ -146,3 +151,4 @@ fn web_is_identical_for_one_and_two_threads_and_turbulence_is_per_fibre() {
     let coherent = run(2, &p);
     assert!(coherent.fibres.windows(2).all(|w| w[0].phase == w[1].phase && w[0].frequency_scale == w[1].frequency_scale));
 }
+

@@ -286,6 +286,7 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
     out.f64("mass_per_length", &["point"], per_point(&|p| p.scene.mass_per_length()), "kg m-1", "ρπd²/4");
     out.f64("feed_time", &["point"], per_point(&|p| p.feed_time()), "s", "T = belt_travel/belt_speed");
     out.f64("startup_time", &["point"], per_point(&|p| p.startup_time()), "s", "t_s = 2 z_f/v_f + 1/f, the start-up excluded from the interior");
+    out.f64("belt_speed", &["point"], per_point(&|p| p.scene.belt_speed), "m s-1", "v_b, belt speed");
     out.f64("belt_speed_ratio", &["point"], per_point(&|p| p.belt_speed_ratio()), "1", "c = v_b/v_f");
     out.f64("expected_interior_density", &["point"], per_point(&|p| p.interior_areal_density() * 1e3), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
     Ok(out)

@@ -24,9 +24,16 @@ fn mean_se(v: &[f64]) -> (f64, f64) {
 #[test]
 #[ignore]
 fn smoke() {
-    let scene = small_scene();
+    let mut scene = small_scene();
+    if let Ok(d) = std::env::var("DIAM") {
+        scene.diameter = d.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("VB") {
+        scene.belt_speed = v.parse().unwrap();
+    }
     let duration: f64 = std::env::var("DUR").ok().and_then(|s| s.parse().ok()).unwrap_or(scene.end_time());
     let mut p = laid_web_for(&scene, duration, 1);
+    p.element_length = 1e-3;
     p.feed.freeze = std::env::var("FREEZE").map(|v| v != "0").unwrap_or(true);
     for r in 0..3 {
         let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(7);

@@ -28,14 +28,18 @@ fn smoke() {
     if let Ok(d) = std::env::var("DIAM") {
         scene.diameter = d.parse().unwrap();
     }
+    if let Ok(v) = std::env::var("AMP") {
+        scene.oscillation_amplitude = v.parse().unwrap();
+    }
     if let Ok(v) = std::env::var("VB") {
         scene.belt_speed = v.parse().unwrap();
     }
     let duration: f64 = std::env::var("DUR").ok().and_then(|s| s.parse().ok()).unwrap_or(scene.end_time());
     let mut p = laid_web_for(&scene, duration, 1);
     p.element_length = 1e-3;
+    let reps: usize = std::env::var("REPS").ok().and_then(|s| s.parse().ok()).unwrap_or(3);
     p.feed.freeze = std::env::var("FREEZE").map(|v| v != "0").unwrap_or(true);
-    for r in 0..3 {
+    for r in 0..reps {
         let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(7);
         let w = lay_web(&p, seed, r, &indicatif::ProgressBar::hidden());
         let f = &w.fibres[0];

@@ -1,0 +1,139 @@
+#!/usr/bin/env python3
+"""Tables and the Fig 8 comparison of pipelines/studies/PHYSICAL_WEBS.md, read from the
+archives of pipelines/studies/physical_vs_surrogate.yaml and table4_physical.yaml.
+
+Usage (from the repository root, after running the pipelines):
+    .venv/bin/python scripts/physical_webs_table.py [--figure]
+Needs h5py and numpy (tests/python/requirements.txt); --figure also needs matplotlib.
+"""
+import os
+import sys
+
+import h5py
+import numpy as np
+
+STUDY = "results/physical_vs_surrogate.h5"
+TABLE4 = "results/table4_physical.h5"
+FIGURES = "pipelines/studies/figures"
+
+
+def current(f, stage):
+    return f[stage]["latest"]
+
+
+def ms(a, scale=1.0, digits=2):
+    a = np.asarray(a, dtype=float) * scale
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return "–"
+    if a.size == 1:
+        return f"{a[0]:.{digits}f}"
+    return f"{a.mean():.{digits}f} ± {a.std(ddof=1):.{digits}f}"
+
+
+def zone_index(zones, size):
+    return int(np.argmin(np.abs(np.asarray(zones) - size)))
+
+
+def grid_row(g, p):
+    """ρ_av, CV (%), n_f at 1 and 10 mm of grid point p, over realisations."""
+    zones = g["zone_size"][...]
+    nf = g["formation_number"][p]  # (realisation, zone)
+    i1, i10 = zone_index(zones, 1e-3), zone_index(zones, 10e-3)
+    return [
+        ms(g["mean_areal_density"][p]),
+        ms(g["cv"][p], 100.0, 1),
+        ms(nf[:, i1]),
+        ms(nf[:, i10]),
+    ], (zones[i1], zones[i10])
+
+
+def study_table():
+    f = h5py.File(STUDY, "r")
+    laid, lg = current(f, "laid"), current(f, "laid_grid")
+    u0 = laid["sweep_oscillation_amplitude"][...] if "sweep_oscillation_amplitude" in laid else None
+    amps = u0 if u0 is not None else laid["point"][...]
+    c = laid["belt_speed_ratio"][...]
+    print("| u0 (mm) | c | web | S belt removed (mm) | ρ_av (g/m²) | CV (%) | n_f 1 mm | n_f 10 mm | wall per web (s) |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|")
+    for p in range(len(c)):
+        tag = f"u{int(round(amps[p] * 1000))}_c{int(round(c[p] * 100)):03d}"
+        sg = current(f, f"surrogate_{tag}_grid")
+        lrow, zones = grid_row(lg, p)
+        srow, _ = grid_row(sg, 0)
+        valid = laid["valid"][p].astype(bool)
+        s_laid = laid["radius_of_gyration_belt_removed"][p][valid]
+        wall = np.nansum(laid["wall_seconds"][p], axis=-1)
+        sw = current(f, f"surrogate_{tag}").attrs.get("wall_seconds", np.nan) + np.nansum(sg["wall_seconds"][0])
+        print(f"| {amps[p] * 1e3:g} | {c[p]:g} | laid | {ms(s_laid, 1e3)} | " + " | ".join(lrow) + f" | {ms(wall, 1, 0)} (CPU) |")
+        print(f"| | | surrogate | – | " + " | ".join(srow) + f" | {sw / 5:.2f} |")
+    print(f"\nzone sizes used: {zones[0] * 1e3:g} mm and {zones[1] * 1e3:g} mm; "
+          f"interior density expected ρA/(Δw·c): " + ", ".join(f"{v:.2f}" for v in lg["expected_interior_density"][...]) + " g/m²")
+
+
+def table4_table():
+    f = h5py.File(TABLE4, "r")
+    laid, g = current(f, "laid"), current(f, "grid")
+    c = laid["belt_speed_ratio"][...]
+    ref = g["reference_cv_corr"][...]
+    print("| c | n_w | Δw (mm) | expected ρ (g/m²) | ρ_av (g/m²) | CV (%) | n_f 1 mm | measured CV_corr (%) | valid fibres |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for p in range(len(c)):
+        row, _ = grid_row(g, p)
+        dw = laid["cd_period"][p] / laid["valid"].shape[2]
+        print(f"| {c[p]:g} | {laid['valid'].shape[2]} | {dw * 1e3:.4f} | {g['expected_interior_density'][p]:.2f} | {row[0]} | {row[1]} | {row[2]} | {ref[p]:g} | {int(laid['valid_fibres'][p].sum())} |")
+
+
+def figure():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    f = h5py.File(STUDY, "r")
+    laid = current(f, "laid")
+    amps = laid["sweep_oscillation_amplitude"][...]
+    c = laid["belt_speed_ratio"][...]
+    points = [p for p in range(len(c)) if abs(c[p] - 0.05) < 1e-9 and amps[p] in (0.001, 0.05)]
+    fig, axes = plt.subplots(2, len(points), figsize=(7.0, 6.0), constrained_layout=True)
+    for col, p in enumerate(points):
+        pos, start, count = laid["laid_positions"][p, 0], laid["fibre_node_start"][p, 0], laid["fibre_laid_nodes"][p, 0]
+        ax = axes[0, col]
+        hl = len(start) // 2
+        for j in range(len(start)):
+            a, n = start[j], count[j]
+            if a < 0:
+                continue
+            xy = pos[a:a + n, :2] * 1e3
+            ax.plot(xy[:, 0], xy[:, 1], lw=0.3 if j != hl else 1.0, color="0.7" if j != hl else "C3")
+        ax.set_title(f"laid by the physics, u0 = {amps[p] * 1e3:g} mm", fontsize=9)
+        ax.set_aspect("equal")
+        ax.set_xlabel("MD on the belt (mm)", fontsize=8)
+        ax.set_ylabel("CD (mm)", fontsize=8)
+        tag = f"u{int(round(amps[p] * 1000))}_c{int(round(c[p] * 100)):03d}"
+        web = current(f, f"surrogate_{tag}")
+        fp = web["fibre_positions"][0, 0]  # (sample_fibre, node, xy)
+        ax = axes[1, col]
+        for j in range(fp.shape[0]):
+            xy = fp[j] * 1e3
+            ok = np.isfinite(xy[:, 0])
+            ax.plot(xy[ok, 0], xy[ok, 1] - 0.0, lw=0.3 if j != hl else 1.0, color="0.7" if j != hl else "C0")
+        ax.set_xlim(axes[0, col].get_xlim())
+        ax.set_title(f"random-phase surrogate of the same fibres", fontsize=9)
+        ax.set_aspect("equal")
+        ax.set_xlabel("MD (mm)", fontsize=8)
+        ax.set_ylabel("CD (mm)", fontsize=8)
+    os.makedirs(FIGURES, exist_ok=True)
+    out = os.path.join(FIGURES, "laid_vs_surrogate_u0.png")
+    fig.savefig(out, dpi=200)
+    print(f"\nfigure: {out}")
+
+
+if __name__ == "__main__":
+    if os.path.exists(STUDY):
+        study_table()
+    if os.path.exists(TABLE4):
+        print()
+        table4_table()
+    if "--figure" in sys.argv:
+        figure()

@@ -2,6 +2,9 @@
 //! areal-density map (1 mm cells over the whole laid belt, CD folded onto the period),
 //! and the belt-removed S and e of the fibres (against the swept parameter, or per
 //! fibre).
+
+// NaN-safe checks are written as negated comparisons on purpose (`!(x < limit)`).
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 use super::figure::{Figure, LinePanel, MapPanel, Panel, Series, Style};
 use super::StageData;
 use anyhow::Result;

@@ -156,10 +156,8 @@ pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64,
             anchors.push([0.0; 2]);
             max_active = max_active.max(sim.rod.nodes());
         }
-        if settings.freeze {
-            if freeze_stuck(&mut sim, &mut stuck_since, &mut frozen, settings, belt) {
-                anchors.drain(..anchors.len() - stuck_since.len());
-            }
+        if settings.freeze && freeze_stuck(&mut sim, &mut stuck_since, &mut frozen, settings, belt) {
+            anchors.drain(..anchors.len() - stuck_since.len());
         }
         node_steps += sim.rod.nodes() as u64;
         if let Err(f) = control.advance(&mut sim, end_time) {

@@ -33,6 +33,9 @@
 //!     println!("S (belt removed) = {:.2} mm, valid = {}", 1e3 * f.radius_of_gyration_belt_removed, f.valid);
 //! }
 //! ```
+
+// NaN-safe checks are written as negated comparisons on purpose (`!(x < limit)`).
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod stage;
 
 pub use stage::LaidWebStage;

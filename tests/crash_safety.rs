@@ -88,3 +88,54 @@ fn a_second_run_on_an_archive_in_use_fails_fast() {
     assert!(e.contains("in use by another `laydown run`"), "{e}");
     assert!(second_took < Duration::from_secs(5), "must fail fast, not wait ({second_took:?})");
 }
+
+#[test]
+fn a_symlinked_archive_is_one_archive_with_one_lock() {
+    use std::os::unix::fs::symlink;
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::create_dir(tmp.path().join("data")).unwrap();
+    std::fs::create_dir(tmp.path().join("other")).unwrap();
+    let one = "pipeline: link\narchive: data/real.h5\nstages:\n  - {name: small, kind: spectra, params: {preset: spectrum1}}\n";
+    write_pipeline(tmp.path(), "p.yaml", one);
+    assert_eq!(run_in(tmp.path(), &["run", "p.yaml"]).status.code(), Some(0));
+    symlink("data/real.h5", tmp.path().join("link.h5")).unwrap();
+
+    // Through the symlink: the new version lands in the real file and the link stays a link.
+    write_pipeline(tmp.path(), "p.yaml", &one.replace("spectrum1", "spectrum2"));
+    let out = run_in(tmp.path(), &["run", "p.yaml", "--archive", "link.h5"]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    let link = tmp.path().join("link.h5");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the commit replaced the symlink");
+    let real = tmp.path().join("data/real.h5");
+    assert_eq!(Archive::open_read(&real).unwrap().versions("small").unwrap().len(), 2);
+    assert!(!tmp.path().join("link.h5.lock").exists() && !tmp.path().join("link.h5.partial").exists());
+
+    // Relative parts resolve to the same file: up to date, nothing new written.
+    let out = run_in(tmp.path(), &["run", "p.yaml", "--archive", "other/../data/./real.h5"]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    assert!(o.contains("small: up to date (v2)"), "{o}");
+
+    // Concurrent runs, one through the symlink and one through the real path: the second is refused.
+    write_pipeline(tmp.path(), "p.yaml", &PIPE.replace("archive: study.h5", "archive: data/real.h5"));
+    let mut first = laydown()
+        .current_dir(tmp.path())
+        .args(["run", "p.yaml", "--archive", "link.h5"])
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !tmp.path().join("data/real.h5.lock").exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    std::thread::sleep(Duration::from_millis(30));
+    let second = run_in(tmp.path(), &["run", "p.yaml"]);
+    let still_running = first.try_wait().unwrap().is_none();
+    assert_eq!(first.wait().unwrap().code(), Some(0));
+    assert!(still_running, "the first run finished before the second started; make the heavy stage heavier");
+    let (_, e) = text(&second);
+    assert_eq!(second.status.code(), Some(1), "{e}");
+    assert!(e.contains("in use by another `laydown run`"), "{e}");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    assert_eq!(Archive::open_read(&real).unwrap().versions("heavy").unwrap().len(), 1);
+}

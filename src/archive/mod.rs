@@ -11,7 +11,8 @@
 //! killed at any moment leaves either the old or the new archive, both complete; a
 //! version group exists only once complete (`status = complete`). Leftover `.partial`
 //! files are removed by the next run. `<archive>.lock` (an OS file lock, released by the
-//! kernel when the process dies) makes a second concurrent `laydown run` fail fast.
+//! kernel when the process dies) makes a second concurrent `laydown run` fail fast. All
+//! of this happens beside the real file ([`resolve`]), whatever path named it.
 //!
 //! The cost is one copy of the archive per committed stage version; see README.
 //! `schemas/archive_layout.md` documents the groups, datasets and attributes.
@@ -91,11 +92,19 @@ impl Archive {
 
     /// Open for writing: takes the run lock (failing fast if another run holds it) and
     /// removes a temporary copy left by a killed run. Creates nothing else.
+    ///
+    /// The path is resolved first ([`resolve`]): the lock, the temporary copy and the
+    /// commit's rename all work on the real file, so runs through a symlink and through
+    /// the file itself share one lock and one archive, and the symlink stays a symlink.
     pub fn open_write(path: &Path) -> Result<Self> {
         if let Some(parent) = path.parent() {
             if !parent.as_os_str().is_empty() {
                 fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
             }
+        }
+        let path = &resolve(path)?;
+        if path.is_dir() {
+            bail!("archive {} is a directory; give the path of an HDF5 file, e.g. {}", path.display(), path.join("study.h5").display());
         }
         let lock_path = sibling(path, ".lock");
         let lock = fs::OpenOptions::new()
@@ -242,6 +251,36 @@ impl Archive {
         }
         Ok(())
     }
+}
+
+/// The real path of an archive: symlinks (also a chain of them, or one to a file that
+/// does not exist yet) and `.`/`..` resolved, absolute. The archive's directory must exist.
+pub fn resolve(path: &Path) -> Result<PathBuf> {
+    let mut path = path.to_path_buf();
+    for _ in 0..40 {
+        match fs::symlink_metadata(&path) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let target = fs::read_link(&path).with_context(|| format!("reading the symlink {}", path.display()))?;
+                path = match path.parent() {
+                    Some(dir) if target.is_relative() => dir.join(target),
+                    _ => target,
+                };
+            }
+            Ok(_) => return fs::canonicalize(&path).with_context(|| format!("resolving {}", path.display())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                // Not there yet: resolve its directory; the file name is kept.
+                let name = path.file_name().ok_or_else(|| anyhow!("archive path {} does not name a file", path.display()))?;
+                let dir = match path.parent() {
+                    Some(d) if !d.as_os_str().is_empty() => d,
+                    _ => Path::new("."),
+                };
+                let dir = fs::canonicalize(dir).with_context(|| format!("the archive's directory {} does not exist", dir.display()))?;
+                return Ok(dir.join(name));
+            }
+            Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+        }
+    }
+    bail!("archive path {} is a loop of symlinks; make it point to an HDF5 file", path.display())
 }
 
 /// `<archive><suffix>` beside the archive.

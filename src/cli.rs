@@ -108,6 +108,10 @@ pub fn main_with(cli: Cli) -> i32 {
                 }
             };
             if let Some(a) = archive {
+                if a.is_dir() {
+                    eprintln!("error: --archive: `{}` is a directory; give the path of an HDF5 file, e.g. {}", a.display(), a.join("study.h5").display());
+                    return 2;
+                }
                 p.archive = a;
             }
             if let Some(e) = executor {

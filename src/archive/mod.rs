@@ -185,7 +185,7 @@ impl Archive {
         history_line: &str,
     ) -> Result<u32> {
         let number = self.versions(stage)?.last().map(|v| v.number + 1).unwrap_or(1);
-        self.transaction(title, history_line, |file| {
+        self.transaction(title, history_line, out.byte_size(), |file| {
             let sgroup = match file.group(stage) {
                 Ok(g) => g,
                 Err(_) => file.create_group(stage)?,
@@ -207,50 +207,104 @@ impl Archive {
     }
 
     /// Copy the archive (or start a new one), apply `f`, update the root attributes,
-    /// sync and rename into place.
-    fn transaction(&self, title: &str, history_line: &str, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
+    /// sync and rename into place. On any failure `<archive>.partial` is removed and the
+    /// archive is untouched; a full file system is reported in one line with the space
+    /// needed (`new_bytes`: the uncompressed size of what `f` adds).
+    fn transaction(&self, title: &str, history_line: &str, new_bytes: u64, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
         let partial = sibling(&self.path, ".partial");
-        let file = if self.path.exists() {
-            fs::copy(&self.path, &partial).with_context(|| format!("copying {} to {}", self.path.display(), partial.display()))?;
-            hdf5::File::open_rw(&partial)?
-        } else {
-            hdf5::File::create(&partial).with_context(|| format!("creating {}", partial.display()))?
-        };
-        let mut history = match hdf::read_attrs(&file)?.get("history") {
-            Some(Attr::Str(h)) => h.clone(),
-            _ => String::new(),
-        };
-        f(&file)?;
-        if !history.is_empty() && !history.ends_with('\n') {
-            history.push('\n');
+        let result = write_partial(&self.path, &partial, title, history_line, f).and_then(|()| {
+            fs::rename(&partial, &self.path).with_context(|| format!("renaming {} to {}", partial.display(), self.path.display()))
+        });
+        if let Err(e) = result {
+            // The HDF5 handle is closed (dropped in write_partial), so the copy can go.
+            let _ = fs::remove_file(&partial);
+            return Err(self.explain_failure(e, new_bytes));
         }
-        history.push_str(history_line);
-        let root: [(&str, Attr); 5] = [
-            ("Conventions", Attr::Str("CF-1.8".into())),
-            ("title", Attr::Str(title.into())),
-            ("source", Attr::Str(format!("laydown {}", env!("CARGO_PKG_VERSION")))),
-            ("history", Attr::Str(history)),
-            ("layout_version", Attr::I64(LAYOUT_VERSION)),
-        ];
-        for (k, v) in &root {
-            if file.attr(k).is_ok() {
-                file.delete_attr(k)?;
-            }
-            hdf::write_attr(&file, k, v)?;
-        }
-        file.flush()?;
-        drop(file);
-        fs::File::open(&partial)?.sync_all()?;
-        fs::rename(&partial, &self.path)?;
-        if let Some(parent) = self.path.parent() {
-            // Persist the rename itself (the directory entry).
-            let dir = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
-            if let Ok(d) = fs::File::open(dir) {
-                let _ = d.sync_all();
-            }
+        // Persist the rename itself (the directory entry).
+        if let Ok(d) = fs::File::open(self.dir()) {
+            let _ = d.sync_all();
         }
         Ok(())
     }
+
+    /// The directory holding the archive.
+    fn dir(&self) -> &Path {
+        match self.path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        }
+    }
+
+    /// A failed commit as one line: a full file system names the archive and the space
+    /// needed (a copy of the archive plus the new version); anything else keeps its cause.
+    fn explain_failure(&self, e: anyhow::Error, new_bytes: u64) -> anyhow::Error {
+        let old = fs::metadata(&self.path).map(|m| m.len()).unwrap_or(0);
+        // The copy, the new data (uncompressed, an upper bound) and HDF5's metadata.
+        let needed = old + new_bytes + (1 << 20);
+        let free = free_bytes(self.dir());
+        let no_space = e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>().is_some_and(|io| io.raw_os_error() == Some(libc::ENOSPC))
+                || c.to_string().contains("No space left on device")
+                || c.to_string().contains("errno = 28")
+        });
+        if no_space || free.is_some_and(|f| f < needed) {
+            let mb = |b: u64| b as f64 / 1e6;
+            return anyhow!(
+                "archive {}: the file system is full: committing needs up to {:.1} MB free in {} ({:.1} MB free now); free some space or move the archive, then rerun (the archive is unchanged)",
+                self.path.display(),
+                mb(needed),
+                self.dir().display(),
+                mb(free.unwrap_or(0)),
+            );
+        }
+        let first = e.to_string();
+        let first = first.lines().next().unwrap_or("").trim().to_string();
+        anyhow!("archive {}: committing failed, the archive is unchanged: {first}", self.path.display())
+    }
+}
+
+/// Write the archive's next state into `partial` (a copy of `path`, or a new file) and fsync it.
+fn write_partial(path: &Path, partial: &Path, title: &str, history_line: &str, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
+    let file = if path.exists() {
+        fs::copy(path, partial).with_context(|| format!("copying {} to {}", path.display(), partial.display()))?;
+        hdf5::File::open_rw(partial)?
+    } else {
+        hdf5::File::create(partial).with_context(|| format!("creating {}", partial.display()))?
+    };
+    let mut history = match hdf::read_attrs(&file)?.get("history") {
+        Some(Attr::Str(h)) => h.clone(),
+        _ => String::new(),
+    };
+    f(&file)?;
+    if !history.is_empty() && !history.ends_with('\n') {
+        history.push('\n');
+    }
+    history.push_str(history_line);
+    let root: [(&str, Attr); 5] = [
+        ("Conventions", Attr::Str("CF-1.8".into())),
+        ("title", Attr::Str(title.into())),
+        ("source", Attr::Str(format!("laydown {}", env!("CARGO_PKG_VERSION")))),
+        ("history", Attr::Str(history)),
+        ("layout_version", Attr::I64(LAYOUT_VERSION)),
+    ];
+    for (k, v) in &root {
+        if file.attr(k).is_ok() {
+            file.delete_attr(k)?;
+        }
+        hdf::write_attr(&file, k, v)?;
+    }
+    file.flush()?;
+    file.close()?;
+    fs::File::open(partial)?.sync_all()?;
+    Ok(())
+}
+
+/// Free bytes for an unprivileged user on the file system holding `dir`.
+fn free_bytes(dir: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    (unsafe { libc::statvfs(c.as_ptr(), &mut st) } == 0).then(|| st.f_bavail as u64 * st.f_frsize as u64)
 }
 
 /// The real path of an archive: symlinks (also a chain of them, or one to a file that

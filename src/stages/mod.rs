@@ -58,6 +58,11 @@ pub trait Stage: Send + Sync {
     fn input_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
         Ok(vec![])
     }
+    /// Check, when the pipeline is validated, that the files named by the parameters
+    /// exist (relative to `pipeline_dir`): `Err((parameter such as files[1], message))`.
+    fn check_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<(), (String, String)> {
+        Ok(())
+    }
     /// How the stage's work splits into units that can be computed apart (e.g. in
     /// different processes of a Slurm job array), or `None` (the default): the stage
     /// runs as a whole. A stage that returns `Some` implements [`Stage::run_units`] and

@@ -20,6 +20,7 @@ pub mod data;
 pub mod hdf;
 pub mod provenance;
 
+use crate::stages::BadInput;
 use anyhow::{anyhow, bail, Context, Result};
 use data::{Attr, Output};
 use std::collections::BTreeMap;
@@ -69,7 +70,7 @@ impl VersionInfo {
     }
     /// Open the version's group for reading.
     pub fn open(&self) -> Result<hdf5::Group> {
-        let file = hdf5::File::open(&self.file).with_context(|| format!("opening {}", self.file.display()))?;
+        let file = open_hdf5(&self.file)?;
         file.group(&self.group_path())
             .with_context(|| format!("{} has no group {}", self.file.display(), self.group_path()))
     }
@@ -85,7 +86,10 @@ impl Archive {
     /// Open for reading; nothing is created.
     pub fn open_read(path: &Path) -> Result<Self> {
         if !path.exists() {
-            bail!("archive {} does not exist", path.display());
+            return Err(BadInput(format!("archive {} does not exist; give the path of an archive written by `laydown run`", path.display())).into());
+        }
+        if path.is_dir() {
+            return Err(BadInput(format!("archive {} is a directory; give the path of an HDF5 file", path.display())).into());
         }
         Ok(Archive { path: path.to_path_buf(), _lock: None })
     }
@@ -134,7 +138,7 @@ impl Archive {
         if !self.path.exists() {
             return Ok(vec![]);
         }
-        let file = hdf5::File::open(&self.path).with_context(|| format!("opening {}", self.path.display()))?;
+        let file = open_hdf5(&self.path)?;
         let mut out: Vec<String> = file.groups()?.iter().map(|g| g.name().trim_start_matches('/').to_string()).collect();
         out.sort();
         Ok(out)
@@ -145,7 +149,7 @@ impl Archive {
         if !self.path.exists() {
             return Ok(vec![]);
         }
-        let file = hdf5::File::open(&self.path).with_context(|| format!("opening {}", self.path.display()))?;
+        let file = open_hdf5(&self.path)?;
         let Ok(group) = file.group(stage) else { return Ok(vec![]) };
         let mut out = vec![];
         for name in group.member_names()? {
@@ -162,7 +166,7 @@ impl Archive {
         let versions = self.versions(stage)?;
         if versions.is_empty() {
             let stages = self.stages()?;
-            bail!("stage `{stage}` has no versions in {}; stages present: {}", self.path.display(), stages.join(", "));
+            return Err(BadInput(format!("stage `{stage}` has no versions in {}; stages present: {}", self.path.display(), stages.join(", "))).into());
         }
         let found = match number {
             Some(n) => versions.iter().find(|v| v.number == n).cloned(),
@@ -170,7 +174,7 @@ impl Archive {
         };
         found.ok_or_else(|| {
             let have: Vec<String> = versions.iter().map(|v| format!("v{}", v.number)).collect();
-            anyhow!("stage `{stage}` has no version v{} in {}; it has {}", number.unwrap_or(0), self.path.display(), have.join(", "))
+            BadInput(format!("stage `{stage}` has no version v{} in {}; it has {}", number.unwrap_or(0), self.path.display(), have.join(", "))).into()
         })
     }
 
@@ -305,6 +309,18 @@ fn free_bytes(dir: &Path) -> Option<u64> {
     let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
     let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
     (unsafe { libc::statvfs(c.as_ptr(), &mut st) } == 0).then(|| st.f_bavail as u64 * st.f_frsize as u64)
+}
+
+/// Open an archive file for reading; a file HDF5 cannot open is reported as damaged, in one line.
+pub fn open_hdf5(path: &Path) -> Result<hdf5::File> {
+    hdf5::File::open(path).map_err(|e| {
+        let why = e.to_string();
+        let why = why.lines().next().unwrap_or("").trim().trim_start_matches("H5Fopen(): ");
+        anyhow!(
+            "archive {} cannot be opened by HDF5 ({why}): it is damaged or not a laydown archive; restore it from a copy, or run the pipeline again into a new archive (`laydown run P --archive NEW.h5`)",
+            path.display()
+        )
+    })
 }
 
 /// The real path of an archive: symlinks (also a chain of them, or one to a file that

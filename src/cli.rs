@@ -2,7 +2,7 @@
 //! Exit codes, the same for every command: 0 success, 1 runtime failure or damaged
 //! archive, 2 bad input. A failing command prints nothing to stdout.
 use crate::archive::data::Attr;
-use crate::archive::{hdf, Archive};
+use crate::archive::{hdf, Archive, Integrity};
 use crate::params::ParamKind;
 use crate::runner::{self, RunError, RunOptions};
 use crate::stages::BadInput;
@@ -72,6 +72,9 @@ pub enum Command {
     Validate { pipeline: PathBuf },
     /// List stages and versions of an archive (status, params hash, wall time).
     Ls { archive: PathBuf },
+    /// Check every version of an archive against the hashes stored when it was
+    /// committed (reading every value); names each damaged group and dataset. Exit 1 on damage.
+    Verify { archive: PathBuf },
     /// Show a stage version's provenance and datasets (`STAGE` is the latest version).
     Show {
         archive: PathBuf,
@@ -162,6 +165,7 @@ pub fn main_with(cli: Cli) -> i32 {
             }
         },
         Command::Ls { archive } => report(ls(&archive)),
+        Command::Verify { archive } => report(verify(&archive)),
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
         Command::Stages { kind } => report(describe_stages(kind.as_deref())),
         Command::Plot { archive, stages, out, format } => report(plot(&archive, &stages, out.as_deref(), format)),
@@ -197,7 +201,7 @@ pub fn exit_code(e: &anyhow::Error) -> i32 {
 }
 
 /// Lists everything before printing, so a failure prints nothing to stdout.
-fn ls(path: &PathBuf) -> Result<()> {
+fn ls(path: &std::path::Path) -> Result<()> {
     let archive = Archive::open_read(path)?;
     let mut lines = vec![format!("{:<16} {:>4} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)")];
     for stage in archive.stages()? {
@@ -218,6 +222,54 @@ fn ls(path: &PathBuf) -> Result<()> {
     Ok(())
 }
 
+/// Every version checked; the report goes to stdout (one line per version), then, if
+/// anything is damaged, one error line (exit 1).
+fn verify(path: &std::path::Path) -> Result<()> {
+    let archive = Archive::open_read(path)?;
+    let (mut lines, mut damaged, mut total) = (vec![], vec![], 0);
+    for stage in archive.stages()? {
+        let versions = match archive.versions(&stage) {
+            Ok(v) => v,
+            Err(e) => {
+                lines.push(format!("DAMAGED    /{stage}: its versions cannot be listed ({})", e.to_string().lines().next().unwrap_or("")));
+                damaged.push((format!("/{stage}"), stage.clone(), None));
+                continue;
+            }
+        };
+        for v in versions {
+            total += 1;
+            match v.verify() {
+                Integrity::Ok => lines.push(format!("ok         {}", v.group_path())),
+                Integrity::Unverifiable => lines.push(format!("unchecked  {} (written before laydown stored dataset hashes)", v.group_path())),
+                Integrity::Damaged(problems) => {
+                    lines.push(format!("DAMAGED    {}: {}", v.group_path(), problems.join("; ")));
+                    damaged.push((v.group_path(), stage.clone(), v.attr_str("pipeline_file").map(str::to_string)));
+                }
+            }
+        }
+    }
+    if !lines.is_empty() {
+        println!("{}", lines.join("\n"));
+    }
+    if damaged.is_empty() {
+        return Ok(());
+    }
+    let groups: Vec<&str> = damaged.iter().map(|(g, _, _)| g.as_str()).collect();
+    let fixes: Vec<String> = damaged
+        .iter()
+        .map(|(_, stage, p)| format!("`laydown run {} --force {stage}`", p.as_deref().unwrap_or("PIPELINE")))
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    Err(anyhow::anyhow!(
+        "archive {}: {} of {total} versions damaged ({}); do not use them: {} computes them again",
+        path.display(),
+        damaged.len(),
+        groups.join(", "),
+        fixes.join(", ")
+    ))
+}
+
 /// Parse `STAGE` or `STAGE@vN`.
 pub fn parse_stage_ref(s: &str) -> Result<(String, Option<u32>)> {
     match s.split_once('@') {
@@ -232,10 +284,12 @@ pub fn parse_stage_ref(s: &str) -> Result<(String, Option<u32>)> {
     }
 }
 
-fn show(path: &PathBuf, stage_ref: &str, json: bool) -> Result<()> {
+fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
     let archive = Archive::open_read(path)?;
     let (stage, number) = parse_stage_ref(stage_ref)?;
     let v = archive.version(&stage, number)?;
+    // A damaged version is reported, not shown as if it were healthy.
+    v.check()?;
     let file = v.open()?;
     let mut datasets = vec![];
     for name in file.member_names()? {

@@ -6,8 +6,12 @@
 //! The fingerprint of a stage run is blake3 over: kind, cache_version, canonical
 //! parameters (defaults filled in), sweep, replicates, seed, and the content hashes of
 //! the input versions. Equal fingerprints mean equal results (stages are deterministic).
+//!
+//! A version is used only once its datasets match the hashes stored with it
+//! ([`VersionInfo::verify`]): a damaged up-to-date version is computed again (and the
+//! reason says so), a damaged input of a stage that must run is an error.
 use crate::archive::data::{Attr, Output, Values};
-use crate::archive::{provenance, Archive, VersionInfo};
+use crate::archive::{provenance, Archive, Integrity, VersionInfo};
 use crate::params::ParamValue;
 use crate::pipeline::{Pipeline, StageDecl};
 use crate::stages::{self, BadInput, Input, RunContext};
@@ -320,6 +324,8 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
     };
     let archive = Archive::open_write(&pipeline.archive).map_err(RunError::Runtime)?;
     let mut chosen: BTreeMap<String, VersionInfo> = BTreeMap::new();
+    // Versions checked against their stored hashes (or written) in this run.
+    let mut verified: std::collections::BTreeSet<String> = Default::default();
     let mut reports = vec![];
 
     for name in pipeline.topological_order() {
@@ -377,14 +383,36 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
             )));
         };
         let forced = opts.force.contains(&name);
+        // An up-to-date version is used only once its stored hashes check out.
+        let mut damaged = None;
         if let (Some(v), false) = (cached, forced) {
-            println!("{name}: up to date (v{})", v.number);
-            chosen.insert(name.clone(), v.clone());
-            reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
-            continue;
+            match v.verify() {
+                Integrity::Damaged(problems) => {
+                    eprintln!("warning: {}", v.damage_message(&problems).split("; do not use it").next().unwrap_or(""));
+                    damaged = Some(format!("stored v{} is damaged ({}); computing it again", v.number, problems.join("; ")));
+                }
+                Integrity::Ok | Integrity::Unverifiable => {
+                    println!("{name}: up to date (v{})", v.number);
+                    verified.insert(v.group_path());
+                    chosen.insert(name.clone(), v.clone());
+                    reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
+                    continue;
+                }
+            }
+        }
+        // Inputs are read only once their stored hashes check out.
+        for v in &inputs {
+            if !verified.contains(&v.group_path()) {
+                if let Integrity::Damaged(problems) = v.verify() {
+                    return Err(RunError::Runtime(anyhow!("stage `{name}` needs input {}: {}", v.group_path(), v.damage_message(&problems))));
+                }
+                verified.insert(v.group_path());
+            }
         }
         let input_versions: Vec<(String, u32)> = inputs.iter().map(|v| (v.stage.clone(), v.number)).collect();
-        let why = if forced && cached.is_some() {
+        let why = if let Some(d) = damaged {
+            d
+        } else if forced && cached.is_some() {
             "forced (--force)".to_string()
         } else {
             reason(decl, stage.cache_version(), seed, &input_versions, &files, complete.last().copied())
@@ -423,7 +451,8 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         let cpu = provenance::cpu_seconds() - cpu0;
         add_sweep_coordinates(&mut out, &sweep).map_err(RunError::Runtime)?;
         units_of_sweep(&mut out, &sweep, &stage.params());
-        let content_hash = crate::archive::hdf::content_hash(&out);
+        let hashes = crate::archive::hdf::dataset_hashes(&out);
+        let content_hash = crate::archive::hdf::hash_of_dataset_hashes(&hashes);
 
         let mut attrs = provenance::environment();
         let mut put = |k: &str, v: Attr| {
@@ -453,6 +482,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         }
         put("fingerprint", Attr::Str(fp.clone()));
         put("content_hash", Attr::Str(content_hash));
+        put("dataset_hashes", Attr::Str(crate::archive::hdf::dataset_hashes_attr(&hashes)));
         put("pipeline_name", Attr::Str(pipeline.name.clone()));
         put("pipeline_file", Attr::Str(pipeline.file.display().to_string()));
         put("run_reason", Attr::Str(why.clone()));
@@ -480,6 +510,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         let v = archive.version(&name, Some(number)).map_err(RunError::Runtime)?;
         crate::executor::committed(&executor, &job);
         println!("{name}: wrote v{number} in {wall:.2} s");
+        verified.insert(v.group_path());
         chosen.insert(name.clone(), v);
         reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });
     }

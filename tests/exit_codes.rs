@@ -27,7 +27,7 @@ fn bad_input_is_2_for_every_command() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
     archive_with_one_stage(d);
-    for cmd in ["ls", "plot"] {
+    for cmd in ["ls", "plot", "verify"] {
         fails(d, &[cmd, "missing.h5"], 2, "archive missing.h5 does not exist");
         fails(d, &[cmd, "."], 2, "is a directory");
     }
@@ -46,6 +46,7 @@ fn an_archive_hdf5_cannot_open_is_1_for_every_command() {
     std::fs::write(d.join("junk.h5"), "this is not an HDF5 file\n").unwrap();
     let expect = "archive junk.h5 cannot be opened by HDF5 (";
     fails(d, &["ls", "junk.h5"], 1, expect);
+    fails(d, &["verify", "junk.h5"], 1, expect);
     fails(d, &["show", "junk.h5", "s"], 1, expect);
     fails(d, &["plot", "junk.h5"], 1, expect);
     fails(d, &["plot", "junk.h5", "s"], 1, expect);

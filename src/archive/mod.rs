@@ -15,6 +15,11 @@
 //! of this happens beside the real file ([`resolve`]), whatever path named it.
 //!
 //! The cost is one copy of the archive per committed stage version; see README.
+//!
+//! # Integrity
+//! Each version stores the hash of every dataset (`dataset_hashes`, see
+//! [`hdf::dataset_hashes`]) and `content_hash`, the hash of those. [`VersionInfo::verify`]
+//! reads every value back and names each dataset that no longer matches.
 //! `schemas/archive_layout.md` documents the groups, datasets and attributes.
 pub mod data;
 pub mod hdf;
@@ -68,12 +73,82 @@ impl VersionInfo {
     pub fn is_complete(&self) -> bool {
         self.attr_str("status") == Some("complete")
     }
+    /// Check every dataset of the version against the hashes stored when it was
+    /// committed (`dataset_hashes`, whose hash is `content_hash`), reading every value.
+    pub fn verify(&self) -> Integrity {
+        let Some(stored) = self.attr_str("dataset_hashes") else { return Integrity::Unverifiable };
+        let expected = hdf::parse_dataset_hashes(stored);
+        let mut problems = vec![];
+        if self.attr_str("content_hash") != Some(hdf::hash_of_dataset_hashes(&expected).as_str()) {
+            problems.push("attribute `dataset_hashes` does not match `content_hash`".to_string());
+        }
+        let group = match self.open() {
+            Ok(g) => g,
+            Err(e) => return Integrity::Damaged(vec![format!("the group cannot be opened ({})", first_line(&e))]),
+        };
+        for (name, hash) in &expected {
+            match group.dataset(name) {
+                Err(_) => problems.push(format!("dataset `{name}` is missing")),
+                Ok(ds) => match hdf::read_dataset_hash(&ds) {
+                    Err(e) => problems.push(format!("dataset `{name}` cannot be read ({})", first_line(&e))),
+                    Ok(h) if &h != hash => problems.push(format!("dataset `{name}` differs from its stored hash")),
+                    Ok(_) => {}
+                },
+            }
+        }
+        for name in group.member_names().unwrap_or_default() {
+            if !expected.contains_key(&name) && group.dataset(&name).is_ok() {
+                problems.push(format!("dataset `{name}` was not there when the version was committed"));
+            }
+        }
+        if problems.is_empty() {
+            Integrity::Ok
+        } else {
+            Integrity::Damaged(problems)
+        }
+    }
+
+    /// One line for a damaged version: the file, the group, what is wrong and what to do.
+    pub fn damage_message(&self, problems: &[String]) -> String {
+        let pipeline = self.attr_str("pipeline_file").unwrap_or("PIPELINE");
+        format!(
+            "archive {}: {} is damaged: {}; do not use it: `laydown run {pipeline} --force {}` computes it again (`laydown verify {}` lists all damage)",
+            self.file.display(),
+            self.group_path(),
+            problems.join("; "),
+            self.stage,
+            self.file.display()
+        )
+    }
+
+    /// [`Self::verify`] as a result: damage is an error carrying [`Self::damage_message`].
+    pub fn check(&self) -> Result<()> {
+        match self.verify() {
+            Integrity::Damaged(problems) => bail!(self.damage_message(&problems)),
+            Integrity::Ok | Integrity::Unverifiable => Ok(()),
+        }
+    }
+
     /// Open the version's group for reading.
     pub fn open(&self) -> Result<hdf5::Group> {
         let file = open_hdf5(&self.file)?;
         file.group(&self.group_path())
             .with_context(|| format!("{} has no group {}", self.file.display(), self.group_path()))
     }
+}
+
+/// What [`VersionInfo::verify`] found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Integrity {
+    Ok,
+    /// Written before versions stored per-dataset hashes: nothing to check against.
+    Unverifiable,
+    /// One entry per problem: `dataset `x` differs from its stored hash`, ...
+    Damaged(Vec<String>),
+}
+
+fn first_line(e: &anyhow::Error) -> String {
+    e.to_string().lines().next().unwrap_or("").trim().to_string()
 }
 
 /// An archive on disk (which may not exist yet).

@@ -3,7 +3,8 @@
 //! (`params.diameter changed 5e-05 -> 2e-05`, `input fibre v1 -> v2`, `new stage`),
 //! runs what must run, and writes each result as a new version with provenance.
 //!
-//! The fingerprint of a stage run is blake3 over: kind, cache_version, canonical
+//! The fingerprint of a stage run is blake3 over: kind, cache_version, the hash of the
+//! stage code ([`stages::code_hash`], `code of grid changed`), canonical
 //! parameters (defaults filled in), sweep, replicates, seed, and the content hashes of
 //! the input versions. Equal fingerprints mean equal results (stages are deterministic).
 //!
@@ -70,6 +71,11 @@ pub struct StageReport {
 }
 
 pub fn fingerprint(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(String, String)]) -> String {
+    fingerprint_with_code(decl, cache_version, stages::code_hash(&decl.kind), seed, inputs)
+}
+
+/// [`fingerprint`] with the stage code's hash given.
+fn fingerprint_with_code(decl: &StageDecl, cache_version: u32, code: &str, seed: u64, inputs: &[(String, String)]) -> String {
     let mut h = blake3::Hasher::new();
     let mut field = |k: &str, v: &str| {
         h.update(k.as_bytes());
@@ -79,6 +85,7 @@ pub fn fingerprint(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(S
     };
     field("kind", &decl.kind);
     field("cache_version", &cache_version.to_string());
+    field("code", code);
     field("params", &decl.params.canonical_yaml());
     field("sweep", &decl.sweep_yaml());
     field("replicates", &decl.replicates.to_string());
@@ -106,6 +113,11 @@ fn reason(
     let prev_cache = prev.attr_f64("cache_version").unwrap_or(-1.0) as i64;
     if prev_cache != cache_version as i64 {
         why.push(format!("stage code changed (cache_version {prev_cache} -> {cache_version})"));
+    }
+    match prev.attr_str("code_hash") {
+        Some(c) if c == stages::code_hash(&decl.kind) => {}
+        Some(_) => why.push(format!("code of {} changed", decl.kind)),
+        None => why.push(format!("code of {} changed (v{} has no code hash: written by an older laydown)", decl.kind, prev.number)),
     }
     let old: BTreeMap<String, String> = flatten_yaml(prev.attr_str("params_yaml").unwrap_or(""));
     let new: BTreeMap<String, String> = flatten_yaml(&decl.params.canonical_yaml());
@@ -461,6 +473,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         put("stage_name", Attr::Str(name.clone()));
         put("stage_kind", Attr::Str(decl.kind.clone()));
         put("cache_version", Attr::I64(stage.cache_version() as i64));
+        put("code_hash", Attr::Str(stages::code_hash(&decl.kind).to_string()));
         put("params_yaml", Attr::Str(decl.params.canonical_yaml()));
         put("params_hash", Attr::Str(blake3::hash(decl.params.canonical_yaml().as_bytes()).to_hex()[..16].to_string()));
         put("sweep_yaml", Attr::Str(decl.sweep_yaml()));

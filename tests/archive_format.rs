@@ -100,3 +100,20 @@ fn dataset_hashes_read_back_from_the_file_for_every_value_type() {
     archive.commit_version("t", "old", &out, &complete(), "h").unwrap();
     assert_eq!(archive.version("old", None).unwrap().verify(), laydown::archive::Integrity::Unverifiable);
 }
+
+#[test]
+fn a_failed_commit_removes_the_partial_copy_and_keeps_the_archive() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("study.h5");
+    let archive = Archive::open_write(&path).unwrap();
+    archive.commit_version("t", "fibre", &sample_output(), &complete(), "h").unwrap();
+    let before = std::fs::read(&path).unwrap();
+    // Variables that disagree on a dimension's length cannot be written.
+    let mut bad = sample_output();
+    bad.f64("other", &["node"], Array1::from(vec![1.0, 2.0]), "m", "too short");
+    let err = archive.commit_version("t", "fibre", &bad, &complete(), "h").unwrap_err().to_string();
+    assert!(err.starts_with(&format!("archive {}: committing failed, the archive is unchanged: ", archive.path.display())), "{err}");
+    assert!(err.contains("dimension `node`") && !err.contains('\n'), "{err}");
+    assert!(!dir.path().join("study.h5.partial").exists(), ".partial left behind");
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+}

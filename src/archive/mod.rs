@@ -314,8 +314,9 @@ impl Archive {
         }
     }
 
-    /// A failed commit as one line: a full file system names the archive and the space
-    /// needed (a copy of the archive plus the new version); anything else keeps its cause.
+    /// A failed commit as one line: a full file system (ENOSPC, which HDF5 reports as
+    /// `errno = 28` in its message) names the archive and the space needed (a copy of the
+    /// archive plus the new version); anything else keeps the first line of its cause.
     fn explain_failure(&self, e: anyhow::Error, new_bytes: u64) -> anyhow::Error {
         let old = fs::metadata(&self.path).map(|m| m.len()).unwrap_or(0);
         // The copy, the new data (uncompressed, an upper bound) and HDF5's metadata.
@@ -326,7 +327,7 @@ impl Archive {
                 || c.to_string().contains("No space left on device")
                 || c.to_string().contains("errno = 28")
         });
-        if no_space || free.is_some_and(|f| f < needed) {
+        if no_space {
             let mb = |b: u64| b as f64 / 1e6;
             return anyhow!(
                 "archive {}: the file system is full: committing needs up to {:.1} MB free in {} ({:.1} MB free now); free some space or move the archive, then rerun (the archive is unchanged)",

@@ -36,7 +36,9 @@ fn a_full_disk_is_one_line_and_leaves_no_partial() {
     let _fs = match Tmpfs::mount(&mnt, "3m") {
         Ok(fs) => fs,
         Err(why) => {
-            println!("SKIPPED: disk-full test needs a 3 MB tmpfs (mount -t tmpfs as root): {why}");
+            // Straight to stderr, past the test harness's capture, so that it is seen.
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "SKIPPED: disk-full test needs a 3 MB tmpfs (mount -t tmpfs as root): {why}");
             return;
         }
     };

@@ -415,8 +415,18 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         // Inputs are read only once their stored hashes check out.
         for v in &inputs {
             if !verified.contains(&v.group_path()) {
-                if let Integrity::Damaged(problems) = v.verify() {
-                    return Err(RunError::Runtime(anyhow!("stage `{name}` needs input {}: {}", v.group_path(), v.damage_message(&problems))));
+                match v.verify() {
+                    Integrity::Damaged(problems) => {
+                        return Err(RunError::Runtime(anyhow!("stage `{name}` needs input {}: {}", v.group_path(), v.damage_message(&problems))));
+                    }
+                    Integrity::Unverifiable => eprintln!(
+                        "note: archive {}: input {} was written before laydown stored dataset hashes and cannot be verified; `laydown run {} --force {}` rewrites it",
+                        v.file.display(),
+                        v.group_path(),
+                        pipeline.file.display(),
+                        v.stage
+                    ),
+                    Integrity::Ok => {}
                 }
                 verified.insert(v.group_path());
             }

@@ -160,3 +160,21 @@ fn a_damaged_compressed_input_is_never_read() {
     assert!(e.contains("stage `grid` needs input /web/v1: archive ") && e.contains(&format!("/web/v1 is damaged: dataset `{chunked}`")), "{e}");
     assert!(e.contains("--force web"), "{e}");
 }
+
+#[test]
+fn an_input_without_dataset_hashes_is_used_with_a_note() {
+    let tmp = setup();
+    let d = tmp.path();
+    {
+        let f = hdf5::File::open_rw(d.join("study.h5")).unwrap();
+        f.group("/web/v1").unwrap().delete_attr("dataset_hashes").unwrap();
+    }
+    let out = run_in(d, &["verify", "study.h5"]);
+    let (o, _) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{o}");
+    assert!(o.contains("unchecked  /web/v1 (written before laydown stored dataset hashes)"), "{o}");
+    let out = run_in(d, &["run", "p.yaml", "--only", "grid", "--force", "grid"]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{o}{e}");
+    assert!(e.contains("note: archive ") && e.contains("input /web/v1 was written before laydown stored dataset hashes and cannot be verified; `laydown run p.yaml --force web` rewrites it"), "{e}");
+}

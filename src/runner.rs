@@ -539,3 +539,18 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
     }
     Ok(reports)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_code_hash_is_part_of_the_fingerprint() {
+        let p = crate::pipeline::parse("pipeline: t\narchive: t.h5\nstages:\n  - {name: s, kind: spectra}\n", std::path::Path::new("t.yaml")).unwrap();
+        let decl = &p.stages[0];
+        let with = |code: &str| fingerprint_with_code(decl, 1, code, 0, &[]);
+        assert_ne!(with("old code"), with("new code"));
+        assert_eq!(fingerprint(decl, 1, 0, &[]), with(stages::code_hash("spectra")));
+        assert!(!stages::code_hash("spectra").is_empty());
+    }
+}

@@ -15,12 +15,12 @@
 //! of this happens beside the real file ([`resolve`]), whatever path named it.
 //!
 //! The cost is one copy of the archive per committed stage version; see README.
+//! `schemas/archive_layout.md` documents the groups, datasets and attributes.
 //!
 //! # Integrity
 //! Each version stores the hash of every dataset (`dataset_hashes`, see
 //! [`hdf::dataset_hashes`]) and `content_hash`, the hash of those. [`VersionInfo::verify`]
 //! reads every value back and names each dataset that no longer matches.
-//! `schemas/archive_layout.md` documents the groups, datasets and attributes.
 pub mod data;
 pub mod hdf;
 pub mod provenance;

@@ -9,8 +9,9 @@
 //! (a reflink where the file system supports it), appends the new version group there,
 //! flushes and fsyncs it, and renames it over the archive (atomic on POSIX). A process
 //! killed at any moment leaves either the old or the new archive, both complete; a
-//! version group exists only once complete (`status = complete`). Leftover `.partial`
-//! files are removed by the next run. `<archive>.lock` (an OS file lock, released by the
+//! version group exists only once complete (`status = complete`). A failed commit, or
+//! SIGINT/SIGTERM/SIGHUP during one, removes `.partial`; one left by SIGKILL is removed
+//! by the next run. `<archive>.lock` (an OS file lock, released by the
 //! kernel when the process dies) makes a second concurrent `laydown run` fail fast. All
 //! of this happens beside the real file ([`resolve`]), whatever path named it.
 //!
@@ -291,9 +292,11 @@ impl Archive {
     /// needed (`new_bytes`: the uncompressed size of what `f` adds).
     fn transaction(&self, title: &str, history_line: &str, new_bytes: u64, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
         let partial = sibling(&self.path, ".partial");
+        let guard = PartialGuard::install(&partial);
         let result = write_partial(&self.path, &partial, title, history_line, f).and_then(|()| {
             fs::rename(&partial, &self.path).with_context(|| format!("renaming {} to {}", partial.display(), self.path.display()))
         });
+        drop(guard);
         if let Err(e) = result {
             // The HDF5 handle is closed (dropped in write_partial), so the copy can go.
             let _ = fs::remove_file(&partial);
@@ -340,6 +343,68 @@ impl Archive {
         let first = e.to_string();
         let first = first.lines().next().unwrap_or("").trim().to_string();
         anyhow!("archive {}: committing failed, the archive is unchanged: {first}", self.path.display())
+    }
+}
+
+/// The `.partial` file a commit is writing, for [`remove_partial_and_die`]; null when none.
+static PARTIAL_PATH: std::sync::atomic::AtomicPtr<libc::c_char> = std::sync::atomic::AtomicPtr::new(std::ptr::null_mut());
+
+/// Signals that end a run (Ctrl-C, `kill`, a closed terminal).
+const FATAL_SIGNALS: [libc::c_int; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
+
+extern "C" fn remove_partial_and_die(sig: libc::c_int) {
+    // Only async-signal-safe calls: unlink, signal, raise.
+    let path = PARTIAL_PATH.load(std::sync::atomic::Ordering::SeqCst);
+    unsafe {
+        if !path.is_null() {
+            libc::unlink(path);
+        }
+        libc::signal(sig, libc::SIG_DFL);
+        libc::raise(sig);
+    }
+}
+
+/// While a commit writes `<archive>.partial`, SIGINT, SIGTERM and SIGHUP remove it
+/// before the process dies of the signal (SIGKILL cannot be caught: the next run removes
+/// the file). Dropping the guard restores the previous handlers.
+struct PartialGuard {
+    old: Vec<(libc::c_int, libc::sigaction)>,
+}
+
+impl PartialGuard {
+    fn install(partial: &Path) -> Self {
+        use std::os::unix::ffi::OsStrExt;
+        // Leaked on purpose (one short path per commit): a handler running on another
+        // thread may still read it after the guard is dropped.
+        if let Ok(c) = std::ffi::CString::new(partial.as_os_str().as_bytes()) {
+            PARTIAL_PATH.store(c.into_raw(), std::sync::atomic::Ordering::SeqCst);
+        }
+        let mut old = vec![];
+        for sig in FATAL_SIGNALS {
+            // SAFETY: a plain sigaction whose handler makes only async-signal-safe calls.
+            unsafe {
+                let mut action: libc::sigaction = std::mem::zeroed();
+                action.sa_sigaction = remove_partial_and_die as *const () as libc::sighandler_t;
+                libc::sigemptyset(&mut action.sa_mask);
+                let mut previous: libc::sigaction = std::mem::zeroed();
+                if libc::sigaction(sig, &action, &mut previous) == 0 {
+                    old.push((sig, previous));
+                }
+            }
+        }
+        PartialGuard { old }
+    }
+}
+
+impl Drop for PartialGuard {
+    fn drop(&mut self) {
+        for (sig, previous) in &self.old {
+            // SAFETY: restores the action saved by `install`.
+            unsafe {
+                libc::sigaction(*sig, previous, std::ptr::null_mut());
+            }
+        }
+        PARTIAL_PATH.store(std::ptr::null_mut(), std::sync::atomic::Ordering::SeqCst);
     }
 }
 

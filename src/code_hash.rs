@@ -9,7 +9,8 @@
 
 /// Paths (files or directories, relative to the crate root) whose code computes each kind.
 pub const STAGE_CODE: &[(&str, &[&str])] = &[
-    ("laydown", &["src/stages/laydown", "src/geometry.rs", "src/executor/partial.rs"]),
+    ("laydown", &["src/stages/laydown", "src/rod", "src/geometry.rs", "src/executor/partial.rs"]),
+    ("laid_web", &["src/stages/laid_web", "src/stages/laydown", "src/rod", "src/geometry.rs", "src/executor/partial.rs"]),
     ("spectra", &["src/stages/spectra", "src/geometry.rs"]),
     ("web", &["src/stages/web", "src/stages/spectra", "src/geometry.rs"]),
     ("grid", &["src/stages/grid", "src/stages/web", "src/stages/spectra", "src/geometry.rs", "src/uniformity.rs", "src/executor/partial.rs"]),
@@ -19,7 +20,7 @@ pub const STAGE_CODE: &[(&str, &[&str])] = &[
 
 /// Shared by every kind: the stage interface, parameter tables and values, and how
 /// outputs are built and written.
-pub const COMMON_CODE: &[&str] = &["src/stages/mod.rs", "src/stages/param_table.rs", "src/params.rs", "src/archive/data.rs", "src/archive/hdf.rs"];
+pub const COMMON_CODE: &[&str] = &["src/stages/mod.rs", "src/param_table.rs", "src/params.rs", "src/archive/data.rs", "src/archive/hdf.rs"];
 
 /// Every `.rs` file under `path` (or `path` itself), sorted, without test files.
 pub fn code_files(root: &std::path::Path, path: &str) -> Vec<String> {

@@ -1,6 +1,10 @@
 //! Embeds the git commit, its dirty flag and the rustc version at build time, for provenance.
 use std::process::Command;
 
+mod code {
+    include!("src/code_hash.rs");
+}
+
 fn run(cmd: &str, args: &[&str]) -> Option<String> {
     let out = Command::new(cmd).args(args).output().ok()?;
     if !out.status.success() {
@@ -33,4 +37,14 @@ fn main() {
         }
     }
     println!("cargo:rerun-if-changed=build.rs");
+    // The hash of the code that computes each stage kind (part of its fingerprint).
+    let root = std::path::PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| ".".into()));
+    println!("cargo:rerun-if-changed=src/code_hash.rs");
+    for (kind, paths) in code::STAGE_CODE {
+        let all: Vec<&str> = paths.iter().chain(code::COMMON_CODE).copied().collect();
+        println!("cargo:rustc-env=LAYDOWN_CODE_HASH_{}={}", kind.to_uppercase(), code::code_hash(&root, &all));
+        for p in all {
+            println!("cargo:rerun-if-changed={p}");
+        }
+    }
 }

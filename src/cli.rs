@@ -1,17 +1,19 @@
 //! The `laydown` command line: a thin layer over the pipeline runner and the archive.
-//! Exit codes: 0 success, 1 runtime failure, 2 bad input.
+//! Exit codes, the same for every command: 0 success, 1 runtime failure or damaged
+//! archive, 2 bad input. A failing command prints nothing to stdout.
 use crate::archive::data::Attr;
-use crate::archive::{hdf, Archive};
+use crate::archive::{hdf, Archive, Integrity};
 use crate::params::ParamKind;
 use crate::runner::{self, RunError, RunOptions};
+use crate::stages::BadInput;
 use crate::{pipeline, stages};
-use anyhow::{anyhow, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 const AFTER_HELP: &str = "Stage kinds: laydown, spectra, web, grid, image. \
 `laydown stages KIND` prints a kind's parameters with units, defaults and allowed ranges.\n\
-Exit codes: 0 success, 1 runtime failure, 2 bad input.";
+Exit codes: 0 success, 1 runtime failure or damaged archive, 2 bad input.";
 
 #[derive(Parser, Debug)]
 #[command(name = "laydown", version, about = "Fibre laydown, curvature spectra, stochastic nonwoven webs and their uniformity, in one versioned HDF5 archive per study.", after_help = AFTER_HELP)]
@@ -70,6 +72,9 @@ pub enum Command {
     Validate { pipeline: PathBuf },
     /// List stages and versions of an archive (status, params hash, wall time).
     Ls { archive: PathBuf },
+    /// Check every version of an archive against the hashes stored when it was
+    /// committed (reading every value); names each damaged group and dataset. Exit 1 on damage.
+    Verify { archive: PathBuf },
     /// Show a stage version's provenance and datasets (`STAGE` is the latest version).
     Show {
         archive: PathBuf,
@@ -108,6 +113,10 @@ pub fn main_with(cli: Cli) -> i32 {
                 }
             };
             if let Some(a) = archive {
+                if a.is_dir() {
+                    eprintln!("error: --archive: `{}` is a directory; give the path of an HDF5 file, e.g. {}", a.display(), a.join("study.h5").display());
+                    return 2;
+                }
                 p.archive = a;
             }
             if let Some(e) = executor {
@@ -156,6 +165,7 @@ pub fn main_with(cli: Cli) -> i32 {
             }
         },
         Command::Ls { archive } => report(ls(&archive)),
+        Command::Verify { archive } => report(verify(&archive)),
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
         Command::Stages { kind } => report(describe_stages(kind.as_deref())),
         Command::Plot { archive, stages, out, format } => report(plot(&archive, &stages, out.as_deref(), format)),
@@ -166,26 +176,37 @@ pub fn main_with(cli: Cli) -> i32 {
     }
 }
 
+/// Print a command's error; exit 2 for bad input (a [`BadInput`] anywhere in the chain:
+/// a missing archive, an unknown stage or version, a malformed argument), 1 for
+/// everything else (a damaged archive, a failure while reading or drawing).
 fn report(r: Result<()>) -> i32 {
     match r {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<RunError>().is_some_and(|r| r.exit_code() == 1) {
-                1
-            } else {
-                2
-            }
+            exit_code(&e)
         }
     }
 }
 
-fn ls(path: &PathBuf) -> Result<()> {
+/// 2 for bad input, 1 otherwise (see [`report`]).
+pub fn exit_code(e: &anyhow::Error) -> i32 {
+    if e.chain().any(|c| c.is::<BadInput>()) {
+        return 2;
+    }
+    match e.downcast_ref::<RunError>() {
+        Some(r) => r.exit_code(),
+        None => 1,
+    }
+}
+
+/// Lists everything before printing, so a failure prints nothing to stdout.
+fn ls(path: &std::path::Path) -> Result<()> {
     let archive = Archive::open_read(path)?;
-    println!("{:<16} {:>4} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)");
+    let mut lines = vec![format!("{:<16} {:>4} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)")];
     for stage in archive.stages()? {
         for v in archive.versions(&stage)? {
-            println!(
+            lines.push(format!(
                 "{:<16} {:>4} {:<10} {:<10} {:<17} {:>10.2}  {}",
                 stage,
                 format!("v{}", v.number),
@@ -194,10 +215,59 @@ fn ls(path: &PathBuf) -> Result<()> {
                 v.attr_str("params_hash").unwrap_or("?"),
                 v.attr_f64("wall_seconds").unwrap_or(f64::NAN),
                 v.attr_str("end_utc").unwrap_or("?"),
-            );
+            ));
         }
     }
+    println!("{}", lines.join("\n"));
     Ok(())
+}
+
+/// Every version checked; the report goes to stdout (one line per version), then, if
+/// anything is damaged, one error line (exit 1).
+fn verify(path: &std::path::Path) -> Result<()> {
+    let archive = Archive::open_read(path)?;
+    let (mut lines, mut damaged, mut total) = (vec![], vec![], 0);
+    for stage in archive.stages()? {
+        let versions = match archive.versions(&stage) {
+            Ok(v) => v,
+            Err(e) => {
+                lines.push(format!("DAMAGED    /{stage}: its versions cannot be listed ({})", e.to_string().lines().next().unwrap_or("")));
+                damaged.push((format!("/{stage}"), stage.clone(), None));
+                continue;
+            }
+        };
+        for v in versions {
+            total += 1;
+            match v.verify() {
+                Integrity::Ok => lines.push(format!("ok         {}", v.group_path())),
+                Integrity::Unverifiable => lines.push(format!("unchecked  {} (written before laydown stored dataset hashes)", v.group_path())),
+                Integrity::Damaged(problems) => {
+                    lines.push(format!("DAMAGED    {}: {}", v.group_path(), problems.join("; ")));
+                    damaged.push((v.group_path(), stage.clone(), v.attr_str("pipeline_file").map(str::to_string)));
+                }
+            }
+        }
+    }
+    if !lines.is_empty() {
+        println!("{}", lines.join("\n"));
+    }
+    if damaged.is_empty() {
+        return Ok(());
+    }
+    let groups: Vec<&str> = damaged.iter().map(|(g, _, _)| g.as_str()).collect();
+    let fixes: Vec<String> = damaged
+        .iter()
+        .map(|(_, stage, p)| format!("`laydown run {} --force {stage}`", p.as_deref().unwrap_or("PIPELINE")))
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    Err(anyhow::anyhow!(
+        "archive {}: {} of {total} versions damaged ({}); do not use them: {} computes them again",
+        path.display(),
+        damaged.len(),
+        groups.join(", "),
+        fixes.join(", ")
+    ))
 }
 
 /// Parse `STAGE` or `STAGE@vN`.
@@ -208,16 +278,18 @@ pub fn parse_stage_ref(s: &str) -> Result<(String, Option<u32>)> {
             let n = v
                 .strip_prefix('v')
                 .and_then(|n| n.parse().ok())
-                .ok_or_else(|| anyhow!("`{s}`: expected STAGE or STAGE@vN, e.g. fibre@v2"))?;
+                .ok_or_else(|| BadInput(format!("`{s}`: expected STAGE or STAGE@vN, e.g. fibre@v2")))?;
             Ok((name.to_string(), Some(n)))
         }
     }
 }
 
-fn show(path: &PathBuf, stage_ref: &str, json: bool) -> Result<()> {
+fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
     let archive = Archive::open_read(path)?;
     let (stage, number) = parse_stage_ref(stage_ref)?;
     let v = archive.version(&stage, number)?;
+    // A damaged version is reported, not shown as if it were healthy.
+    v.check()?;
     let file = v.open()?;
     let mut datasets = vec![];
     for name in file.member_names()? {
@@ -270,12 +342,15 @@ fn show(path: &PathBuf, stage_ref: &str, json: bool) -> Result<()> {
 
 fn plot(archive: &std::path::Path, stage_refs: &[String], out: Option<&std::path::Path>, format: crate::plot::figure::Format) -> Result<()> {
     let refs = if stage_refs.is_empty() { Archive::open_read(archive)?.stages()? } else { stage_refs.to_vec() };
+    // Paths are printed once every figure is drawn: a failure prints nothing to stdout.
+    let mut written = vec![];
     for r in &refs {
         // Each stage in its own subdirectory when several go to one --out.
         let dir = out.map(|o| if refs.len() > 1 { o.join(r.replace('@', "_")) } else { o.to_path_buf() });
-        for path in crate::plot::plot_stage(archive, r, dir.as_deref(), format).with_context(|| format!("plotting {r}"))? {
-            println!("{}", path.display());
-        }
+        written.extend(crate::plot::plot_stage(archive, r, dir.as_deref(), format).with_context(|| format!("plotting {r}"))?);
+    }
+    for path in written {
+        println!("{}", path.display());
     }
     Ok(())
 }
@@ -290,7 +365,7 @@ fn describe_stages(kind: Option<&str>) -> Result<()> {
         }
         Some(k) => {
             let s = stages::find(k).ok_or_else(|| {
-                anyhow!("unknown stage kind `{k}`; allowed: {}", stages::kinds().join(", "))
+                BadInput(format!("unknown stage kind `{k}`; allowed: {}", stages::kinds().join(", ")))
             }).context("laydown stages")?;
             println!("{} — {}\n", s.kind(), s.summary());
             let rule = s.inputs();

@@ -13,6 +13,8 @@
 //! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation).
 pub mod archive;
 pub mod cli;
+/// What source code each stage kind's results depend on, hashed at build time (see build.rs).
+pub mod code_hash;
 pub mod executor;
 pub mod geometry;
 pub mod param_table;

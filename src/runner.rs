@@ -3,11 +3,16 @@
 //! (`params.diameter changed 5e-05 -> 2e-05`, `input fibre v1 -> v2`, `new stage`),
 //! runs what must run, and writes each result as a new version with provenance.
 //!
-//! The fingerprint of a stage run is blake3 over: kind, cache_version, canonical
+//! The fingerprint of a stage run is blake3 over: kind, cache_version, the hash of the
+//! stage code ([`stages::code_hash`], `code of grid changed`), canonical
 //! parameters (defaults filled in), sweep, replicates, seed, and the content hashes of
 //! the input versions. Equal fingerprints mean equal results (stages are deterministic).
+//!
+//! A version is used only once its datasets match the hashes stored with it
+//! ([`VersionInfo::verify`]): a damaged up-to-date version is computed again (and the
+//! reason says so), a damaged input of a stage that must run is an error.
 use crate::archive::data::{Attr, Output, Values};
-use crate::archive::{provenance, Archive, VersionInfo};
+use crate::archive::{provenance, Archive, Integrity, VersionInfo};
 use crate::params::ParamValue;
 use crate::pipeline::{Pipeline, StageDecl};
 use crate::stages::{self, BadInput, Input, RunContext};
@@ -66,6 +71,11 @@ pub struct StageReport {
 }
 
 pub fn fingerprint(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(String, String)]) -> String {
+    fingerprint_with_code(decl, cache_version, stages::code_hash(&decl.kind), seed, inputs)
+}
+
+/// [`fingerprint`] with the stage code's hash given.
+fn fingerprint_with_code(decl: &StageDecl, cache_version: u32, code: &str, seed: u64, inputs: &[(String, String)]) -> String {
     let mut h = blake3::Hasher::new();
     let mut field = |k: &str, v: &str| {
         h.update(k.as_bytes());
@@ -75,6 +85,7 @@ pub fn fingerprint(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(S
     };
     field("kind", &decl.kind);
     field("cache_version", &cache_version.to_string());
+    field("code", code);
     field("params", &decl.params.canonical_yaml());
     field("sweep", &decl.sweep_yaml());
     field("replicates", &decl.replicates.to_string());
@@ -102,6 +113,11 @@ fn reason(
     let prev_cache = prev.attr_f64("cache_version").unwrap_or(-1.0) as i64;
     if prev_cache != cache_version as i64 {
         why.push(format!("stage code changed (cache_version {prev_cache} -> {cache_version})"));
+    }
+    match prev.attr_str("code_hash") {
+        Some(c) if c == stages::code_hash(&decl.kind) => {}
+        Some(_) => why.push(format!("code of {} changed", decl.kind)),
+        None => why.push(format!("code of {} changed (v{} has no code hash: written by an older laydown)", decl.kind, prev.number)),
     }
     let old: BTreeMap<String, String> = flatten_yaml(prev.attr_str("params_yaml").unwrap_or(""));
     let new: BTreeMap<String, String> = flatten_yaml(&decl.params.canonical_yaml());
@@ -320,6 +336,8 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
     };
     let archive = Archive::open_write(&pipeline.archive).map_err(RunError::Runtime)?;
     let mut chosen: BTreeMap<String, VersionInfo> = BTreeMap::new();
+    // Versions checked against their stored hashes (or written) in this run.
+    let mut verified: std::collections::BTreeSet<String> = Default::default();
     let mut reports = vec![];
 
     for name in pipeline.topological_order() {
@@ -377,14 +395,46 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
             )));
         };
         let forced = opts.force.contains(&name);
+        // An up-to-date version is used only once its stored hashes check out.
+        let mut damaged = None;
         if let (Some(v), false) = (cached, forced) {
-            println!("{name}: up to date (v{})", v.number);
-            chosen.insert(name.clone(), v.clone());
-            reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
-            continue;
+            match v.verify() {
+                Integrity::Damaged(problems) => {
+                    eprintln!("warning: {}", v.damage_message(&problems).split("; do not use it").next().unwrap_or(""));
+                    damaged = Some(format!("stored v{} is damaged ({}); computing it again", v.number, problems.join("; ")));
+                }
+                Integrity::Ok | Integrity::Unverifiable => {
+                    println!("{name}: up to date (v{})", v.number);
+                    verified.insert(v.group_path());
+                    chosen.insert(name.clone(), v.clone());
+                    reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
+                    continue;
+                }
+            }
+        }
+        // Inputs are read only once their stored hashes check out.
+        for v in &inputs {
+            if !verified.contains(&v.group_path()) {
+                match v.verify() {
+                    Integrity::Damaged(problems) => {
+                        return Err(RunError::Runtime(anyhow!("stage `{name}` needs input {}: {}", v.group_path(), v.damage_message(&problems))));
+                    }
+                    Integrity::Unverifiable => eprintln!(
+                        "note: archive {}: input {} was written before laydown stored dataset hashes and cannot be verified; `laydown run {} --force {}` rewrites it",
+                        v.file.display(),
+                        v.group_path(),
+                        pipeline.file.display(),
+                        v.stage
+                    ),
+                    Integrity::Ok => {}
+                }
+                verified.insert(v.group_path());
+            }
         }
         let input_versions: Vec<(String, u32)> = inputs.iter().map(|v| (v.stage.clone(), v.number)).collect();
-        let why = if forced && cached.is_some() {
+        let why = if let Some(d) = damaged {
+            d
+        } else if forced && cached.is_some() {
             "forced (--force)".to_string()
         } else {
             reason(decl, stage.cache_version(), seed, &input_versions, &files, complete.last().copied())
@@ -423,7 +473,8 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         let cpu = provenance::cpu_seconds() - cpu0;
         add_sweep_coordinates(&mut out, &sweep).map_err(RunError::Runtime)?;
         units_of_sweep(&mut out, &sweep, &stage.params());
-        let content_hash = crate::archive::hdf::content_hash(&out);
+        let hashes = crate::archive::hdf::dataset_hashes(&out);
+        let content_hash = crate::archive::hdf::hash_of_dataset_hashes(&hashes);
 
         let mut attrs = provenance::environment();
         let mut put = |k: &str, v: Attr| {
@@ -432,6 +483,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         put("stage_name", Attr::Str(name.clone()));
         put("stage_kind", Attr::Str(decl.kind.clone()));
         put("cache_version", Attr::I64(stage.cache_version() as i64));
+        put("code_hash", Attr::Str(stages::code_hash(&decl.kind).to_string()));
         put("params_yaml", Attr::Str(decl.params.canonical_yaml()));
         put("params_hash", Attr::Str(blake3::hash(decl.params.canonical_yaml().as_bytes()).to_hex()[..16].to_string()));
         put("sweep_yaml", Attr::Str(decl.sweep_yaml()));
@@ -453,6 +505,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         }
         put("fingerprint", Attr::Str(fp.clone()));
         put("content_hash", Attr::Str(content_hash));
+        put("dataset_hashes", Attr::Str(crate::archive::hdf::dataset_hashes_attr(&hashes)));
         put("pipeline_name", Attr::Str(pipeline.name.clone()));
         put("pipeline_file", Attr::Str(pipeline.file.display().to_string()));
         put("run_reason", Attr::Str(why.clone()));
@@ -480,8 +533,24 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         let v = archive.version(&name, Some(number)).map_err(RunError::Runtime)?;
         crate::executor::committed(&executor, &job);
         println!("{name}: wrote v{number} in {wall:.2} s");
+        verified.insert(v.group_path());
         chosen.insert(name.clone(), v);
         reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });
     }
     Ok(reports)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_code_hash_is_part_of_the_fingerprint() {
+        let p = crate::pipeline::parse("pipeline: t\narchive: t.h5\nstages:\n  - {name: s, kind: spectra}\n", std::path::Path::new("t.yaml")).unwrap();
+        let decl = &p.stages[0];
+        let with = |code: &str| fingerprint_with_code(decl, 1, code, 0, &[]);
+        assert_ne!(with("old code"), with("new code"));
+        assert_eq!(fingerprint(decl, 1, 0, &[]), with(stages::code_hash("spectra")));
+        assert!(!stages::code_hash("spectra").is_empty());
+    }
 }

@@ -68,3 +68,52 @@ fn stale_partial_copy_is_removed_and_archive_untouched() {
     assert_eq!(archive.versions("fibre").unwrap().len(), 1);
     assert_eq!(std::fs::read(&path).unwrap(), before);
 }
+
+#[test]
+fn dataset_hashes_read_back_from_the_file_for_every_value_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("study.h5");
+    let archive = Archive::open_write(&path).unwrap();
+    let out = sample_output();
+    let hashes = hdf::dataset_hashes(&out);
+    // Floats, flags, strings, integers, a coordinate and the index coordinates `xyz` and `replicate`.
+    let names: Vec<&str> = hashes.keys().map(String::as_str).collect();
+    assert_eq!(names, ["invalid_reason", "node", "positions", "replicate", "steps", "valid", "xyz"]);
+    let mut attrs = complete();
+    attrs.insert("dataset_hashes".into(), Attr::Str(hdf::dataset_hashes_attr(&hashes)));
+    attrs.insert("content_hash".into(), Attr::Str(hdf::content_hash(&out)));
+    archive.commit_version("t", "fibre", &out, &attrs, "h").unwrap();
+    let v = archive.version("fibre", Some(1)).unwrap();
+    let g = v.open().unwrap();
+    for (name, hash) in &hashes {
+        assert_eq!(&hdf::read_dataset_hash(&g.dataset(name).unwrap()).unwrap(), hash, "{name}");
+    }
+    assert_eq!(v.verify(), laydown::archive::Integrity::Ok);
+    // A changed stored hash list no longer matches content_hash.
+    let mut wrong = hashes.clone();
+    wrong.insert("steps".into(), "0".repeat(32));
+    attrs.insert("dataset_hashes".into(), Attr::Str(hdf::dataset_hashes_attr(&wrong)));
+    archive.commit_version("t", "fibre", &out, &attrs, "h").unwrap();
+    let laydown::archive::Integrity::Damaged(problems) = archive.version("fibre", Some(2)).unwrap().verify() else { panic!("not damaged") };
+    assert_eq!(problems, ["attribute `dataset_hashes` does not match `content_hash`", "dataset `steps` differs from its stored hash"]);
+    // Versions without dataset hashes (older laydown) cannot be checked, and say so.
+    archive.commit_version("t", "old", &out, &complete(), "h").unwrap();
+    assert_eq!(archive.version("old", None).unwrap().verify(), laydown::archive::Integrity::Unverifiable);
+}
+
+#[test]
+fn a_failed_commit_removes_the_partial_copy_and_keeps_the_archive() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("study.h5");
+    let archive = Archive::open_write(&path).unwrap();
+    archive.commit_version("t", "fibre", &sample_output(), &complete(), "h").unwrap();
+    let before = std::fs::read(&path).unwrap();
+    // Variables that disagree on a dimension's length cannot be written.
+    let mut bad = sample_output();
+    bad.f64("other", &["node"], Array1::from(vec![1.0, 2.0]), "m", "too short");
+    let err = archive.commit_version("t", "fibre", &bad, &complete(), "h").unwrap_err().to_string();
+    assert!(err.starts_with(&format!("archive {}: committing failed, the archive is unchanged: ", archive.path.display())), "{err}");
+    assert!(err.contains("dimension `node`") && !err.contains('\n'), "{err}");
+    assert!(!dir.path().join("study.h5.partial").exists(), ".partial left behind");
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+}

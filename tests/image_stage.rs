@@ -412,8 +412,9 @@ fn cli_bad_files_exit_2_and_leave_the_archive_byte_identical() {
     let cases = [
         ("[good.png, corrupt.png]", "corrupt.png"),
         ("[truncated.png]", "truncated.png"),
-        ("[missing.png]", "missing.png"),
-        ("['nothing/*.tif']", "no files match"),
+        // Missing files and empty globs are found by validation, before the run.
+        ("[missing.png]", "stages[0].params.files[0]: `missing.png` does not exist"),
+        ("['nothing/*.tif']", "stages[0].params.files[0]: `nothing/*.tif` matches no file"),
         ("[tiny.png]", "8×40 pixels; at least 16×16"),
         ("[black.png]", "needs a positive mean"),
     ];
@@ -422,7 +423,7 @@ fn cli_bad_files_exit_2_and_leave_the_archive_byte_identical() {
         let out = run_in(d, &["run", p.to_str().unwrap()]);
         let (_, e) = text(&out);
         assert_eq!(out.status.code(), Some(2), "{files}: {e}");
-        assert!(e.contains(expect) && e.contains("stage `scans`"), "{files}: expected `{expect}` in {e}");
+        assert!(e.contains(expect) && (e.contains("stage `scans`") || e.contains("params.files")), "{files}: expected `{expect}` in {e}");
         assert_eq!(std::fs::read(&archive).unwrap(), before, "{files} changed the archive");
     }
     assert!(!d.join("out/study_figures/scans/v2").exists());

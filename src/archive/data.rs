@@ -164,6 +164,19 @@ impl Output {
         self.attrs.insert(key.to_string(), value.into());
     }
 
+    /// Bytes of all values, uncompressed (what a commit may need on disk, at most).
+    pub fn byte_size(&self) -> u64 {
+        self.variables
+            .iter()
+            .map(|v| match &v.values {
+                Values::F64(a) => 8 * a.len() as u64,
+                Values::I64(a) => 8 * a.len() as u64,
+                Values::U8(a) => a.len() as u64,
+                Values::Str(s) => s.iter().map(|x| x.len() as u64 + 16).sum(),
+            })
+            .sum()
+    }
+
     /// Length of every dimension, checking that all variables agree.
     pub fn dimensions(&self) -> Result<BTreeMap<String, usize>, String> {
         let mut dims = BTreeMap::new();

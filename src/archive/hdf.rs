@@ -159,38 +159,108 @@ pub fn write_output(group: &hdf5::Group, out: &Output) -> Result<()> {
     Ok(())
 }
 
-/// Content hash of an output: names, dimensions, units and the exact bytes of every value.
-pub fn content_hash(out: &Output) -> String {
-    let mut h = blake3::Hasher::new();
-    for v in &out.variables {
-        h.update(v.name.as_bytes());
+/// The hash of one dataset as it is written and as it reads back: its units, value
+/// class (`float`, `int` for integers and flags, `str`), shape and values (floats as
+/// their bits, integers as i64, both little-endian; strings NUL-terminated).
+struct ValueHasher(blake3::Hasher);
+
+impl ValueHasher {
+    fn new(units: &str, class: &str, shape: &[usize]) -> Self {
+        let mut h = blake3::Hasher::new();
+        h.update(units.as_bytes());
         h.update(&[0]);
-        for d in &v.dims {
-            h.update(d.as_bytes());
-            h.update(&[1]);
-        }
-        h.update(v.units.as_bytes());
-        h.update(v.values.type_name().as_bytes());
-        for n in v.values.shape() {
+        h.update(class.as_bytes());
+        h.update(&[0]);
+        for &n in shape {
             h.update(&(n as u64).to_le_bytes());
         }
-        match &v.values {
-            Values::F64(a) => a.iter().for_each(|x| {
-                h.update(&x.to_bits().to_le_bytes());
-            }),
-            Values::I64(a) => a.iter().for_each(|x| {
-                h.update(&x.to_le_bytes());
-            }),
-            Values::U8(a) => a.iter().for_each(|x| {
-                h.update(&[*x]);
-            }),
-            Values::Str(s) => s.iter().for_each(|x| {
-                h.update(x.as_bytes());
-                h.update(&[0]);
-            }),
+        ValueHasher(h)
+    }
+    fn floats<'a>(mut self, v: impl Iterator<Item = &'a f64>) -> String {
+        v.for_each(|x| {
+            self.0.update(&x.to_bits().to_le_bytes());
+        });
+        self.done()
+    }
+    fn ints(mut self, v: impl Iterator<Item = i64>) -> String {
+        v.for_each(|x| {
+            self.0.update(&x.to_le_bytes());
+        });
+        self.done()
+    }
+    fn strings<'a>(mut self, v: impl Iterator<Item = &'a str>) -> String {
+        v.for_each(|x| {
+            self.0.update(x.as_bytes());
+            self.0.update(&[0]);
+        });
+        self.done()
+    }
+    fn done(self) -> String {
+        self.0.finalize().to_hex()[..32].to_string()
+    }
+}
+
+/// The hash of every dataset `write_output` writes for `out` (its variables and the
+/// integer index coordinates of dimensions without one), by name.
+pub fn dataset_hashes(out: &Output) -> BTreeMap<String, String> {
+    let mut hashes = BTreeMap::new();
+    for v in &out.variables {
+        let shape = v.values.shape();
+        let hash = match &v.values {
+            Values::F64(a) => ValueHasher::new(&v.units, "float", &shape).floats(a.iter()),
+            Values::I64(a) => ValueHasher::new(&v.units, "int", &shape).ints(a.iter().copied()),
+            Values::U8(a) => ValueHasher::new(&v.units, "int", &shape).ints(a.iter().map(|&x| x as i64)),
+            Values::Str(s) => ValueHasher::new(&v.units, "str", &shape).strings(s.iter().map(String::as_str)),
+        };
+        hashes.insert(v.name.clone(), hash);
+    }
+    if let Ok(dims) = out.dimensions() {
+        for (dim, n) in dims {
+            if !out.variables.iter().any(|v| v.name == dim && v.dims.len() == 1 && v.dims[0] == dim) {
+                hashes.insert(dim, ValueHasher::new("1", "int", &[n]).ints(0..n as i64));
+            }
         }
     }
-    h.finalize().to_hex()[..32].to_string()
+    hashes
+}
+
+/// The `dataset_hashes` attribute: one `name hash` line per dataset, sorted by name.
+pub fn dataset_hashes_attr(hashes: &BTreeMap<String, String>) -> String {
+    hashes.iter().map(|(n, h)| format!("{n} {h}")).collect::<Vec<_>>().join("\n")
+}
+
+/// Parse a `dataset_hashes` attribute back.
+pub fn parse_dataset_hashes(attr: &str) -> BTreeMap<String, String> {
+    attr.lines().filter_map(|l| l.rsplit_once(' ')).map(|(n, h)| (n.to_string(), h.to_string())).collect()
+}
+
+/// Content hash of an output: blake3 of its `dataset_hashes` lines, so it can be
+/// recomputed from the archive (see [`read_dataset_hash`]) to verify a stored version.
+pub fn content_hash(out: &Output) -> String {
+    hash_of_dataset_hashes(&dataset_hashes(out))
+}
+
+pub fn hash_of_dataset_hashes(hashes: &BTreeMap<String, String>) -> String {
+    blake3::hash(dataset_hashes_attr(hashes).as_bytes()).to_hex()[..32].to_string()
+}
+
+/// The hash of a dataset as stored (reading every value), comparable with [`dataset_hashes`].
+pub fn read_dataset_hash(ds: &hdf5::Dataset) -> Result<String> {
+    use hdf5::types::TypeDescriptor as T;
+    let units = match ds.attr("units").and_then(|a| a.read_scalar::<VarLenUnicode>()) {
+        Ok(u) => u.as_str().to_string(),
+        Err(_) => String::new(),
+    };
+    let shape = ds.shape();
+    Ok(match ds.dtype()?.to_descriptor()? {
+        T::Float(_) => ValueHasher::new(&units, "float", &shape).floats(ds.read_raw::<f64>()?.iter()),
+        T::Integer(_) | T::Unsigned(_) => ValueHasher::new(&units, "int", &shape).ints(ds.read_raw::<i64>()?.into_iter()),
+        T::VarLenUnicode => {
+            let v = ds.read_raw::<VarLenUnicode>()?;
+            ValueHasher::new(&units, "str", &shape).strings(v.iter().map(|s| s.as_str()))
+        }
+        other => return Err(anyhow!("unexpected type {other:?}")),
+    })
 }
 
 pub fn read_f64(group: &hdf5::Group, name: &str) -> Result<ArrayD<f64>> {

@@ -9,16 +9,24 @@
 //! (a reflink where the file system supports it), appends the new version group there,
 //! flushes and fsyncs it, and renames it over the archive (atomic on POSIX). A process
 //! killed at any moment leaves either the old or the new archive, both complete; a
-//! version group exists only once complete (`status = complete`). Leftover `.partial`
-//! files are removed by the next run. `<archive>.lock` (an OS file lock, released by the
-//! kernel when the process dies) makes a second concurrent `laydown run` fail fast.
+//! version group exists only once complete (`status = complete`). A failed commit, or
+//! SIGINT/SIGTERM/SIGHUP during one, removes `.partial`; one left by SIGKILL is removed
+//! by the next run. `<archive>.lock` (an OS file lock, released by the
+//! kernel when the process dies) makes a second concurrent `laydown run` fail fast. All
+//! of this happens beside the real file ([`resolve`]), whatever path named it.
 //!
 //! The cost is one copy of the archive per committed stage version; see README.
 //! `schemas/archive_layout.md` documents the groups, datasets and attributes.
+//!
+//! # Integrity
+//! Each version stores the hash of every dataset (`dataset_hashes`, see
+//! [`hdf::dataset_hashes`]) and `content_hash`, the hash of those. [`VersionInfo::verify`]
+//! reads every value back and names each dataset that no longer matches.
 pub mod data;
 pub mod hdf;
 pub mod provenance;
 
+use crate::stages::BadInput;
 use anyhow::{anyhow, bail, Context, Result};
 use data::{Attr, Output};
 use std::collections::BTreeMap;
@@ -66,12 +74,82 @@ impl VersionInfo {
     pub fn is_complete(&self) -> bool {
         self.attr_str("status") == Some("complete")
     }
+    /// Check every dataset of the version against the hashes stored when it was
+    /// committed (`dataset_hashes`, whose hash is `content_hash`), reading every value.
+    pub fn verify(&self) -> Integrity {
+        let Some(stored) = self.attr_str("dataset_hashes") else { return Integrity::Unverifiable };
+        let expected = hdf::parse_dataset_hashes(stored);
+        let mut problems = vec![];
+        if self.attr_str("content_hash") != Some(hdf::hash_of_dataset_hashes(&expected).as_str()) {
+            problems.push("attribute `dataset_hashes` does not match `content_hash`".to_string());
+        }
+        let group = match self.open() {
+            Ok(g) => g,
+            Err(e) => return Integrity::Damaged(vec![format!("the group cannot be opened ({})", first_line(&e))]),
+        };
+        for (name, hash) in &expected {
+            match group.dataset(name) {
+                Err(_) => problems.push(format!("dataset `{name}` is missing")),
+                Ok(ds) => match hdf::read_dataset_hash(&ds) {
+                    Err(e) => problems.push(format!("dataset `{name}` cannot be read ({})", first_line(&e))),
+                    Ok(h) if &h != hash => problems.push(format!("dataset `{name}` differs from its stored hash")),
+                    Ok(_) => {}
+                },
+            }
+        }
+        for name in group.member_names().unwrap_or_default() {
+            if !expected.contains_key(&name) && group.dataset(&name).is_ok() {
+                problems.push(format!("dataset `{name}` was not there when the version was committed"));
+            }
+        }
+        if problems.is_empty() {
+            Integrity::Ok
+        } else {
+            Integrity::Damaged(problems)
+        }
+    }
+
+    /// One line for a damaged version: the file, the group, what is wrong and what to do.
+    pub fn damage_message(&self, problems: &[String]) -> String {
+        let pipeline = self.attr_str("pipeline_file").unwrap_or("PIPELINE");
+        format!(
+            "archive {}: {} is damaged: {}; do not use it: `laydown run {pipeline} --force {}` computes it again (`laydown verify {}` lists all damage)",
+            self.file.display(),
+            self.group_path(),
+            problems.join("; "),
+            self.stage,
+            self.file.display()
+        )
+    }
+
+    /// [`Self::verify`] as a result: damage is an error carrying [`Self::damage_message`].
+    pub fn check(&self) -> Result<()> {
+        match self.verify() {
+            Integrity::Damaged(problems) => bail!(self.damage_message(&problems)),
+            Integrity::Ok | Integrity::Unverifiable => Ok(()),
+        }
+    }
+
     /// Open the version's group for reading.
     pub fn open(&self) -> Result<hdf5::Group> {
-        let file = hdf5::File::open(&self.file).with_context(|| format!("opening {}", self.file.display()))?;
+        let file = open_hdf5(&self.file)?;
         file.group(&self.group_path())
             .with_context(|| format!("{} has no group {}", self.file.display(), self.group_path()))
     }
+}
+
+/// What [`VersionInfo::verify`] found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Integrity {
+    Ok,
+    /// Written before versions stored per-dataset hashes: nothing to check against.
+    Unverifiable,
+    /// One entry per problem: `dataset `x` differs from its stored hash`, ...
+    Damaged(Vec<String>),
+}
+
+fn first_line(e: &anyhow::Error) -> String {
+    e.to_string().lines().next().unwrap_or("").trim().to_string()
 }
 
 /// An archive on disk (which may not exist yet).
@@ -84,18 +162,29 @@ impl Archive {
     /// Open for reading; nothing is created.
     pub fn open_read(path: &Path) -> Result<Self> {
         if !path.exists() {
-            bail!("archive {} does not exist", path.display());
+            return Err(BadInput(format!("archive {} does not exist; give the path of an archive written by `laydown run`", path.display())).into());
+        }
+        if path.is_dir() {
+            return Err(BadInput(format!("archive {} is a directory; give the path of an HDF5 file", path.display())).into());
         }
         Ok(Archive { path: path.to_path_buf(), _lock: None })
     }
 
     /// Open for writing: takes the run lock (failing fast if another run holds it) and
     /// removes a temporary copy left by a killed run. Creates nothing else.
+    ///
+    /// The path is resolved first ([`resolve`]): the lock, the temporary copy and the
+    /// commit's rename all work on the real file, so runs through a symlink and through
+    /// the file itself share one lock and one archive, and the symlink stays a symlink.
     pub fn open_write(path: &Path) -> Result<Self> {
         if let Some(parent) = path.parent() {
             if !parent.as_os_str().is_empty() {
                 fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
             }
+        }
+        let path = &resolve(path)?;
+        if path.is_dir() {
+            bail!("archive {} is a directory; give the path of an HDF5 file, e.g. {}", path.display(), path.join("study.h5").display());
         }
         let lock_path = sibling(path, ".lock");
         let lock = fs::OpenOptions::new()
@@ -125,7 +214,7 @@ impl Archive {
         if !self.path.exists() {
             return Ok(vec![]);
         }
-        let file = hdf5::File::open(&self.path).with_context(|| format!("opening {}", self.path.display()))?;
+        let file = open_hdf5(&self.path)?;
         let mut out: Vec<String> = file.groups()?.iter().map(|g| g.name().trim_start_matches('/').to_string()).collect();
         out.sort();
         Ok(out)
@@ -136,7 +225,7 @@ impl Archive {
         if !self.path.exists() {
             return Ok(vec![]);
         }
-        let file = hdf5::File::open(&self.path).with_context(|| format!("opening {}", self.path.display()))?;
+        let file = open_hdf5(&self.path)?;
         let Ok(group) = file.group(stage) else { return Ok(vec![]) };
         let mut out = vec![];
         for name in group.member_names()? {
@@ -153,7 +242,7 @@ impl Archive {
         let versions = self.versions(stage)?;
         if versions.is_empty() {
             let stages = self.stages()?;
-            bail!("stage `{stage}` has no versions in {}; stages present: {}", self.path.display(), stages.join(", "));
+            return Err(BadInput(format!("stage `{stage}` has no versions in {}; stages present: {}", self.path.display(), stages.join(", "))).into());
         }
         let found = match number {
             Some(n) => versions.iter().find(|v| v.number == n).cloned(),
@@ -161,7 +250,7 @@ impl Archive {
         };
         found.ok_or_else(|| {
             let have: Vec<String> = versions.iter().map(|v| format!("v{}", v.number)).collect();
-            anyhow!("stage `{stage}` has no version v{} in {}; it has {}", number.unwrap_or(0), self.path.display(), have.join(", "))
+            BadInput(format!("stage `{stage}` has no version v{} in {}; it has {}", number.unwrap_or(0), self.path.display(), have.join(", "))).into()
         })
     }
 
@@ -176,7 +265,7 @@ impl Archive {
         history_line: &str,
     ) -> Result<u32> {
         let number = self.versions(stage)?.last().map(|v| v.number + 1).unwrap_or(1);
-        self.transaction(title, history_line, |file| {
+        self.transaction(title, history_line, out.byte_size(), |file| {
             let sgroup = match file.group(stage) {
                 Ok(g) => g,
                 Err(_) => file.create_group(stage)?,
@@ -198,50 +287,211 @@ impl Archive {
     }
 
     /// Copy the archive (or start a new one), apply `f`, update the root attributes,
-    /// sync and rename into place.
-    fn transaction(&self, title: &str, history_line: &str, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
+    /// sync and rename into place. On any failure `<archive>.partial` is removed and the
+    /// archive is untouched; a full file system is reported in one line with the space
+    /// needed (`new_bytes`: the uncompressed size of what `f` adds).
+    fn transaction(&self, title: &str, history_line: &str, new_bytes: u64, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
         let partial = sibling(&self.path, ".partial");
-        let file = if self.path.exists() {
-            fs::copy(&self.path, &partial).with_context(|| format!("copying {} to {}", self.path.display(), partial.display()))?;
-            hdf5::File::open_rw(&partial)?
-        } else {
-            hdf5::File::create(&partial).with_context(|| format!("creating {}", partial.display()))?
-        };
-        let mut history = match hdf::read_attrs(&file)?.get("history") {
-            Some(Attr::Str(h)) => h.clone(),
-            _ => String::new(),
-        };
-        f(&file)?;
-        if !history.is_empty() && !history.ends_with('\n') {
-            history.push('\n');
+        let guard = PartialGuard::install(&partial);
+        let result = write_partial(&self.path, &partial, title, history_line, f).and_then(|()| {
+            fs::rename(&partial, &self.path).with_context(|| format!("renaming {} to {}", partial.display(), self.path.display()))
+        });
+        drop(guard);
+        if let Err(e) = result {
+            // The HDF5 handle is closed (dropped in write_partial), so the copy can go.
+            let _ = fs::remove_file(&partial);
+            return Err(self.explain_failure(e, new_bytes));
         }
-        history.push_str(history_line);
-        let root: [(&str, Attr); 5] = [
-            ("Conventions", Attr::Str("CF-1.8".into())),
-            ("title", Attr::Str(title.into())),
-            ("source", Attr::Str(format!("laydown {}", env!("CARGO_PKG_VERSION")))),
-            ("history", Attr::Str(history)),
-            ("layout_version", Attr::I64(LAYOUT_VERSION)),
-        ];
-        for (k, v) in &root {
-            if file.attr(k).is_ok() {
-                file.delete_attr(k)?;
-            }
-            hdf::write_attr(&file, k, v)?;
-        }
-        file.flush()?;
-        drop(file);
-        fs::File::open(&partial)?.sync_all()?;
-        fs::rename(&partial, &self.path)?;
-        if let Some(parent) = self.path.parent() {
-            // Persist the rename itself (the directory entry).
-            let dir = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
-            if let Ok(d) = fs::File::open(dir) {
-                let _ = d.sync_all();
-            }
+        // Persist the rename itself (the directory entry).
+        if let Ok(d) = fs::File::open(self.dir()) {
+            let _ = d.sync_all();
         }
         Ok(())
     }
+
+    /// The directory holding the archive.
+    fn dir(&self) -> &Path {
+        match self.path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        }
+    }
+
+    /// A failed commit as one line: a full file system (ENOSPC, which HDF5 reports as
+    /// `errno = 28` in its message) names the archive and the space needed (a copy of the
+    /// archive plus the new version); anything else keeps the first line of its cause.
+    fn explain_failure(&self, e: anyhow::Error, new_bytes: u64) -> anyhow::Error {
+        let old = fs::metadata(&self.path).map(|m| m.len()).unwrap_or(0);
+        // The copy, the new data (uncompressed, an upper bound) and HDF5's metadata.
+        let needed = old + new_bytes + (1 << 20);
+        let free = free_bytes(self.dir());
+        let no_space = e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>().is_some_and(|io| io.raw_os_error() == Some(libc::ENOSPC))
+                || c.to_string().contains("No space left on device")
+                || c.to_string().contains("errno = 28")
+        });
+        if no_space {
+            let mb = |b: u64| b as f64 / 1e6;
+            return anyhow!(
+                "archive {}: the file system is full: committing needs up to {:.1} MB free in {} ({:.1} MB free now); free some space or move the archive, then rerun (the archive is unchanged)",
+                self.path.display(),
+                mb(needed),
+                self.dir().display(),
+                mb(free.unwrap_or(0)),
+            );
+        }
+        let first = e.to_string();
+        let first = first.lines().next().unwrap_or("").trim().to_string();
+        anyhow!("archive {}: committing failed, the archive is unchanged: {first}", self.path.display())
+    }
+}
+
+/// The `.partial` file a commit is writing, for [`remove_partial_and_die`]; null when none.
+static PARTIAL_PATH: std::sync::atomic::AtomicPtr<libc::c_char> = std::sync::atomic::AtomicPtr::new(std::ptr::null_mut());
+
+/// Signals that end a run (Ctrl-C, `kill`, a closed terminal).
+const FATAL_SIGNALS: [libc::c_int; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
+
+extern "C" fn remove_partial_and_die(sig: libc::c_int) {
+    // Only async-signal-safe calls: unlink, signal, raise.
+    let path = PARTIAL_PATH.load(std::sync::atomic::Ordering::SeqCst);
+    unsafe {
+        if !path.is_null() {
+            libc::unlink(path);
+        }
+        libc::signal(sig, libc::SIG_DFL);
+        libc::raise(sig);
+    }
+}
+
+/// While a commit writes `<archive>.partial`, SIGINT, SIGTERM and SIGHUP remove it
+/// before the process dies of the signal (SIGKILL cannot be caught: the next run removes
+/// the file). Dropping the guard restores the previous handlers.
+struct PartialGuard {
+    old: Vec<(libc::c_int, libc::sigaction)>,
+}
+
+impl PartialGuard {
+    fn install(partial: &Path) -> Self {
+        use std::os::unix::ffi::OsStrExt;
+        // Leaked on purpose (one short path per commit): a handler running on another
+        // thread may still read it after the guard is dropped.
+        if let Ok(c) = std::ffi::CString::new(partial.as_os_str().as_bytes()) {
+            PARTIAL_PATH.store(c.into_raw(), std::sync::atomic::Ordering::SeqCst);
+        }
+        let mut old = vec![];
+        for sig in FATAL_SIGNALS {
+            // SAFETY: a plain sigaction whose handler makes only async-signal-safe calls.
+            unsafe {
+                let mut action: libc::sigaction = std::mem::zeroed();
+                action.sa_sigaction = remove_partial_and_die as *const () as libc::sighandler_t;
+                libc::sigemptyset(&mut action.sa_mask);
+                let mut previous: libc::sigaction = std::mem::zeroed();
+                if libc::sigaction(sig, &action, &mut previous) == 0 {
+                    old.push((sig, previous));
+                }
+            }
+        }
+        PartialGuard { old }
+    }
+}
+
+impl Drop for PartialGuard {
+    fn drop(&mut self) {
+        for (sig, previous) in &self.old {
+            // SAFETY: restores the action saved by `install`.
+            unsafe {
+                libc::sigaction(*sig, previous, std::ptr::null_mut());
+            }
+        }
+        PARTIAL_PATH.store(std::ptr::null_mut(), std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+/// Write the archive's next state into `partial` (a copy of `path`, or a new file) and fsync it.
+fn write_partial(path: &Path, partial: &Path, title: &str, history_line: &str, f: impl FnOnce(&hdf5::File) -> Result<()>) -> Result<()> {
+    let file = if path.exists() {
+        fs::copy(path, partial).with_context(|| format!("copying {} to {}", path.display(), partial.display()))?;
+        hdf5::File::open_rw(partial)?
+    } else {
+        hdf5::File::create(partial).with_context(|| format!("creating {}", partial.display()))?
+    };
+    let mut history = match hdf::read_attrs(&file)?.get("history") {
+        Some(Attr::Str(h)) => h.clone(),
+        _ => String::new(),
+    };
+    f(&file)?;
+    if !history.is_empty() && !history.ends_with('\n') {
+        history.push('\n');
+    }
+    history.push_str(history_line);
+    let root: [(&str, Attr); 5] = [
+        ("Conventions", Attr::Str("CF-1.8".into())),
+        ("title", Attr::Str(title.into())),
+        ("source", Attr::Str(format!("laydown {}", env!("CARGO_PKG_VERSION")))),
+        ("history", Attr::Str(history)),
+        ("layout_version", Attr::I64(LAYOUT_VERSION)),
+    ];
+    for (k, v) in &root {
+        if file.attr(k).is_ok() {
+            file.delete_attr(k)?;
+        }
+        hdf::write_attr(&file, k, v)?;
+    }
+    file.flush()?;
+    file.close()?;
+    fs::File::open(partial)?.sync_all()?;
+    Ok(())
+}
+
+/// Free bytes for an unprivileged user on the file system holding `dir`.
+fn free_bytes(dir: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    (unsafe { libc::statvfs(c.as_ptr(), &mut st) } == 0).then(|| st.f_bavail as u64 * st.f_frsize as u64)
+}
+
+/// Open an archive file for reading; a file HDF5 cannot open is reported as damaged, in one line.
+pub fn open_hdf5(path: &Path) -> Result<hdf5::File> {
+    hdf5::File::open(path).map_err(|e| {
+        let why = e.to_string();
+        let why = why.lines().next().unwrap_or("").trim().trim_start_matches("H5Fopen(): ");
+        anyhow!(
+            "archive {} cannot be opened by HDF5 ({why}): it is damaged or not a laydown archive; restore it from a copy, or run the pipeline again into a new archive (`laydown run P --archive NEW.h5`)",
+            path.display()
+        )
+    })
+}
+
+/// The real path of an archive: symlinks (also a chain of them, or one to a file that
+/// does not exist yet) and `.`/`..` resolved, absolute. The archive's directory must exist.
+pub fn resolve(path: &Path) -> Result<PathBuf> {
+    let mut path = path.to_path_buf();
+    for _ in 0..40 {
+        match fs::symlink_metadata(&path) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let target = fs::read_link(&path).with_context(|| format!("reading the symlink {}", path.display()))?;
+                path = match path.parent() {
+                    Some(dir) if target.is_relative() => dir.join(target),
+                    _ => target,
+                };
+            }
+            Ok(_) => return fs::canonicalize(&path).with_context(|| format!("resolving {}", path.display())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                // Not there yet: resolve its directory; the file name is kept.
+                let name = path.file_name().ok_or_else(|| anyhow!("archive path {} does not name a file", path.display()))?;
+                let dir = match path.parent() {
+                    Some(d) if !d.as_os_str().is_empty() => d,
+                    _ => Path::new("."),
+                };
+                let dir = fs::canonicalize(dir).with_context(|| format!("the archive's directory {} does not exist", dir.display()))?;
+                return Ok(dir.join(name));
+            }
+            Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+        }
+    }
+    bail!("archive path {} is a loop of symlinks; make it point to an HDF5 file", path.display())
 }
 
 /// `<archive><suffix>` beside the archive.

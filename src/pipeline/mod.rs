@@ -200,7 +200,11 @@ pub fn load(path: &Path) -> Result<Pipeline, Diagnostics> {
 
 /// Check pipeline text (`path` is used in messages and kept in the result).
 pub fn parse(text: &str, path: &Path) -> Result<Pipeline, Diagnostics> {
-    let mut c = Checker { file: path.display().to_string(), diags: vec![] };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut c = Checker { file: path.display().to_string(), dir, diags: vec![] };
     let root = match yaml::parse(text) {
         Ok(r) => r,
         Err((pos, msg)) => {
@@ -218,6 +222,8 @@ pub fn parse(text: &str, path: &Path) -> Result<Pipeline, Diagnostics> {
 
 struct Checker {
     file: String,
+    /// The pipeline file's directory (relative input files are taken from it).
+    dir: PathBuf,
     diags: Vec<Diagnostic>,
 }
 
@@ -303,6 +309,9 @@ impl Checker {
             Some(n) => self.string(n, "archive").and_then(|a| {
                 if a.trim().is_empty() {
                     self.err(n.pos, "archive", "the archive path is empty");
+                    None
+                } else if Path::new(&a).is_dir() {
+                    self.err(n.pos, "archive", format!("`{a}` is a directory; allowed: the path of an HDF5 file, e.g. {}", Path::new(&a).join("study.h5").display()));
                     None
                 } else {
                     Some(PathBuf::from(a))
@@ -551,6 +560,14 @@ impl Checker {
                 return None;
             }
         }
+        // Files outside the archive (image scans) exist now, not only at run time.
+        for p in &points {
+            if let Err((param, msg)) = stage.check_files(p, &self.dir) {
+                let pos = find_param_pos(entries, &param).unwrap_or(node.pos);
+                self.err(pos, &format!("{key}.params.{param}"), msg);
+                return None;
+            }
+        }
         Some(decl)
     }
 
@@ -695,10 +712,20 @@ fn find_param_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option
     let mut node = params;
     let mut pos = None;
     for part in dotted.split('.') {
+        // `files[1]`: an item of a list.
+        let (name, index) = match part.strip_suffix(']').and_then(|p| p.split_once('[')) {
+            Some((n, i)) => (n, i.parse::<usize>().ok()),
+            None => (part, None),
+        };
         let Kind::Map(entries) = &node.kind else { return pos };
-        let (_, _, v) = entries.iter().find(|(k, _, _)| k == part)?;
+        let (_, _, v) = entries.iter().find(|(k, _, _)| k == name)?;
         pos = Some(v.pos);
         node = v;
+        if let (Some(i), Kind::Seq(items)) = (index, &v.kind) {
+            let item = items.get(i)?;
+            pos = Some(item.pos);
+            node = item;
+        }
     }
     pos
 }

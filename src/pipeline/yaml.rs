@@ -54,12 +54,13 @@ impl Node {
     }
 }
 
-/// Parse one YAML document. Errors carry the position the scanner stopped at.
+/// Parse one YAML document. Errors carry the position the scanner stopped at; a second
+/// document (after `---`) is an error at its start, not silently ignored.
 pub fn parse(text: &str) -> Result<Node, (Pos, String)> {
     let mut builder = Builder::default();
     let mut parser = Parser::new_from_str(text);
     parser
-        .load(&mut builder, false)
+        .load(&mut builder, true)
         .map_err(|e| (Pos::from(*e.marker()), e.info().to_string()))?;
     if let Some(err) = builder.error {
         return Err(err);
@@ -77,6 +78,7 @@ struct Builder {
     stack: Vec<Frame>,
     root: Option<Node>,
     error: Option<(Pos, String)>,
+    documents: usize,
 }
 
 impl Builder {
@@ -129,6 +131,12 @@ impl MarkedEventReceiver for Builder {
                     None => return,
                 };
                 self.push_node(node);
+            }
+            Event::DocumentStart => {
+                self.documents += 1;
+                if self.documents == 2 && self.error.is_none() {
+                    self.error = Some((pos, "a second YAML document starts here; allowed: one pipeline per file (remove this `---` and what follows, or move it to its own file)".into()));
+                }
             }
             Event::Alias(_) => {
                 if self.error.is_none() {
@@ -191,5 +199,13 @@ mod tests {
         assert_eq!((pos.line, msg.as_str()), (2, "duplicate key `a`"));
         let (pos, _) = parse("a: [1, 2\nb: 3\n").unwrap_err();
         assert!(pos.line >= 2);
+    }
+
+    #[test]
+    fn a_second_document_is_an_error() {
+        assert!(parse("---\na: 1\n").is_ok());
+        let (pos, msg) = parse("a: 1\n---\nb: 2\n").unwrap_err();
+        assert_eq!(pos.line, 2);
+        assert!(msg.starts_with("a second YAML document starts here"), "{msg}");
     }
 }

@@ -102,6 +102,8 @@ pub fn open(archive: &Path, stage_ref: &str) -> Result<StageData> {
     let (stage, number) = crate::cli::parse_stage_ref(stage_ref)?;
     let archive = Archive::open_read(archive)?;
     let info = archive.version(&stage, number)?;
+    // Figures are drawn only from a version whose stored hashes check out.
+    info.check()?;
     let group = info.open()?;
     Ok(StageData { info, group })
 }

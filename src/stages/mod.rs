@@ -41,8 +41,8 @@ pub trait Stage: Send + Sync {
     fn kind(&self) -> &'static str;
     /// One line for `--help` and the docs.
     fn summary(&self) -> &'static str;
-    /// Bumped whenever the stage's results for the same parameters would change;
-    /// part of the cache fingerprint.
+    /// Bumped by hand to force a rerun that the code hash ([`code_hash`]) would not
+    /// catch (e.g. a change in a dependency crate); part of the cache fingerprint.
     fn cache_version(&self) -> u32;
     fn params(&self) -> Vec<ParamSpec>;
     fn inputs(&self) -> InputRule;
@@ -58,6 +58,11 @@ pub trait Stage: Send + Sync {
     /// empty glob is a [`BadInput`].
     fn input_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
         Ok(vec![])
+    }
+    /// Check, when the pipeline is validated, that the files named by the parameters
+    /// exist (relative to `pipeline_dir`): `Err((parameter such as files[1], message))`.
+    fn check_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<(), (String, String)> {
+        Ok(())
     }
     /// How the stage's work splits into units that can be computed apart (e.g. in
     /// different processes of a Slurm job array), or `None` (the default): the stage
@@ -83,6 +88,22 @@ pub trait Stage: Send + Sync {
     /// local executor and for a gathered Slurm array.
     fn reduce(&self, _ctx: &RunContext, _rows: Output) -> Result<Output> {
         anyhow::bail!("stage kind `{}` cannot be run by units", self.kind())
+    }
+}
+
+/// The hash of the source code that computes `kind` (its module and what it uses, see
+/// [`crate::code_hash::STAGE_CODE`]), taken when this binary was built; part of every
+/// stage fingerprint, so changed code reruns exactly the stages it computes.
+pub fn code_hash(kind: &str) -> &'static str {
+    match kind {
+        "laydown" => env!("LAYDOWN_CODE_HASH_LAYDOWN"),
+        "laid_web" => env!("LAYDOWN_CODE_HASH_LAID_WEB"),
+        "spectra" => env!("LAYDOWN_CODE_HASH_SPECTRA"),
+        "web" => env!("LAYDOWN_CODE_HASH_WEB"),
+        "grid" => env!("LAYDOWN_CODE_HASH_GRID"),
+        "image" => env!("LAYDOWN_CODE_HASH_IMAGE"),
+        "accuracy" => env!("LAYDOWN_CODE_HASH_ACCURACY"),
+        _ => "",
     }
 }
 

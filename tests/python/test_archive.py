@@ -7,7 +7,7 @@ PROVENANCE = [
     "stage_kind", "cache_version", "params_yaml", "params_hash", "inputs", "seed", "rng_scheme",
     "laydown_version", "git_commit", "git_dirty", "rustc_version", "hdf5_version", "host", "threads",
     "command_line", "start_utc", "end_utc", "wall_seconds", "cpu_seconds", "status", "fingerprint",
-    "content_hash",
+    "content_hash", "dataset_hashes",
 ]
 
 

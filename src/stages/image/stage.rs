@@ -192,6 +192,24 @@ impl Stage for ImageStage {
         Ok(expand(p, dir)?.into_iter().map(|(f, _)| f).collect())
     }
 
+    fn check_files(&self, p: &ParamSet, dir: &Path) -> std::result::Result<(), (String, String)> {
+        const ALLOWED: &str = "allowed: existing image files or globs matching at least one, relative to the pipeline file";
+        for (i, f) in p.text_list("files").iter().enumerate() {
+            let path = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
+            let spec = super::InputSpec { pattern: path.display().to_string(), group: String::new() };
+            let msg = match super::expand_inputs(&[spec]) {
+                Ok(_) => continue,
+                Err(super::ImageError::NoFiles { .. }) => format!("`{f}` matches no file (looked for {}); {ALLOWED}", path.display()),
+                Err(super::ImageError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+                    format!("`{f}` does not exist (looked for {}); {ALLOWED}", path.display())
+                }
+                Err(e) => format!("`{f}`: {e}; {ALLOWED}"),
+            };
+            return Err((format!("files[{i}]"), msg));
+        }
+        Ok(())
+    }
+
     fn run(&self, ctx: &RunContext) -> Result<Output> {
         if ctx.replicates != 1 {
             return Err(BadInput(format!("an image stage is deterministic; replicates must be 1, not {}", ctx.replicates)).into());

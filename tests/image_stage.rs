@@ -450,3 +450,97 @@ fn cli_image_smaller_than_the_bond_period_is_returned_unchanged() {
     assert!(read(&archive, "scans", "lattice_period1")[0].is_nan());
     assert!(!d.join("out/study_figures").exists());
 }
+
+/// 8-bit grey levels of a rendered web (64 × 64 px).
+fn web_bytes(seed: u64) -> Vec<u8> {
+    let g = render(&web(64, 64, seed), PX, &RenderParams::default()).unwrap().grey;
+    g.iter().map(|v| (v * 255.0).round().clamp(0.0, 255.0) as u8).collect()
+}
+
+fn png_phys(path: &Path, data: &[u8], xppu: u32, yppu: u32) {
+    let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut e = png::Encoder::new(f, 64, 64);
+    e.set_color(png::ColorType::Grayscale);
+    e.set_depth(png::BitDepth::Eight);
+    e.set_pixel_dims(Some(png::PixelDimensions { xppu, yppu, unit: png::Unit::Meter }));
+    e.write_header().unwrap().write_image_data(data).unwrap();
+}
+
+fn tiff_res<C: tiff::encoder::colortype::ColorType>(path: &Path, data: &[C::Inner], unit: tiff::tags::ResolutionUnit, per_unit: u32)
+where
+    [C::Inner]: tiff::encoder::TiffValue,
+{
+    let mut enc = tiff::encoder::TiffEncoder::new(std::fs::File::create(path).unwrap()).unwrap();
+    let mut img = enc.new_image::<C>(64, 64).unwrap();
+    img.resolution(unit, tiff::encoder::Rational { n: per_unit, d: 1 });
+    img.write_data(data).unwrap();
+}
+
+#[test]
+fn cli_pixel_size_from_the_file_with_its_source_and_parameters_override_it() {
+    use image::codecs::jpeg::{JpegEncoder, PixelDensity, PixelDensityUnit};
+    use tiff::encoder::colortype::{Gray32Float, Gray8};
+    use tiff::tags::ResolutionUnit;
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    png_phys(&d.join("a.png"), &web_bytes(1), 11811, 11811);
+    tiff_res::<Gray8>(&d.join("b.tif"), &web_bytes(2), ResolutionUnit::Inch, 300);
+    let mut f = std::fs::File::create(d.join("c.jpg")).unwrap();
+    let mut e = JpegEncoder::new_with_quality(&mut f, 95);
+    e.set_pixel_density(PixelDensity { density: (200, 200), unit: PixelDensityUnit::Inches });
+    e.encode(&web_bytes(3), 64, 64, image::ExtendedColorType::L8).unwrap();
+    drop(f);
+    let floats: Vec<f32> = web_bytes(4).iter().map(|&v| v as f32 / 255.0).collect();
+    tiff_res::<Gray32Float>(&d.join("d.tif"), &floats, ResolutionUnit::Centimeter, 50);
+    png(d, "e.png", &render(&web(64, 64, 5), PX, &RenderParams::default()).unwrap().grey);
+    let want = [1.0 / 11811.0, 0.0254 / 300.0, 0.0254 / 200.0, 0.01 / 50.0];
+    let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-12;
+
+    // No parameter: each file's own size; the one without gets the default and a warning.
+    let p = pipeline(d, "      files: [a.png, b.tif, c.jpg, d.tif, e.png]\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let archive = d.join("out/study.h5");
+    let px = read(&archive, "scans", "pixel_size");
+    let declared = read(&archive, "scans", "file_pixel_size");
+    for i in 0..4 {
+        assert!(close(px[i], want[i]) && close(declared[i], want[i]), "sample {i}: {} {} want {}", px[i], declared[i], want[i]);
+    }
+    assert!(close(px[4], 297e-3 / 871.0) && declared[4].is_nan());
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["file", "file", "file", "file", "default"]);
+    let warning: Vec<&str> = e.lines().filter(|l| l.contains("warning")).collect();
+    assert!(warning.len() == 1 && warning[0].contains("e.png") && !warning[0].contains("a.png"), "{e}");
+    assert!(e.contains("pixel size declared by the file: 0.084667 mm (2 images), 0.127000 mm (1 image), 0.200000 mm (1 image)"), "{e}");
+    // The float TIFF was analysed as it is: its CV is the 8-bit data's.
+    let cv_raw = read(&archive, "scans", "cv_raw");
+    let bytes: Vec<f64> = web_bytes(4).iter().map(|&v| v as f64).collect();
+    assert!((cv_raw[3] / coefficient_of_variation(bytes.iter().copied()) - 1.0).abs() < 1e-6);
+
+    // Every file declares a size: no warning.
+    let p = pipeline(d, "      files: [a.png, b.tif]\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(!text(&out).1.contains("warning"), "{}", text(&out).1);
+
+    // dpi (or pixel_size) overrides the files; what they declare is still stored.
+    let p = pipeline(d, "      files: [a.png, e.png]\n      dpi: 600\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(!text(&out).1.contains("warning"));
+    assert_eq!(read(&archive, "scans", "pixel_size"), [0.0254 / 600.0; 2]);
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["dpi", "dpi"]);
+    assert!(close(read(&archive, "scans", "file_pixel_size")[0], want[0]));
+    let p = pipeline(d, "      files: [a.png]\n      pixel_size: 0.0002\n      panels: false\n");
+    assert_eq!(run_in(d, &["run", p.to_str().unwrap()]).status.code(), Some(0));
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["pixel_size"]);
+    assert_eq!(read(&archive, "scans", "pixel_size"), [0.0002]);
+
+    // Non-square pixels declared and no override: bad input naming the file.
+    png_phys(&d.join("skew.png"), &web_bytes(6), 11811, 5906);
+    let p = pipeline(d, "      files: [skew.png]\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    assert!(e.contains("skew.png") && e.contains("non-square") && e.contains("give pixel_size or dpi"), "{e}");
+}

@@ -66,7 +66,7 @@
 //!   with group labels, streaming) → [`ImageAnalysis`], [`Summary`], [`BatchSummary`],
 //!   [`GroupStats`] ([`group_statistics`] for summaries gathered elsewhere);
 //! * [`ImageParams`] (serde, `validate()`), [`PARAMETERS`] (name, unit, default, range, doc);
-//! * [`io`] (read PNG/TIFF/JPEG 8/16-bit, grey or RGB), [`render`] (density map → image
+//! * [`io`] (read PNG/TIFF/JPEG 8/16-bit or float, grey or RGB, with the declared pixel size), [`render`] (density map → image
 //!   with bond lattice; synthetic webs), [`panel`] (Fig-12-like 2×2 PNG).
 //!
 //! # Example
@@ -104,7 +104,7 @@ use std::path::{Path, PathBuf};
 use ndarray::Array2;
 
 use crate::uniformity::{coefficient_of_variation, log_zone_sizes, ZoneCv};
-pub use io::{expand_inputs, read_grey, GreyImage, InputSpec};
+pub use io::{expand_inputs, read_grey, FileResolution, GreyImage, InputSpec};
 pub use peaks::{Lattice, Peak};
 
 /// Smallest image side accepted (pixels).
@@ -129,6 +129,8 @@ pub enum ImageError {
     NonFinite { path: Option<PathBuf>, count: usize },
     #[error("image{} has mean grey level {mean}: the CV (std/mean) needs a positive mean", at(path))]
     NonPositiveMean { path: Option<PathBuf>, mean: f64 },
+    #[error("image {}: {message}; give pixel_size or dpi to override it", path.display())]
+    BadResolution { path: PathBuf, message: String },
     #[error("parameter `{name}` = {value} is invalid: allowed {allowed}")]
     InvalidParam { name: &'static str, value: String, allowed: String },
 }
@@ -154,7 +156,8 @@ impl ImageError {
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ImageParams {
-    /// Pixel size (mm). Give this or `dpi`; with neither, [`DEFAULT_PIXEL_SIZE_MM`].
+    /// Pixel size (mm). Give this or `dpi` (either overrides a file's own); with neither,
+    /// the size a file declares, else [`DEFAULT_PIXEL_SIZE_MM`].
     pub pixel_size_mm: Option<f64>,
     /// Scan resolution (dots per inch); pixel size = 25.4/dpi mm.
     pub dpi: Option<f64>,
@@ -222,9 +225,9 @@ pub use crate::stages::param_table::{ParamDefault, ParamSpec};
 /// The image stage's parameters: name, unit, default, range, meaning.
 pub const PARAMETERS: &[ParamSpec] = &[
     ParamSpec { name: "pixel_size_mm", unit: "mm", default: ParamDefault::Unset, min: 1e-4, max: 100.0, choices: &[],
-        doc: "Pixel size; give this or dpi (not both). Neither: 297/871 mm (A4 at 871 px, the paper's scans)." },
+        doc: "Pixel size; give this or dpi (not both); overrides the file's own. Neither: the file's (PNG pHYs, TIFF resolution, JPEG JFIF density), else 297/871 mm (A4 at 871 px, the paper's scans)." },
     ParamSpec { name: "dpi", unit: "1/inch", default: ParamDefault::Unset, min: 1.0, max: 1e5, choices: &[],
-        doc: "Scan resolution; pixel size = 25.4/dpi mm. Give this or pixel_size_mm." },
+        doc: "Scan resolution; pixel size = 25.4/dpi mm. Give this or pixel_size_mm; overrides the file's own." },
     ParamSpec { name: "false_alarm_rate", unit: "peaks/image", default: ParamDefault::Real(1e-3), min: 1e-12, max: 0.5, choices: &[],
         doc: "Expected number of false peaks per bond-free image; sets the Exp(1) threshold ln(M·passes/α)." },
     ParamSpec { name: "notch_sigma_bins", unit: "bins", default: ParamDefault::Real(1.5), min: 0.5, max: 10.0, choices: &[],
@@ -317,10 +320,77 @@ impl ImageParams {
 
     /// Pixel size in metres, from `pixel_size_mm`, `dpi` or the default.
     pub fn pixel_size_m(&self) -> f64 {
+        self.pixel_size_given().map(|(m, _)| m).unwrap_or(DEFAULT_PIXEL_SIZE_MM * 1e-3)
+    }
+
+    /// Where [`ImageParams::pixel_size_m`] comes from when no file is involved.
+    pub fn pixel_source(&self) -> PixelSource {
+        self.pixel_size_given().map(|(_, s)| s).unwrap_or(PixelSource::Default)
+    }
+
+    /// The pixel size (m) given as a parameter, if any.
+    fn pixel_size_given(&self) -> Option<(f64, PixelSource)> {
         match (self.pixel_size_mm, self.dpi) {
-            (Some(mm), _) => mm * 1e-3,
-            (None, Some(dpi)) => 25.4e-3 / dpi,
-            (None, None) => DEFAULT_PIXEL_SIZE_MM * 1e-3,
+            (Some(mm), _) => Some((mm * 1e-3, PixelSource::PixelSize)),
+            (None, Some(dpi)) => Some((25.4e-3 / dpi, PixelSource::Dpi)),
+            (None, None) => None,
+        }
+    }
+
+    /// The pixel size (m) of an image read from a file, and where it came from:
+    /// `pixel_size_mm` or `dpi` when given (they override the file), else the size the
+    /// file declares, else [`DEFAULT_PIXEL_SIZE_MM`].
+    ///
+    /// A declared size that is used must be square (x and y within 0.1 %) and within the
+    /// range of `pixel_size_mm`; otherwise [`ImageError::BadResolution`] names the file.
+    pub fn pixel_size_for(&self, img: &GreyImage) -> Result<(f64, PixelSource), ImageError> {
+        if let Some(given) = self.pixel_size_given() {
+            return Ok(given);
+        }
+        let Some(r) = &img.resolution else {
+            return Ok((DEFAULT_PIXEL_SIZE_MM * 1e-3, PixelSource::Default));
+        };
+        let bad = |message: String| ImageError::BadResolution { path: img.path.clone(), message };
+        if (r.x / r.y - 1.0).abs() > 1e-3 {
+            return Err(bad(format!(
+                "the file declares non-square pixels, {:.6} mm wide and {:.6} mm high ({}); the analysis needs square pixels",
+                r.x * 1e3,
+                r.y * 1e3,
+                r.tag
+            )));
+        }
+        let s = spec("pixel_size_mm");
+        if !(r.x * 1e3 >= s.min && r.x * 1e3 <= s.max) {
+            return Err(bad(format!("the file declares a pixel size of {} mm ({}); allowed {} to {} mm", r.x * 1e3, r.tag, s.min, s.max)));
+        }
+        Ok((r.x, PixelSource::File))
+    }
+}
+
+/// Where a sample's pixel size came from (dataset `pixel_size_source`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PixelSource {
+    /// Declared by the image file (PNG pHYs, TIFF resolution tags, JPEG JFIF density).
+    File,
+    /// The `dpi` parameter.
+    Dpi,
+    /// The `pixel_size` parameter.
+    PixelSize,
+    /// Neither file nor parameter: [`DEFAULT_PIXEL_SIZE_MM`].
+    Default,
+    /// The `cell_size` of the grid an image was rendered from.
+    Grid,
+}
+
+impl PixelSource {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PixelSource::File => "file",
+            PixelSource::Dpi => "dpi",
+            PixelSource::PixelSize => "pixel_size",
+            PixelSource::Default => "default",
+            PixelSource::Grid => "grid",
         }
     }
 }
@@ -732,10 +802,11 @@ pub fn zone_curve(map: &Array2<f64>, cell: f64, zone_sizes: &[f64], cv_k1: Optio
     out
 }
 
-/// Reads and analyses one file with the pixel size from `params`.
+/// Reads and analyses one file, with the pixel size of [`ImageParams::pixel_size_for`].
 pub fn analyze_file(path: &Path, params: &ImageParams) -> Result<ImageAnalysis, ImageError> {
     let img = read_grey(path)?;
-    analyze(&img.data, params.pixel_size_m(), params).map_err(|e| e.with_path(path))
+    let (pixel, _) = params.pixel_size_for(&img)?;
+    analyze(&img.data, pixel, params).map_err(|e| e.with_path(path))
 }
 
 /// Mean and sample standard deviation (n − 1); std is 0 for a single value.
@@ -835,6 +906,28 @@ pub fn analyze_files(
 mod tests {
     use super::*;
     use crate::uniformity::cv_by_zone_size;
+
+    #[test]
+    fn parameters_override_the_file_pixel_size_and_bad_declared_sizes_name_the_file() {
+        let img = |res: Option<(f64, f64)>| GreyImage {
+            data: Array2::zeros((2, 2)),
+            bit_depth: 8,
+            was_colour: false,
+            path: PathBuf::from("scan.png"),
+            resolution: res.map(|(x, y)| FileResolution { x, y, tag: "test".into() }),
+        };
+        let p = ImageParams::default();
+        assert_eq!(p.pixel_size_for(&img(Some((1e-4, 1e-4)))).unwrap(), (1e-4, PixelSource::File));
+        assert_eq!(p.pixel_size_for(&img(None)).unwrap(), (DEFAULT_PIXEL_SIZE_MM * 1e-3, PixelSource::Default));
+        let dpi = ImageParams { dpi: Some(254.0), ..Default::default() };
+        assert_eq!(dpi.pixel_size_for(&img(Some((1e-4, 3e-4)))).unwrap(), (25.4e-3 / 254.0, PixelSource::Dpi));
+        let mm = ImageParams { pixel_size_mm: Some(0.2), ..Default::default() };
+        assert_eq!(mm.pixel_size_for(&img(Some((1e-4, 1e-4)))).unwrap(), (0.2e-3, PixelSource::PixelSize));
+        let e = p.pixel_size_for(&img(Some((1e-4, 2e-4)))).unwrap_err();
+        assert!(matches!(e, ImageError::BadResolution { .. }) && e.to_string().contains("scan.png") && e.to_string().contains("non-square"), "{e}");
+        let e = p.pixel_size_for(&img(Some((1.0, 1.0)))).unwrap_err();
+        assert!(e.to_string().contains("1000 mm") && e.to_string().contains("override"), "{e}");
+    }
 
     #[test]
     fn zone_curve_matches_uniformity_cv_by_zone_size() {

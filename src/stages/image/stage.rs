@@ -5,8 +5,11 @@
 //! * **files**: `files:` lists paths or globs (relative to the pipeline file), read as
 //!   grey levels (PNG/TIFF/JPEG, 8/16 bit, RGB → BT.601 luma). `groups:` (optional, same
 //!   length) labels each entry with its condition, e.g. one glob of 8 scans per belt speed;
-//!   without it every entry is its own group. Pixel size from `pixel_size` (m) or `dpi`;
-//!   neither: 297/871 mm (A4 at 871 px, the paper's scans), with a warning.
+//!   without it every entry is its own group. Pixel size per image: `pixel_size` (m) or
+//!   `dpi` if given (they override the file), else what the file declares (PNG pHYs, TIFF
+//!   resolution tags, JPEG JFIF density; [`super::io`]), else 297/871 mm (A4 at 871 px, the
+//!   paper's scans) with a warning naming the files. Each sample's size and its source
+//!   (`pixel_size_source`: file, dpi, pixel_size, default, grid) are stored.
 //! * **a grid stage** (`input:`): its `density` (point, realisation, md, cd) in g/m² with
 //!   scalar `cell_size` (m) is rendered per (point, realisation) as a transmission image
 //!   (`render.*`: Beer–Lambert, rows = MD, columns = CD) with the bond lattice `bonds.*`
@@ -30,7 +33,7 @@
 //! stderr); a lattice whose period exceeds the image is not detected and the image is
 //! returned unchanged (`notches` = 0, `cv_corr` = `cv_raw`).
 use super::render::{render, render_with_coverage, BondPattern, BondShape, RenderParams};
-use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PARAMETERS};
+use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PixelSource, PARAMETERS};
 use crate::archive::data::{Attr, Output, Values};
 use crate::params::{ParamSet, ParamSpec};
 use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
@@ -52,7 +55,9 @@ struct Sample {
     group: String,
     file: String,
     source: Source,
+    /// Pixel size (m) and its source; for files, decided when the file is read.
     pixel: f64,
+    pixel_source: PixelSource,
     grid_point: i64,
     realisation: i64,
 }
@@ -96,6 +101,11 @@ struct Kept {
     cv_web: f64,
     /// Wall time of reading or rendering and analysing the image.
     wall_seconds: f64,
+    /// Pixel size used (m) and where it came from.
+    pixel: f64,
+    pixel_source: PixelSource,
+    /// Pixel size the file declares (m; NaN: none, or not a file).
+    file_pixel: f64,
 }
 
 impl Stage for ImageStage {
@@ -106,7 +116,8 @@ impl Stage for ImageStage {
         "CV of a bonded nonwoven image, raw and after FFT notch removal of the bond lattice (§3.4, Table 4, Figs 11-12)"
     }
     fn cache_version(&self) -> u32 {
-        1
+        // 2: pixel size from the image file; pixel_size_source, file_pixel_size.
+        2
     }
     fn inputs(&self) -> InputRule {
         InputRule { kinds: &["grid"], min: 0, max: 1 }
@@ -122,8 +133,8 @@ impl Stage for ImageStage {
             ParamSpec::float("synthetic.cv", "1", 0.2, 0.0, 10.0, "CV of the noise before clipping to [0, 1]"),
             ParamSpec::float("synthetic.correlation", "1", 1.0, 0.0, 100.0, "standard deviation (pixels) of the Gaussian that smooths the noise; 0 = white"),
             ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group"),
-            ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files; give this or dpi; neither: 297/871 mm (A4 at 871 px); grid input: the grid's cell_size").auto_default(),
-            ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m); give this or pixel_size").auto_default(),
+            ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files, overriding what each file declares; give this or dpi; neither: each file's own (PNG pHYs, TIFF resolution tags, JPEG JFIF density), else 297/871 mm (A4 at 871 px) with a warning; grid input: the grid's cell_size").auto_default(),
+            ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m), overriding what each file declares; give this or pixel_size").auto_default(),
             ParamSpec::float("zone_min", "m", 0.5e-3, 1e-7, 1.0, "smallest zone side of the CV-per-zone-size curves"),
             ParamSpec::float("zone_max", "m", 16e-3, 1e-7, 1.0, "largest zone side of the CV-per-zone-size curves (≥ zone_min)"),
             ParamSpec::int("max_stored_images", "1", 4, 0, 10_000, "images (raw, filtered, log spectra) stored in the archive and drawn as PNG panels: the first N samples"),
@@ -242,6 +253,9 @@ impl Stage for ImageStage {
                     eprintln!("{}: warning: {point}{what}: {w}", ctx.stage_name);
                 }
             }
+            if k == 0 {
+                report_pixel_sizes(&ctx.stage_name, &samples, &kept);
+            }
             let groups = group_stats(&samples, &kept);
             let label = if ctx.sweep.is_empty() { ctx.stage_name.clone() } else { format!("{} point {}", ctx.stage_name, k) };
             eprint!("{}", table(&label, &groups, &kept));
@@ -291,7 +305,51 @@ const NOT_SWEPT: &[&str] = &[
 
 /// Variables that describe the samples and conditions, not their analysis: the same at
 /// every sweep point, stored once.
-const SAMPLE_DESCRIPTORS: &[&str] = &["sample", "grid_point", "realisation", "pixel_size", "rows", "cols", "condition_samples", "stored_sample"];
+const SAMPLE_DESCRIPTORS: &[&str] = &["sample", "grid_point", "realisation", "pixel_size", "file_pixel_size", "rows", "cols", "condition_samples", "stored_sample"];
+
+/// Says on stderr which pixel sizes the files were analysed at and where they came from;
+/// a warning names the files that declare none when no parameter gives one.
+fn report_pixel_sizes(stage: &str, samples: &[Sample], kept: &[Kept]) {
+    if !samples.iter().any(|s| matches!(s.source, Source::File(_))) {
+        return;
+    }
+    // Per source, the distinct sizes (to the µm/1000 shown) and how many images have each.
+    let mut seen: Vec<(PixelSource, Vec<(String, usize)>)> = Vec::new();
+    for k in kept {
+        let size = format!("{:.6}", k.pixel * 1e3);
+        let sizes = match seen.iter_mut().find(|(s, _)| *s == k.pixel_source) {
+            Some((_, v)) => v,
+            None => {
+                seen.push((k.pixel_source, Vec::new()));
+                &mut seen.last_mut().expect("just pushed").1
+            }
+        };
+        match sizes.iter_mut().find(|(s, _)| *s == size) {
+            Some(e) => e.1 += 1,
+            None => sizes.push((size, 1)),
+        }
+    }
+    for (source, sizes) in &seen {
+        let from = match source {
+            PixelSource::File => "declared by the file",
+            PixelSource::Dpi => "from dpi",
+            PixelSource::PixelSize => "from pixel_size",
+            PixelSource::Default => "assumed",
+            PixelSource::Grid => "the grid's cell_size",
+        };
+        let list: Vec<String> = sizes.iter().map(|(s, n)| format!("{s} mm ({n} image{})", if *n == 1 { "" } else { "s" })).collect();
+        eprintln!("{stage}: pixel size {from}: {}", list.join(", "));
+    }
+    let missing: Vec<&str> = samples.iter().zip(kept).filter(|(_, k)| k.pixel_source == PixelSource::Default).map(|(s, _)| s.file.as_str()).collect();
+    if !missing.is_empty() {
+        let shown = missing.iter().take(5).copied().collect::<Vec<_>>().join(", ");
+        let more = if missing.len() > 5 { format!(" and {} more", missing.len() - 5) } else { String::new() };
+        eprintln!(
+            "{stage}: warning: {shown}{more}: no pixel size in the file (PNG pHYs, TIFF resolution tags, JPEG JFIF density) and neither pixel_size nor dpi given; assuming {:.4} mm per pixel (A4 at 871 px, the paper's scans)",
+            super::DEFAULT_PIXEL_SIZE_MM
+        );
+    }
+}
 
 /// Analyses every sample with the parameters of one sweep point, in parallel; only the
 /// first `max_store` keep their images.
@@ -310,21 +368,27 @@ fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ParamSet, max_
         .enumerate()
         .map(|(i, smp)| {
             let started = std::time::Instant::now();
+            let (mut pixel, mut pixel_source, mut file_pixel) = (smp.pixel, smp.pixel_source, f64::NAN);
             let (image, cv_web) = match (&smp.source, grid) {
-                (Source::File(path), _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
+                (Source::File(path), _) => {
+                    let img = read_grey(path).map_err(|e| BadInput(e.to_string()))?;
+                    (pixel, pixel_source) = ip.pixel_size_for(&img).map_err(|e| BadInput(e.to_string()))?;
+                    file_pixel = img.resolution.as_ref().map(|r| r.x).unwrap_or(f64::NAN);
+                    (img.data, f64::NAN)
+                }
                 (Source::Grid(pt, r), Some(g)) => g.render(*pt, *r, &bonded, &plain, coverage.as_ref())?,
                 (Source::Grid(..), None) => unreachable!("grid samples come with the grid"),
                 (Source::Synthetic(seed), _) => synthetic_image(p, *seed, smp.pixel, &bonded, &plain, coverage.as_ref())?,
             };
             let (rows, cols) = image.dim();
-            let a = analyze(&image, smp.pixel, &ip).map_err(|e| {
+            let a = analyze(&image, pixel, &ip).map_err(|e| {
                 let what = if smp.file.is_empty() { format!("group {} sample {i}", smp.group) } else { smp.file.clone() };
                 anyhow::Error::new(BadInput(format!("{what}: {e}")))
             })?;
             drop(image);
             let store = i < max_store;
             let a = if store { a } else { strip(a) };
-            Ok(Kept { a, store, rows, cols, cv_web, wall_seconds: started.elapsed().as_secs_f64() })
+            Ok(Kept { a, store, rows, cols, cv_web, wall_seconds: started.elapsed().as_secs_f64(), pixel, pixel_source, file_pixel })
         })
         .collect()
 }
@@ -435,13 +499,6 @@ fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
 fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
     let files = expand(p, &ctx.pipeline_dir)?;
     let ip = image_params(p);
-    if ip.pixel_size_mm.is_none() && ip.dpi.is_none() {
-        eprintln!(
-            "{}: warning: neither pixel_size nor dpi given; assuming {:.4} mm per pixel (A4 at 871 px, the paper's scans)",
-            ctx.stage_name,
-            ip.pixel_size_m() * 1e3
-        );
-    }
     Ok(files
         .into_iter()
         .map(|(path, group)| Sample {
@@ -449,7 +506,9 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
             // Relative to the pipeline file: results do not depend on the working directory.
             file: path.strip_prefix(&ctx.pipeline_dir).unwrap_or(&path).display().to_string(),
             source: Source::File(path),
+            // Replaced by the file's own size unless a parameter gives one.
             pixel: ip.pixel_size_m(),
+            pixel_source: ip.pixel_source(),
             grid_point: -1,
             realisation: -1,
         })
@@ -459,13 +518,15 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
 /// One image per `synthetic.count`, each with its own random stream of the stage seed.
 fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
     let kind = p.text("synthetic.kind");
-    let pixel = image_params(p).pixel_size_m();
+    let ip = image_params(p);
+    let pixel = ip.pixel_size_m();
     (0..p.usize("synthetic.count"))
         .map(|k| Sample {
             group: kind.to_string(),
             file: String::new(),
             source: Source::Synthetic(rand::RngCore::next_u64(&mut crate::stages::stream_rng(ctx.seed, k as u64, 0))),
             pixel,
+            pixel_source: ip.pixel_source(),
             grid_point: -1,
             realisation: k as i64,
         })
@@ -544,6 +605,7 @@ fn grid_samples(input: &Input) -> Result<(Vec<Sample>, GridSweep, Option<GridDat
             file: String::new(),
             source: Source::Grid(pt, r),
             pixel: cell,
+            pixel_source: PixelSource::Grid,
             grid_point: pt as i64,
             realisation: r as i64,
         })
@@ -609,7 +671,14 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.strings("file", "sample", samples.iter().map(|s| s.file.clone()).collect(), "image file (empty for rendered grid samples)");
     out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point index of a rendered sample (−1 for files and synthetic images)");
     out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "grid realisation of a rendered sample, or index of a synthetic image (−1 for files)");
-    out.f64("pixel_size", &["sample"], Array1::from_iter(samples.iter().map(|s| s.pixel)), "m", "pixel size");
+    out.f64("pixel_size", &["sample"], Array1::from_iter(kept.iter().map(|k| k.pixel)), "m", "pixel size used (see pixel_size_source)");
+    out.strings(
+        "pixel_size_source",
+        "sample",
+        kept.iter().map(|k| k.pixel_source.as_str().to_string()).collect(),
+        "where pixel_size came from: file (declared by the image file), dpi, pixel_size (parameters, overriding the file), default (297/871 mm), grid (the grid's cell_size)",
+    );
+    out.f64("file_pixel_size", &["sample"], Array1::from_iter(kept.iter().map(|k| k.file_pixel)), "m", "pixel size the image file declares (NaN: none, or not a file)");
     out.i64("rows", &["sample"], Array1::from_iter(kept.iter().map(|k| k.rows as i64)), "1", "image height (pixels; rows = MD for grid samples)");
     out.i64("cols", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cols as i64)), "1", "image width (pixels)");
     out.f64("mean_grey", &["sample"], col(&|a| a.mean), "1", "mean grey level (full scale 1; kept by the filter)");

@@ -544,3 +544,48 @@ fn cli_pixel_size_from_the_file_with_its_source_and_parameters_override_it() {
     assert_eq!(out.status.code(), Some(2), "{e}");
     assert!(e.contains("skew.png") && e.contains("non-square") && e.contains("give pixel_size or dpi"), "{e}");
 }
+
+#[test]
+fn cli_zone_curve_stores_the_zone_sizes_actually_used_without_holes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // 1 mm pixels, zones asked from 0.5 to 16 mm: 0.5, 0.71, 1 and 1.41 mm are all the
+    // one-pixel zone; the curve holds it once, as 1 mm.
+    let big = render(&web(64, 64, 11), PX, &RenderParams::default()).unwrap().grey;
+    let small = render(&web(20, 20, 12), PX, &RenderParams::default()).unwrap().grey;
+    png(d, "big.png", &big);
+    png(d, "small.png", &small);
+    let p = pipeline(d, "      files: [big.png, small.png]\n      pixel_size: 0.001\n      zone_min: 0.0005\n      zone_max: 0.016\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    let archive = d.join("out/study.h5");
+    let cells = read(&archive, "scans", "zone_cells");
+    let sizes = read(&archive, "scans", "zone_size");
+    let (raw, filtered) = (read(&archive, "scans", "zone_cv_raw"), read(&archive, "scans", "zone_cv_filtered"));
+    let want_cells = [1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 11.0, 16.0];
+    let nz = want_cells.len();
+    assert_eq!(cells.len(), 2 * nz, "{cells:?}");
+    assert_eq!(&cells[..nz], want_cells);
+    for j in 0..nz {
+        assert!((sizes[j] - want_cells[j] * 1e-3).abs() < 1e-15, "zone {j}: {} m", sizes[j]);
+    }
+    // Each CV is the CV of the block sums at that size, computed independently; the
+    // first is the one-pixel CV.
+    let img = laydown::stages::image::read_grey(&d.join("big.png")).unwrap().data;
+    let zones: Vec<f64> = want_cells.iter().map(|k| k * 1e-3).collect();
+    let direct = laydown::uniformity::cv_by_zone_size(img.view(), 1e-3, &zones);
+    assert_eq!(direct.len(), nz);
+    for (j, z) in direct.iter().enumerate() {
+        assert!((raw[j] / z.cv - 1.0).abs() < 1e-9, "zone {j}: {} vs {}", raw[j], z.cv);
+    }
+    assert_eq!(raw[0], read(&archive, "scans", "cv_raw")[0]);
+    // Bond-free: nothing notched, the filtered curve is the raw one.
+    assert_eq!(&filtered[..nz], &raw[..nz]);
+    // The 20 × 20 px image fits 4 zones up to 8 px (at 11 px only one zone fits):
+    // its curve stops there, padded after its last size, never inside.
+    let last = 6;
+    assert_eq!(&cells[nz..nz + last], &want_cells[..last]);
+    assert!(raw[nz..nz + last].iter().chain(&sizes[nz..nz + last]).all(|v| v.is_finite()));
+    assert!(raw[nz + last..].iter().chain(&sizes[nz + last..]).chain(&filtered[nz + last..]).all(|v| v.is_nan()));
+    assert!(cells[nz + last..].iter().all(|&c| c == 0.0));
+}

@@ -445,7 +445,7 @@ pub struct ImageAnalysis {
     pub threshold: f64,
     /// Bins searched per pass (M).
     pub bins_searched: usize,
-    /// CV over zone sizes, raw and filtered.
+    /// CV over zone sizes, raw and filtered ([`zone_curve`]: the sides actually used, each once).
     pub zone_cv_raw: Vec<ZoneCv>,
     pub zone_cv_filtered: Vec<ZoneCv>,
     /// Things the user should know (saturation, peak cap reached, constant image, ...).
@@ -755,6 +755,11 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
 /// images: block sums come from one summed-area table of the mean-removed map (which
 /// keeps the table small, so differences of its entries lose no precision). `cv_k1`, if
 /// known, is used for 1-pixel zones.
+///
+/// Unlike `cv_by_zone_size`, each [`ZoneCv::zone_size`] is the side actually used,
+/// `cells_per_side × cell`, not the requested one: requested sizes that round to the
+/// same whole number of pixels give one entry, so the curve has no repeated or
+/// mislabelled sizes (at 1 mm pixels, 0.5, 0.71, 1 and 1.41 mm are all the 1 mm zone).
 pub fn zone_curve(map: &Array2<f64>, cell: f64, zone_sizes: &[f64], cv_k1: Option<f64>) -> Vec<ZoneCv> {
     let (h, w) = map.dim();
     let mean = map.sum() / (h * w).max(1) as f64;
@@ -772,7 +777,7 @@ pub fn zone_curve(map: &Array2<f64>, cell: f64, zone_sizes: &[f64], cv_k1: Optio
         }
         if k == 1 {
             let cv = cv_k1.unwrap_or_else(|| coefficient_of_variation(map.iter().copied()));
-            out.push(ZoneCv { zone_size, cells_per_side: 1, zones: h * w, cv });
+            out.push(ZoneCv { zone_size: cell, cells_per_side: 1, zones: h * w, cv });
             continue;
         }
         let s = sat.get_or_insert_with(|| {
@@ -797,7 +802,7 @@ pub fn zone_curve(map: &Array2<f64>, cell: f64, zone_sizes: &[f64], cv_k1: Optio
                 blocks.push(s[i1 * w1 + j1] - s[i0 * w1 + j1] - s[i1 * w1 + j0] + s[i0 * w1 + j0] + base);
             }
         }
-        out.push(ZoneCv { zone_size, cells_per_side: k, zones: rows * cols, cv: coefficient_of_variation(blocks.iter().copied()) });
+        out.push(ZoneCv { zone_size: k as f64 * cell, cells_per_side: k, zones: rows * cols, cv: coefficient_of_variation(blocks.iter().copied()) });
     }
     out
 }
@@ -938,6 +943,7 @@ mod tests {
         assert_eq!(a.len(), b.len());
         for (x, y) in a.iter().zip(&b) {
             assert_eq!((x.cells_per_side, x.zones), (y.cells_per_side, y.zones));
+            assert_eq!(x.zone_size, x.cells_per_side as f64 * 0.34e-3, "the size actually used");
             assert!((x.cv - y.cv).abs() < 1e-11 * y.cv.max(1e-300), "{x:?} {y:?}");
         }
     }

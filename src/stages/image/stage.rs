@@ -266,7 +266,7 @@ impl Stage for ImageStage {
         let parts: Vec<Output> = per_point
             .iter()
             .zip(&ctx.points)
-            .map(|(kept, p)| assemble(&samples, kept, &image_params(p), p, &grid_sweep, peaks))
+            .map(|(kept, p)| assemble(&samples, kept, p, &grid_sweep, peaks))
             .collect();
         let mut out = stack_points(parts, !ctx.sweep.is_empty())?;
         if p.bool("panels") && per_point.iter().flatten().any(|k| k.store) {
@@ -305,7 +305,8 @@ const NOT_SWEPT: &[&str] = &[
 
 /// Variables that describe the samples and conditions, not their analysis: the same at
 /// every sweep point, stored once.
-const SAMPLE_DESCRIPTORS: &[&str] = &["sample", "grid_point", "realisation", "pixel_size", "file_pixel_size", "rows", "cols", "condition_samples", "stored_sample"];
+const SAMPLE_DESCRIPTORS: &[&str] =
+    &["sample", "grid_point", "realisation", "pixel_size", "file_pixel_size", "rows", "cols", "condition_samples", "stored_sample", "zone_size", "zone_cells"];
 
 /// Says on stderr which pixel sizes the files were analysed at and where they came from;
 /// a warning names the files that declare none when no parameter gives one.
@@ -661,7 +662,7 @@ fn nan_if_none(v: Option<f64>) -> f64 {
 }
 
 /// The datasets of one sweep point; the peak table is `peaks` wide.
-fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, sweep: &GridSweep, peaks: usize) -> Output {
+fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, peaks: usize) -> Output {
     let n = samples.len();
     let nan = f64::NAN;
     let mut out = Output::new();
@@ -717,17 +718,24 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.f64("peak_notch_sigma", &["sample", "peak"], peak(&|q| q.notch_sigma), "1", "notch standard deviation (frequency bins)");
     out.i64("peak_pass", &["sample", "peak"], Array2::from_shape_fn((n, np), |(i, j)| kept[i].a.peaks.get(j).map(|q| q.pass as i64).unwrap_or(-1)), "1", "detection pass (−1: padding)");
 
-    // Zone curves on the requested zone sizes (NaN where a size was skipped).
-    let zones = crate::uniformity::log_zone_sizes(ip.zone_min_mm * 1e-3, ip.zone_max_mm * 1e-3, ip.zones_per_octave);
+    // Zone curves on the zone sides actually used (whole pixels, each once), padded at
+    // the end only: a sample's curve fills zone 0..len, and the filtered interior may
+    // lose its largest sizes.
+    let nz = kept.iter().map(|k| k.a.zone_cv_raw.len().max(k.a.zone_cv_filtered.len())).max().unwrap_or(0);
+    let longest = |k: &Kept| -> Vec<crate::uniformity::ZoneCv> {
+        if k.a.zone_cv_raw.len() >= k.a.zone_cv_filtered.len() { k.a.zone_cv_raw.clone() } else { k.a.zone_cv_filtered.clone() }
+    };
+    let sizes: Vec<Vec<crate::uniformity::ZoneCv>> = kept.iter().map(longest).collect();
     let zc = |raw: bool| {
-        Array2::from_shape_fn((n, zones.len()), |(i, j)| {
+        Array2::from_shape_fn((n, nz), |(i, j)| {
             let c = if raw { &kept[i].a.zone_cv_raw } else { &kept[i].a.zone_cv_filtered };
-            c.iter().find(|z| z.zone_size == zones[j]).map(|z| z.cv).unwrap_or(nan)
+            c.get(j).map(|z| z.cv).unwrap_or(nan)
         })
     };
-    out.coord("zone_size", zones.clone(), "m", "zone side (requested; rounded to whole pixels)");
-    out.f64("zone_cv_raw", &["sample", "zone_size"], zc(true), "1", "CV of zone means of the raw image (NaN: zone size skipped)");
-    out.f64("zone_cv_filtered", &["sample", "zone_size"], zc(false), "1", "CV of zone means of the filtered image interior");
+    out.f64("zone_size", &["sample", "zone"], Array2::from_shape_fn((n, nz), |(i, j)| sizes[i].get(j).map(|z| z.zone_size).unwrap_or(nan)), "m", "zone side actually used: zone_cells × pixel_size, from zone_min to zone_max rounded to whole pixels, each size once (NaN padding after a sample's last size)");
+    out.i64("zone_cells", &["sample", "zone"], Array2::from_shape_fn((n, nz), |(i, j)| sizes[i].get(j).map(|z| z.cells_per_side as i64).unwrap_or(0)), "1", "pixels per zone side (0: padding)");
+    out.f64("zone_cv_raw", &["sample", "zone"], zc(true), "1", "CV of zone means of the raw image at zone_size (NaN padding: fewer than 4 zones fit)");
+    out.f64("zone_cv_filtered", &["sample", "zone"], zc(false), "1", "CV of zone means of the filtered image interior at zone_size (NaN padding: fewer than 4 zones fit the interior)");
 
     // Per-group statistics.
     let groups = group_stats(samples, kept);

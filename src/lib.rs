@@ -8,7 +8,8 @@
 //! - [`archive`]: the versioned HDF5 archive with provenance;
 //! - [`runner`]: decides what to (re)run and records it;
 //! - [`executor`]: where a stage's units run (local threads or a Slurm job array);
-//! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation).
+//! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation);
+//! - [`plot`], [`table`]: figures and tables of a stage version, read back from the archive.
 pub mod archive;
 pub mod cli;
 pub mod executor;
@@ -20,4 +21,5 @@ pub mod progress;
 pub mod runner;
 pub mod schema;
 pub mod stages;
+pub mod table;
 pub mod uniformity;

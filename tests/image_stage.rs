@@ -509,6 +509,13 @@ fn cli_pixel_size_from_the_file_with_its_source_and_parameters_override_it() {
     }
     assert!(close(px[4], 297e-3 / 871.0) && declared[4].is_nan());
     assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["file", "file", "file", "file", "default"]);
+    // Without `groups`, each file is its own group, labelled by its stem; the run prints
+    // the per-condition table on stdout at full precision.
+    assert_eq!(read_strings(&archive, "scans", "group"), ["a", "b", "c", "d", "e"]);
+    let o = text(&out).0;
+    let cv = read(&archive, "scans", "cv_corr_mean");
+    assert!(o.contains("scans@v1 (laydown table out/study.h5 scans@v1):\ncondition,condition_samples,"), "{o}");
+    assert!(o.lines().any(|l| l.starts_with("c,1,") && l.contains(&format!(",{:?},", cv[2]))), "{o}");
     let warning: Vec<&str> = e.lines().filter(|l| l.contains("warning")).collect();
     assert!(warning.len() == 1 && warning[0].contains("e.png") && !warning[0].contains("a.png"), "{e}");
     assert!(e.contains("pixel size declared by the file: 0.084667 mm (2 images), 0.127000 mm (1 image), 0.200000 mm (1 image)"), "{e}");

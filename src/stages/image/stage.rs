@@ -5,7 +5,8 @@
 //! * **files**: `files:` lists paths or globs (relative to the pipeline file), read as
 //!   grey levels (PNG/TIFF/JPEG, 8/16 bit, RGB → BT.601 luma). `groups:` (optional, same
 //!   length) labels each entry with its condition, e.g. one glob of 8 scans per belt speed;
-//!   without it every entry is its own group. Pixel size per image: `pixel_size` (m) or
+//!   without it every entry is its own group, labelled by [`default_groups`] (the file
+//!   stem, or a whole-directory glob's directory). Pixel size per image: `pixel_size` (m) or
 //!   `dpi` if given (they override the file), else what the file declares (PNG pHYs, TIFF
 //!   resolution tags, JPEG JFIF density; [`super::io`]), else 297/871 mm (A4 at 871 px, the
 //!   paper's scans) with a warning naming the files. Each sample's size and its source
@@ -22,6 +23,10 @@
 //!   `bonds.*` overlaid; `cv_web` is the CV without bonds. For calibration (sweep
 //!   `false_alarm_rate` on noise and count the peaks) and the hard cases
 //!   (pipelines/stability/images.yaml).
+//!
+//! Results: the datasets of schemas/archive_layout.md; a Table-4-like summary rounded to
+//! 0.01 % on stderr, and `laydown run` prints the full-precision per-condition table
+//! (`laydown table`, [`crate::table`]) on stdout.
 //!
 //! **Sweeps** of the analysis, `render.*`, `bonds.*` or `synthetic.mean/cv/correlation`
 //! run every point on the same samples; each result gains a leading `point` dimension
@@ -116,7 +121,8 @@ impl Stage for ImageStage {
         "CV of a bonded nonwoven image, raw and after FFT notch removal of the bond lattice (§3.4, Table 4, Figs 11-12)"
     }
     fn cache_version(&self) -> u32 {
-        // 2: pixel size from the image file; pixel_size_source, file_pixel_size.
+        // 2: pixel size from the image file (pixel_size_source, file_pixel_size); zone
+        // curves on the sides used; default group labels are file stems.
         2
     }
     fn inputs(&self) -> InputRule {
@@ -132,7 +138,7 @@ impl Stage for ImageStage {
             ParamSpec::float("synthetic.mean", "1", 0.5, 0.0, 1.0, "mean grey level of a synthetic image (full scale 1)"),
             ParamSpec::float("synthetic.cv", "1", 0.2, 0.0, 10.0, "CV of the noise before clipping to [0, 1]"),
             ParamSpec::float("synthetic.correlation", "1", 1.0, 0.0, 100.0, "standard deviation (pixels) of the Gaussian that smooths the noise; 0 = white"),
-            ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group"),
+            ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group, labelled by its file stem (a glob of a whole directory, v020/*.png: the directory)"),
             ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files, overriding what each file declares; give this or dpi; neither: each file's own (PNG pHYs, TIFF resolution tags, JPEG JFIF density), else 297/871 mm (A4 at 871 px) with a warning; grid input: the grid's cell_size").auto_default(),
             ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m), overriding what each file declares; give this or pixel_size").auto_default(),
             ParamSpec::float("zone_min", "m", 0.5e-3, 1e-7, 1.0, "smallest zone side of the CV-per-zone-size curves"),
@@ -482,16 +488,44 @@ pub fn bond_pattern(p: &ParamSet) -> Option<BondPattern> {
     })
 }
 
+/// The group label of each `files` entry when `groups` is not given: its file stem
+/// (`scans/a01.png` → `a01`, `scans/w*.png` → `w*`), or for a glob naming every file of
+/// a directory (`v020/*.png`, `v020/*`) that directory (`v020`). Entries whose labels
+/// would coincide keep the whole entry, so that distinct entries stay distinct groups.
+pub fn default_groups(files: &[String]) -> Vec<String> {
+    let label = |f: &String| -> String {
+        let path = Path::new(f);
+        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let only_glob = !stem.is_empty() && stem.chars().all(|c| matches!(c, '*' | '?'));
+        if only_glob {
+            let parent = path.parent().and_then(|p| p.file_name()).map(|s| s.to_string_lossy().into_owned());
+            return parent.filter(|p| !p.contains(['*', '?', '['])).unwrap_or_else(|| f.clone());
+        }
+        if stem.is_empty() {
+            f.clone()
+        } else {
+            stem
+        }
+    };
+    let labels: Vec<String> = files.iter().map(label).collect();
+    labels
+        .iter()
+        .zip(files)
+        .map(|(l, f)| if files.iter().zip(&labels).any(|(g, m)| m == l && g != f) { f.clone() } else { l.clone() })
+        .collect()
+}
+
 /// (file, group) of every `files` entry, globs expanded (sorted within a pattern),
 /// relative paths taken from `dir`. Missing files and empty globs are bad input.
 fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
     let (files, groups) = (p.text_list("files"), p.text_list("groups"));
+    let groups = if groups.is_empty() { default_groups(&files) } else { groups.to_vec() };
     let specs: Vec<super::InputSpec> = files
         .iter()
         .enumerate()
         .map(|(i, f)| {
             let path = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
-            super::InputSpec { pattern: path.display().to_string(), group: groups.get(i).cloned().unwrap_or_else(|| f.clone()) }
+            super::InputSpec { pattern: path.display().to_string(), group: groups[i].clone() }
         })
         .collect();
     super::expand_inputs(&specs).map_err(|e| BadInput(e.to_string()).into())

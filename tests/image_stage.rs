@@ -49,14 +49,14 @@ fn lattice_case(name: &str, rows: usize, cols: usize, seed: u64, b: BondPattern)
     let a = analyze(&img, PX, &ImageParams::default()).unwrap();
     let cv_true = cv(&truth);
     let err = a.cv_corr_compensated / cv_true - 1.0;
-    let err_plain = a.cv_corr / cv_true - 1.0;
+    let err_plain = a.cv_corr_plain / cv_true - 1.0;
     let lat = a.lattice.as_ref().expect("lattice");
     println!(
         "{name}: truth {:.4} raw {:.4} ({:+.0} %) corr {:.4} ({:+.2} %) compensated {:.4} ({:+.2} %) peaks {} notches {} removed {:.3} lattice {:?} mm at {:?}°, between {:?}",
         cv_true,
         a.cv_raw,
         100.0 * (a.cv_raw / cv_true - 1.0),
-        a.cv_corr,
+        a.cv_corr_plain,
         100.0 * err_plain,
         a.cv_corr_compensated,
         100.0 * err,
@@ -72,7 +72,9 @@ fn lattice_case(name: &str, rows: usize, cols: usize, seed: u64, b: BondPattern)
     assert!(a.cv_raw > 1.4 * cv_true, "{name}: raw CV {} not far from truth {cv_true}", a.cv_raw);
     assert!(err.abs() < 0.05, "{name}: compensated CV_corr {} vs truth {cv_true}", a.cv_corr_compensated);
     // The plain CV of the filtered image is low by the web power under the notches.
-    assert!(err_plain < 0.02 && err_plain > -0.12, "{name}: CV_corr {} vs truth {cv_true}", a.cv_corr);
+    assert!(err_plain < 0.02 && err_plain > -0.12, "{name}: plain CV_corr {} vs truth {cv_true}", a.cv_corr_plain);
+    // The reported CV_corr is the compensated one (CV_CORR_RULE).
+    assert_eq!(a.cv_corr, a.cv_corr_compensated);
     // The fitted lattice has the rendered repeat distances.
     let mut want = [b.period1, b.period2];
     want.sort_by(|x, y| x.total_cmp(y));
@@ -143,8 +145,10 @@ fn one_sided_pattern_biases_cv_corr_and_the_one_sided_estimate_recovers_it() {
         "one-sided bonds: truth {cv_true:.4} raw {:.4} corr (mean kept) {:.4} one-sided {:.4} bond mean est {:.4}",
         a.cv_raw, a.cv_corr, os, a.bond_mean_estimate
     );
-    // Mean kept: biased low by the bond mean; the one-sided estimate removes the bias.
-    assert!(a.cv_corr < 0.97 * cv_true);
+    // Mean kept: biased low by the bond mean (compensated or not); the one-sided
+    // estimate removes the bias.
+    assert!(a.cv_corr < 0.99 * cv_true && a.cv_corr_plain < 0.97 * cv_true);
+    assert!((os / cv_true - 1.0).abs() < (a.cv_corr / cv_true - 1.0).abs());
     assert!((os / cv_true - 1.0).abs() < 0.05, "{os} vs {cv_true}");
 }
 
@@ -595,4 +599,58 @@ fn cli_zone_curve_stores_the_zone_sizes_actually_used_without_holes() {
     assert!(raw[nz..nz + last].iter().chain(&sizes[nz..nz + last]).all(|v| v.is_finite()));
     assert!(raw[nz + last..].iter().chain(&sizes[nz + last..]).chain(&filtered[nz + last..]).all(|v| v.is_nan()));
     assert!(cells[nz + last..].iter().all(|&c| c == 0.0));
+}
+
+/// The rule behind the reported `cv_corr` (CV_CORR_RULE): on bonded renderings of known
+/// web CV, including strong, rotated, staggered and large elliptical bonds whose periods
+/// do not divide the image, the compensated CV has the smaller worst-case and mean error;
+/// the paper's plain CV is closer only on weak or dark patterns, where both are within
+/// 2.5 %. (300 × 360 px here: compensated −2.1 to +1.9 %, plain −6.7 to −0.7 %; at
+/// 617 × 871 px, 3 seeds, examples/image_estimators.rs: −2.6 to +0.9 % and −4.5 to −0.4 %.)
+#[test]
+fn reported_cv_corr_is_the_compensated_estimate_and_closer_to_the_truth() {
+    let cases = [
+        ("weak 4.2 mm at 45°", BondPattern { period1: 4.2e-3, period2: 4.2e-3, angle_deg: 45.0, contrast: 0.15, shape: BondShape::Circle { diameter: 1.5e-3 }, ..Default::default() }),
+        ("strong 4.1 mm off-grid", BondPattern { period1: 4.1e-3, period2: 4.1e-3, contrast: 0.5, shape: BondShape::Circle { diameter: 1.6e-3 }, ..Default::default() }),
+        (
+            "rotated 30°, elliptical",
+            BondPattern { period1: 5e-3, period2: 3.5e-3, angle_deg: 30.0, contrast: 0.5, shape: BondShape::Ellipse { major: 1.8e-3, minor: 1.1e-3, angle_deg: 30.0 }, ..Default::default() },
+        ),
+        (
+            "large ellipses",
+            BondPattern { period1: 5.3e-3, period2: 5.3e-3, angle_deg: 10.0, contrast: 0.4, shape: BondShape::Ellipse { major: 3e-3, minor: 1.6e-3, angle_deg: 35.0 }, ..Default::default() },
+        ),
+        (
+            "staggered rectangles, dark",
+            BondPattern {
+                period1: 4.5e-3,
+                period2: 4.5e-3,
+                angle_deg: 15.0,
+                angle_between_deg: 60.0,
+                contrast: -0.4,
+                shape: BondShape::Rectangle { width: 1.6e-3, height: 1.1e-3, angle_deg: 15.0 },
+                ..Default::default()
+            },
+        ),
+    ];
+    let mut errors: Vec<(f64, f64)> = vec![];
+    for (k, (name, b)) in cases.into_iter().enumerate() {
+        let density = web(300, 360, 60 + k as u64);
+        let (truth, img) = bonded(&density, b);
+        let a = analyze(&img, PX, &ImageParams::default()).unwrap();
+        let t = cv(&truth);
+        let (comp, plain) = ((a.cv_corr_compensated / t - 1.0).abs(), (a.cv_corr_plain / t - 1.0).abs());
+        println!("{name}: compensated {:+.2} %, plain {:+.2} %", 100.0 * (a.cv_corr_compensated / t - 1.0), 100.0 * (a.cv_corr_plain / t - 1.0));
+        assert_eq!(a.cv_corr, a.cv_corr_compensated, "{name}");
+        assert!(comp < 0.025, "{name}: compensated off by {comp}");
+        errors.push((comp, plain));
+    }
+    let worst = |f: fn(&(f64, f64)) -> f64| errors.iter().map(f).fold(0.0, f64::max);
+    let mean = |f: fn(&(f64, f64)) -> f64| errors.iter().map(f).sum::<f64>() / errors.len() as f64;
+    assert!(worst(|e| e.0) < worst(|e| e.1) && mean(|e| e.0) < mean(|e| e.1), "{errors:?}");
+    // Nothing notched: every corrected CV is the raw one.
+    let plain_web = render(&web(200, 200, 70), PX, &RenderParams::default()).unwrap().grey;
+    let a = analyze(&plain_web, PX, &ImageParams::default()).unwrap();
+    assert!(a.peaks.is_empty());
+    assert!(a.cv_corr == a.cv_raw && a.cv_corr_plain == a.cv_raw && a.cv_corr_compensated == a.cv_raw);
 }

@@ -72,7 +72,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     }
     // CV per condition, or against the swept parameter.
     let conditions = d.strings("condition")?;
-    let metrics = [("cv_raw", "CV raw"), ("cv_corr", "CV_corr"), ("cv_corr_compensated", "CV_corr compensated"), ("cv_web", "CV of the web (truth)")];
+    let metrics = [("cv_raw", "CV raw"), ("cv_corr", "CV_corr"), ("cv_corr_plain", "CV_corr plain (paper)"), ("cv_web", "CV of the web (truth)")];
     // The x values and one line per condition (swept: a line along the points for each
     // condition; unswept: one line across the conditions).
     let (x, x_label, log_x, lines): (Vec<f64>, String, bool, Vec<(String, Option<usize>)>) = if swept {
@@ -94,6 +94,9 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let mut series = vec![];
     for (k, (suffix, condition)) in lines.iter().enumerate() {
         for (i, (name, label)) in metrics.iter().enumerate() {
+            if !d.has(&format!("{name}_mean")) {
+                continue; // cv_corr_plain: versions written before it existed
+            }
             let (m, s) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
             let (m, s) = match condition {
                 Some(c) => (m.index_axis(Axis(1), *c).to_owned(), s.index_axis(Axis(1), *c).to_owned()),

@@ -662,12 +662,13 @@ fn group_stats(samples: &[Sample], kept: &[Kept]) -> Vec<(GroupStats, MeanStd)> 
         .collect()
 }
 
-/// The Table-4-like summary: per group n, CV raw and CV_corr as mean ± std (per cent).
+/// The Table-4-like summary: per group n, CV raw, the reported CV_corr and the paper's
+/// plain CV_corr as mean ± std (per cent).
 fn table(stage: &str, groups: &[(GroupStats, MeanStd)], kept: &[Kept]) -> String {
     let has_web = kept.iter().any(|k| k.cv_web.is_finite());
     let width = groups.iter().map(|(g, _)| g.group.chars().count()).max().unwrap_or(5).max(5);
     let mut t = format!("{stage}: CV of grey levels, mean ± std over the samples of each group (per cent)\n");
-    t += &format!("{stage}: {:<width$}  {:>3}  {:>14}  {:>14}  {:>14}  {:>7}", "group", "n", "CV raw", "CV_corr", "CV_corr comp.", "notches");
+    t += &format!("{stage}: {:<width$}  {:>3}  {:>14}  {:>14}  {:>14}  {:>7}", "group", "n", "CV raw", "CV_corr", "CV_corr plain", "notches");
     if has_web {
         t += &format!("  {:>14}", "CV web (truth)");
     }
@@ -680,7 +681,7 @@ fn table(stage: &str, groups: &[(GroupStats, MeanStd)], kept: &[Kept]) -> String
             g.n,
             pm(&g.cv_raw),
             pm(&g.cv_corr),
-            pm(&g.cv_corr_compensated),
+            pm(&g.cv_corr_plain),
             g.notch_count.mean
         );
         if has_web {
@@ -718,7 +719,8 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
     out.i64("cols", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cols as i64)), "1", "image width (pixels)");
     out.f64("mean_grey", &["sample"], col(&|a| a.mean), "1", "mean grey level (full scale 1; kept by the filter)");
     out.f64("cv_raw", &["sample"], col(&|a| a.cv_raw), "1", "CV of the raw grey levels (population std / mean)");
-    out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr: CV of the notch-filtered image, mean kept, interior only (the paper's quantity)");
+    out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr, the reported uniformity, chosen by the version attribute cv_corr_rule: cv_corr_compensated");
+    out.f64("cv_corr_plain", &["sample"], col(&|a| a.cv_corr_plain), "1", "CV of the notch-filtered image, mean kept, interior only (the paper's CV_corr; biased low by the web variance under the notches)");
     out.f64("cv_corr_compensated", &["sample"], col(&|a| a.cv_corr_compensated), "1", "CV_corr with the web variance removed under the notches added back (background model)");
     out.f64("cv_corr_one_sided", &["sample"], col(&|a| nan_if_none(a.cv_corr_one_sided)), "1", "compensated CV about the mean without an estimated one-sided bond brightening (NaN when undefined)");
     out.f64("bond_mean_estimate", &["sample"], col(&|a| a.bond_mean_estimate), "1", "grey level the bonds add on average if they are one-sided");
@@ -781,6 +783,8 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
     out.f64("cv_raw_std", &["condition"], gcol(&|s| s.0.cv_raw.std), "1", "sample std (n−1) of cv_raw over the group");
     out.f64("cv_corr_mean", &["condition"], gcol(&|s| s.0.cv_corr.mean), "1", "mean of cv_corr over the group");
     out.f64("cv_corr_std", &["condition"], gcol(&|s| s.0.cv_corr.std), "1", "sample std (n−1) of cv_corr over the group");
+    out.f64("cv_corr_plain_mean", &["condition"], gcol(&|s| s.0.cv_corr_plain.mean), "1", "mean of cv_corr_plain");
+    out.f64("cv_corr_plain_std", &["condition"], gcol(&|s| s.0.cv_corr_plain.std), "1", "sample std of cv_corr_plain");
     out.f64("cv_corr_compensated_mean", &["condition"], gcol(&|s| s.0.cv_corr_compensated.mean), "1", "mean of cv_corr_compensated");
     out.f64("cv_corr_compensated_std", &["condition"], gcol(&|s| s.0.cv_corr_compensated.std), "1", "sample std of cv_corr_compensated");
     out.f64("cv_web_mean", &["condition"], gcol(&|s| s.1.mean), "1", "mean of cv_web (NaN for files)");
@@ -819,6 +823,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
         out.f64("log_spectrum_notched", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_notched), "1", "log10 energy spectrum after notching, fftshifted");
     }
     out.set_attr("max_stored_images", p.int("max_stored_images"));
+    out.set_attr("cv_corr_rule", super::CV_CORR_RULE);
     out.set_attr("background_model", "median of |F|² in polar cells / ln 2, divided out (whitening), not subtracted");
     out
 }

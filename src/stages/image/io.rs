@@ -150,7 +150,7 @@ fn grey_float_tiff(bytes: &[u8]) -> Result<Option<(Array2<f64>, u8)>, String> {
         _ => return Ok(None),
     };
     let float = d.find_tag_unsigned_vec::<u16>(Tag::SampleFormat).map_err(|e| e.to_string())?;
-    if !float.is_some_and(|v| v.first() == Some(&SampleFormat::IEEEFP.to_u16())) {
+    if float.is_none_or(|v| v.first() != Some(&SampleFormat::IEEEFP.to_u16())) {
         return Ok(None);
     }
     let (w, h) = d.dimensions().map_err(|e| e.to_string())?;

@@ -519,7 +519,7 @@ pub fn default_groups(files: &[String]) -> Vec<String> {
 /// relative paths taken from `dir`. Missing files and empty globs are bad input.
 fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
     let (files, groups) = (p.text_list("files"), p.text_list("groups"));
-    let groups = if groups.is_empty() { default_groups(&files) } else { groups.to_vec() };
+    let groups = if groups.is_empty() { default_groups(files) } else { groups.to_vec() };
     let specs: Vec<super::InputSpec> = files
         .iter()
         .enumerate()

@@ -12,7 +12,8 @@
 //! or centimetre (the `tiff` crate), JPEG JFIF `APP0` density in dots per inch or
 //! centimetre (parsed here: neither `image` nor `zune-jpeg` exposes it). A file without
 //! one, or with only an aspect ratio (pHYs unit unspecified, ResolutionUnit none, JFIF
-//! units 0), declares none. EXIF resolution tags are not read.
+//! units 0), declares none. EXIF resolution tags are not read. Malformed resolution tags
+//! do not stop the image being read: they are kept in [`GreyImage::resolution_error`].
 //!
 //! ```
 //! use laydown::stages::image::io::{read_grey, write_grey_png};
@@ -51,6 +52,9 @@ pub struct GreyImage {
     pub path: PathBuf,
     /// The pixel size the file declares, if any.
     pub resolution: Option<FileResolution>,
+    /// Why the file's resolution metadata could not be read (malformed tags); the image
+    /// itself decoded. Only an error if the size is needed (no `dpi`/`pixel_size`).
+    pub resolution_error: Option<String>,
 }
 
 /// The pixel size a file declares.
@@ -96,14 +100,16 @@ pub fn read_grey(path: &Path) -> Result<GreyImage, ImageError> {
     if bad > 0 {
         return Err(ImageError::NonFinite { path: Some(path.to_path_buf()), count: bad });
     }
-    let resolution = match format {
+    let (resolution, resolution_error) = match match format {
         Some(ImageFormat::Png) => png_resolution(&bytes),
         Some(ImageFormat::Tiff) => tiff_resolution(&bytes),
         Some(ImageFormat::Jpeg) => jfif_resolution(&bytes),
         _ => Ok(None),
-    }
-    .map_err(|e| decode_err(format!("resolution: {e}")))?;
-    Ok(GreyImage { data, bit_depth, was_colour, path: path.to_path_buf(), resolution })
+    } {
+        Ok(r) => (r, None),
+        Err(e) => (None, Some(e)),
+    };
+    Ok(GreyImage { data, bit_depth, was_colour, path: path.to_path_buf(), resolution, resolution_error })
 }
 
 fn bit_depth_and_colour(img: &DynamicImage) -> (u8, bool) {
@@ -405,6 +411,17 @@ mod tests {
         assert!(close(res("cm.tif").unwrap().x, 1e-4));
         tiff_with::<Gray8>(&at("unitless.tif"), &ramp(), Some((ResolutionUnit::None, 300, 300)));
         assert_eq!(res("unitless.tif"), None);
+        // A malformed resolution tag does not stop the image being read; it is reported.
+        {
+            let mut enc = tiff::encoder::TiffEncoder::new(std::fs::File::create(at("bad_tag.tif")).unwrap()).unwrap();
+            let mut img = enc.new_image::<Gray8>(30, 20).unwrap();
+            img.encoder().write_tag(tiff::tags::Tag::XResolution, "300 dpi").unwrap();
+            img.write_data(&ramp()).unwrap();
+        }
+        let g = read_grey(&at("bad_tag.tif")).unwrap();
+        assert_eq!(g.resolution, None);
+        assert!(g.resolution_error.as_deref().is_some_and(|e| e.contains("XResolution")), "{:?}", g.resolution_error);
+        assert_eq!(read_grey(&at("inch.tif")).unwrap().resolution_error, None);
 
         // Grey 32-bit float: decoded (as it is, not scaled) and its resolution read.
         let floats: Vec<f32> = (0..600).map(|k| 0.25 + k as f32 / 1000.0).collect();

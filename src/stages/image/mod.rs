@@ -357,16 +357,20 @@ impl ImageParams {
     /// `pixel_size_mm` or `dpi` when given (they override the file), else the size the
     /// file declares, else [`DEFAULT_PIXEL_SIZE_MM`].
     ///
-    /// A declared size that is used must be square (x and y within 0.1 %) and within the
-    /// range of `pixel_size_mm`; otherwise [`ImageError::BadResolution`] names the file.
+    /// A declared size that is used must be readable, square (x and y within 0.1 %) and
+    /// within the range of `pixel_size_mm`; otherwise [`ImageError::BadResolution`] names
+    /// the file.
     pub fn pixel_size_for(&self, img: &GreyImage) -> Result<(f64, PixelSource), ImageError> {
         if let Some(given) = self.pixel_size_given() {
             return Ok(given);
         }
+        let bad = |message: String| ImageError::BadResolution { path: img.path.clone(), message };
+        if let Some(e) = &img.resolution_error {
+            return Err(bad(format!("its resolution metadata cannot be read ({e})")));
+        }
         let Some(r) = &img.resolution else {
             return Ok((DEFAULT_PIXEL_SIZE_MM * 1e-3, PixelSource::Default));
         };
-        let bad = |message: String| ImageError::BadResolution { path: img.path.clone(), message };
         if (r.x / r.y - 1.0).abs() > 1e-3 {
             return Err(bad(format!(
                 "the file declares non-square pixels, {:.6} mm wide and {:.6} mm high ({}); the analysis needs square pixels",
@@ -944,6 +948,7 @@ mod tests {
             was_colour: false,
             path: PathBuf::from("scan.png"),
             resolution: res.map(|(x, y)| FileResolution { x, y, tag: "test".into() }),
+            resolution_error: None,
         };
         let p = ImageParams::default();
         assert_eq!(p.pixel_size_for(&img(Some((1e-4, 1e-4)))).unwrap(), (1e-4, PixelSource::File));
@@ -956,6 +961,10 @@ mod tests {
         assert!(matches!(e, ImageError::BadResolution { .. }) && e.to_string().contains("scan.png") && e.to_string().contains("non-square"), "{e}");
         let e = p.pixel_size_for(&img(Some((1.0, 1.0)))).unwrap_err();
         assert!(e.to_string().contains("1000 mm") && e.to_string().contains("override"), "{e}");
+        let unreadable = GreyImage { resolution_error: Some("XResolution has an unexpected type".into()), ..img(None) };
+        let e = p.pixel_size_for(&unreadable).unwrap_err();
+        assert!(e.to_string().contains("cannot be read") && e.to_string().contains("scan.png"), "{e}");
+        assert_eq!(dpi.pixel_size_for(&unreadable).unwrap().1, PixelSource::Dpi, "a parameter overrides unreadable metadata");
     }
 
     #[test]

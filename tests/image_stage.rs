@@ -547,6 +547,16 @@ fn cli_pixel_size_from_the_file_with_its_source_and_parameters_override_it() {
     assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["pixel_size"]);
     assert_eq!(read(&archive, "scans", "pixel_size"), [0.0002]);
 
+    // 72 dpi, a common software default, is used but flagged.
+    png_phys(&d.join("screen.png"), &web_bytes(7), 2835, 2835);
+    let p = pipeline(d, "      files: [screen.png, a.png]\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let warning: Vec<&str> = e.lines().filter(|l| l.contains("warning")).collect();
+    assert!(warning.len() == 1 && warning[0].contains("screen.png: the file declares 72 or 96 dpi") && !warning[0].contains("a.png"), "{e}");
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["file", "file"]);
+
     // Non-square pixels declared and no override: bad input naming the file.
     png_phys(&d.join("skew.png"), &web_bytes(6), 11811, 5906);
     let p = pipeline(d, "      files: [skew.png]\n");

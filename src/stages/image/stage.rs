@@ -122,7 +122,8 @@ impl Stage for ImageStage {
     }
     fn cache_version(&self) -> u32 {
         // 2: pixel size from the image file (pixel_size_source, file_pixel_size); zone
-        // curves on the sides used; default group labels are file stems.
+        // curves on the sides used; default group labels are file stems; cv_corr is the
+        // compensated CV (cv_corr_plain the paper's).
         2
     }
     fn inputs(&self) -> InputRule {
@@ -346,6 +347,19 @@ fn report_pixel_sizes(stage: &str, samples: &[Sample], kept: &[Kept]) {
         };
         let list: Vec<String> = sizes.iter().map(|(s, n)| format!("{s} mm ({n} image{})", if *n == 1 { "" } else { "s" })).collect();
         eprintln!("{stage}: pixel size {from}: {}", list.join(", "));
+    }
+    // 72 and 96 dpi are what many programs write when they know no resolution (within
+    // 0.1 %: PNG stores whole pixels per metre, 2835 for 72 dpi).
+    let placeholder: Vec<&str> = samples
+        .iter()
+        .zip(kept)
+        .filter(|(_, k)| k.pixel_source == PixelSource::File && [72.0, 96.0].iter().any(|d| (0.0254 / k.pixel / d - 1.0).abs() < 1e-3))
+        .map(|(s, _)| s.file.as_str())
+        .collect();
+    if !placeholder.is_empty() {
+        let shown = placeholder.iter().take(5).copied().collect::<Vec<_>>().join(", ");
+        let more = if placeholder.len() > 5 { format!(" and {} more", placeholder.len() - 5) } else { String::new() };
+        eprintln!("{stage}: warning: {shown}{more}: the file declares 72 or 96 dpi, what many programs write when they know no resolution; if the scan's resolution differs, give dpi");
     }
     let missing: Vec<&str> = samples.iter().zip(kept).filter(|(_, k)| k.pixel_source == PixelSource::Default).map(|(s, _)| s.file.as_str()).collect();
     if !missing.is_empty() {

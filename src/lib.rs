@@ -8,16 +8,20 @@
 //! - [`archive`]: the versioned HDF5 archive with provenance;
 //! - [`runner`]: decides what to (re)run and records it;
 //! - [`executor`]: where a stage's units run (local threads or a Slurm job array);
+//! - [`rod`]: the fibre physics (discrete elastic rod, drag, oscillation, belt contact)
+//!   that the laydown and laid_web stages compose;
 //! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation);
 //! - [`plot`], [`table`]: figures and tables of a stage version, read back from the archive.
 pub mod archive;
 pub mod cli;
 pub mod executor;
 pub mod geometry;
+pub mod param_table;
 pub mod params;
 pub mod pipeline;
 pub mod plot;
 pub mod progress;
+pub mod rod;
 pub mod runner;
 pub mod schema;
 pub mod stages;

@@ -320,9 +320,9 @@ mod tests {
 
 /// The numerics modules keep their own static tables (`stages::param_table`); this
 /// turns a row into the pipeline's spec so there is one source of truth per parameter.
-impl From<&crate::stages::param_table::ParamSpec> for ParamSpec {
-    fn from(p: &crate::stages::param_table::ParamSpec) -> Self {
-        use crate::stages::param_table::ParamDefault;
+impl From<&crate::param_table::ParamSpec> for ParamSpec {
+    fn from(p: &crate::param_table::ParamSpec) -> Self {
+        use crate::param_table::ParamDefault;
         let (kind, default) = match p.default {
             ParamDefault::Real(v) => (ParamKind::Float { min: p.min, max: p.max }, ParamValue::Float(v)),
             ParamDefault::Integer(v) => (

@@ -183,3 +183,37 @@ stages:
         assert!((corr[[s]] - web[[s]]).abs() < 0.5 * (raw[[s]] - web[[s]]), "CV_corr {} raw {} web {}", corr[[s]], raw[[s]], web[[s]]);
     }
 }
+
+/// Laid webs at the hard corners (pipelines/stability/laid_webs.yaml at reduced size):
+/// fast fibres with strong and weak air, no air, and a dense web. Positions stay finite;
+/// a fibre is valid or invalid with a stated reason.
+#[test]
+fn laid_web_hard_cases_stay_finite() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run_pipeline(
+        dir.path(),
+        "pipeline: hard\narchive: hard.h5\nseed: 7\nstages:\n  \
+         - {name: fast, kind: laid_web, params: {fibre_speed: 20.0, air_speed: 60.0, belt_speed: 0.8, oscillation_frequency: 40.0, fibres_across: 2, belt_travel: 0.03}}\n  \
+         - {name: fast_weak_air, kind: laid_web, params: {fibre_speed: 20.0, air_speed: 20.0, belt_speed: 0.8, oscillation_frequency: 40.0, fibres_across: 2, belt_travel: 0.03}}\n  \
+         - {name: no_air, kind: laid_web, params: {air_speed: 0.0, fibres_across: 2, belt_travel: 0.03}}\n  \
+         - {name: dense, kind: laid_web, params: {diameter: 16.2e-6, belt_speed: 0.25, fibres_across: 6, fibre_spacing: 2.3e-4, belt_travel: 0.03}}\n",
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let a = Archive::open_read(&dir.path().join("hard.h5")).unwrap();
+    for stage in ["fast", "fast_weak_air", "no_air", "dense"] {
+        let g = a.version(stage, None).unwrap().open().unwrap();
+        let laid = hdf::read_f64(&g, "laid_positions").unwrap();
+        let count = hdf::read_i64(&g, "fibre_laid_nodes").unwrap();
+        let n: i64 = count.iter().sum();
+        assert!(n > 0, "{stage}: nothing laid");
+        assert_eq!(laid.iter().filter(|v| v.is_finite()).count() as i64, 3 * n, "{stage}: laid positions are the laid nodes, all finite");
+        let valid = hdf::read_u8(&g, "valid").unwrap();
+        let reasons = hdf::read_strings(&g, "invalid_reason").unwrap();
+        for (v, r) in valid.iter().zip(&reasons) {
+            assert_eq!(*v == 0, !r.is_empty(), "{stage}: valid flag and reason disagree ({v}, `{r}`)");
+        }
+        let s = hdf::read_f64(&g, "radius_of_gyration_belt_removed").unwrap();
+        assert!(s.iter().all(|x| x.is_finite() && *x > 0.0 && *x < 0.2), "{stage}: S {s:?}");
+        println!("{stage}: valid {:?}, reasons {reasons:?}", valid.iter().collect::<Vec<_>>());
+    }
+}

@@ -43,6 +43,10 @@ stages:
       panels: false
       bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 0.15}
     sweep: {notch_sigma_bins: [1.5, 4.0]}
+  - name: laid
+    kind: laid_web
+    params: {fibres_across: 3, fibre_spacing: 0.004, belt_travel: 0.03}
+    sweep: {oscillation_amplitude: [0.005, 0.01]}
 ";
 
 /// Distinct colours in a PNG: a blank or single-colour figure has one or two.
@@ -68,7 +72,8 @@ fn every_stage_plots_as_png_and_svg() {
     let paths: Vec<&str> = out.lines().collect();
     for expected in ["fibre/v1/fibre.png", "fibre/v1/sweep_fibres.png", "fibre/v1/radius_of_gyration_bending_energy.png", "spectra/v1/energy_spectrum.png", "ideal/v1/curvature.png",
         "web/v1/fibres.png", "grid/v1/density.png", "grid/v1/zone_size.png", "grid/v1/uniformity_vs_sweep_belt_speed_ratio.png",
-        "scans/v1/sample000.png", "scans/v1/cv.png", "swept_scans/v1/point001_sample000.png", "swept_scans/v1/cv.png"] {
+        "scans/v1/sample000.png", "scans/v1/cv.png", "swept_scans/v1/point001_sample000.png", "swept_scans/v1/cv.png",
+        "laid/v1/laid_web.png", "laid/v1/fibre_shapes.png"] {
         let p = paths.iter().find(|p| p.ends_with(expected)).unwrap_or_else(|| panic!("{expected} missing from {out}"));
         let p = dir.path().join(p);
         assert!(p.starts_with(dir.path().join("plots_figures")), "{}", p.display());

@@ -14,6 +14,7 @@ pub mod figure;
 mod accuracy;
 mod grid;
 mod image;
+mod laid_web;
 mod laydown;
 mod spectra;
 mod web;
@@ -109,6 +110,7 @@ pub fn open(archive: &Path, stage_ref: &str) -> Result<StageData> {
 pub fn figures(data: &StageData) -> Result<Vec<Figure>> {
     match data.kind() {
         "laydown" => laydown::figures(data),
+        "laid_web" => laid_web::figures(data),
         "spectra" => spectra::figures(data),
         "web" => web::figures(data),
         "grid" => grid::figures(data),

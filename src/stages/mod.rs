@@ -16,8 +16,9 @@ use rayon::prelude::*;
 pub mod accuracy;
 pub mod grid;
 pub mod image;
+pub mod laid_web;
 pub mod laydown;
-pub mod param_table;
+pub use crate::param_table;
 pub mod spectra;
 pub mod web;
 
@@ -172,12 +173,37 @@ pub mod rows {
             _ => bail!("`{name}` in the per-replicate rows is not text"),
         }
     }
+    /// The row values of a per-row array `a` (rows, rest…) placed at (point,
+    /// replicate): shape (npoints, nreps, rest…), `fill` where no row was computed.
+    pub fn place<T: Clone>(a: &ArrayD<T>, index: &[(usize, usize)], npoints: usize, nreps: usize, fill: T) -> ArrayD<T> {
+        use ndarray::Axis;
+        let mut shape = vec![npoints, nreps];
+        shape.extend_from_slice(&a.shape()[1..]);
+        let mut out = ArrayD::from_elem(ndarray::IxDyn(&shape), fill);
+        for (row, &(p, r)) in index.iter().enumerate() {
+            out.index_axis_mut(Axis(0), p).index_axis_mut(Axis(0), r).assign(&a.index_axis(Axis(0), row));
+        }
+        out
+    }
+
     /// The (point, replicate) of every row.
     pub fn index(rows: &Output) -> Result<Vec<(usize, usize)>> {
         let p = i64(rows, "unit_point")?;
         let r = i64(rows, "unit_replicate")?;
         Ok(p.iter().zip(r.iter()).map(|(&p, &r)| (p as usize, r as usize)).collect())
     }
+}
+
+/// Mean and sample standard deviation of `values` (NaN when empty; the standard
+/// deviation of a single value is undefined: NaN, not 0).
+pub fn mean_std(values: &[f64]) -> (f64, f64) {
+    let n = values.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    let var = if n > 1 { values.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64 } else { f64::NAN };
+    (mean, var.sqrt())
 }
 
 /// An upstream stage version a stage reads from.
@@ -270,7 +296,7 @@ pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
 
 /// Every stage kind the pipeline knows.
 pub fn registry() -> Vec<&'static dyn Stage> {
-    vec![&laydown::LaydownStage, &spectra::SpectraStage, &web::WebStage, &grid::GridStage, &image::stage::ImageStage, &accuracy::AccuracyStage]
+    vec![&laydown::LaydownStage, &laid_web::LaidWebStage, &spectra::SpectraStage, &web::WebStage, &grid::GridStage, &image::stage::ImageStage, &accuracy::AccuracyStage]
 }
 
 pub fn find(kind: &str) -> Option<&'static dyn Stage> {

@@ -37,6 +37,7 @@
 //! assert!((r.mean_areal_density_gsm / 2.388 - 1.0).abs() < 0.15, "{}", r.mean_areal_density_gsm);
 //! ```
 mod deposit;
+pub mod laid;
 mod stage;
 
 pub use stage::{grid_params, GridStage, TABLE4, TABLE4_SOURCE};
@@ -50,7 +51,7 @@ use std::sync::Mutex;
 /// Fibres generated up front to reject a window that is clearly too close to an edge.
 const PRECHECK_FIBRES: usize = 48;
 
-use crate::stages::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
 use crate::stages::web::Web;
 use crate::uniformity::{coefficient_of_variation, cv_by_zone_size, formation_number, log_zone_sizes, random_line_cv_squared};
 
@@ -267,11 +268,26 @@ pub fn grid_realisation(web: &Web, params: &GridParams, realisation: u32) -> Res
         check_margins(params, &p, x_min, y_min, drift_end, &spreads, 1.0, n_w)?;
     }
 
+    let stats = grid_statistics(&grid, web.point_mass(), p.mass_per_length(), params);
+    Ok(GridResult {
+        expected_interior_density: p.interior_areal_density(),
+        window_corner: [x_min, y_min],
+        spreads,
+        nodes_generated: (n_w * web.nodes_per_fibre()) as u64,
+        ..stats
+    })
+}
+
+/// The density map of a filled grid and its statistics: ρ_av (eq 16), CV, CV by zone
+/// size and formation number. `point_mass` is the mass a node deposits (kg) and
+/// `mass_per_length` ρA (kg/m). Window corner, spreads, expected density and node
+/// count are left zero for the caller.
+pub fn grid_statistics(grid: &DensityGrid, point_mass: f64, mass_per_length: f64, params: &GridParams) -> GridResult {
     let area = params.cell_size * params.cell_size;
-    let density = grid.masses(web.point_mass()) / area;
+    let density = grid.masses(point_mass) / area;
     let mean = density.iter().sum::<f64>() / density.len() as f64; // = Σ m_k / H² (eq 16)
     let cv = coefficient_of_variation(density.iter().copied());
-    let fibre_length_per_area = mean / p.mass_per_length();
+    let fibre_length_per_area = mean / mass_per_length;
     let zone_sizes = log_zone_sizes(params.zone_size_min, params.zone_size_max, params.zones_per_octave);
     let zone_curve = cv_by_zone_size(density.view(), params.cell_size, &zone_sizes)
         .into_iter()
@@ -287,18 +303,18 @@ pub fn grid_realisation(web: &Web, params: &GridParams, realisation: u32) -> Res
             }
         })
         .collect();
-    Ok(GridResult {
+    GridResult {
         density,
         mean_areal_density: mean,
         mean_areal_density_gsm: mean * 1e3,
         cv,
-        expected_interior_density: p.interior_areal_density(),
+        expected_interior_density: 0.0,
         fibre_length_per_area,
         zone_curve,
-        window_corner: [x_min, y_min],
-        spreads,
-        nodes_generated: (n_w * web.nodes_per_fibre()) as u64,
-    })
+        window_corner: [0.0; 2],
+        spreads: Spreads { cross_direction: 0.0, machine_direction: 0.0 },
+        nodes_generated: 0,
+    }
 }
 
 fn check_margins(

@@ -3,6 +3,8 @@
 //! `input: <web stage>`. The web version's stored parameters, seed and spectrum
 //! coefficients rebuild each point's web ([`crate::stages::web::web_from_input`]); every
 //! realisation regenerates its fibres on the fly and deposits them, so no web is held.
+//! `input: <laid_web stage>`: the stored laid fibres of replicate k are realisation k
+//! (window and mass as in [`super::laid`]).
 //!
 //! - **Realisations** are the stage's `replicates:` (the paper: 10). Grid realisation k
 //!   is web realisation k (fibre streams (seed, k, ·)), so realisation 0 is the one whose
@@ -19,6 +21,7 @@
 //!   ([`Stage::run_units`]); [`Stage::reduce`] places them and takes the means and
 //!   standard deviations over realisations, for the local run and a gathered Slurm array
 //!   alike. The regeneration check runs in the reduce.
+use super::laid::{read_laid_web, LaidPoint};
 use super::{grid_realisation, Boundary, Deposit, GridParams, GridResult, GRID_PARAMS};
 use crate::archive::data::{Attr, Output};
 use crate::params::{ParamSet, ParamSpec};
@@ -51,7 +54,7 @@ impl Stage for GridStage {
         1
     }
     fn inputs(&self) -> InputRule {
-        InputRule { kinds: &["web"], min: 1, max: 1 }
+        InputRule { kinds: &["web", "laid_web"], min: 1, max: 1 }
     }
     fn params(&self) -> Vec<ParamSpec> {
         let mut v: Vec<ParamSpec> = GRID_PARAMS.iter().map(|p| p.into()).collect();
@@ -74,9 +77,9 @@ impl Stage for GridStage {
     /// [`Stage::run_units`] and [`Stage::reduce`] read it for themselves, as an array task
     /// and the gathering driver must).
     fn run(&self, ctx: &RunContext) -> Result<Output> {
-        let (points, webs) = grid_units(ctx)?;
-        let rows = grid_rows(ctx, &points, &webs, 0..points.len() * ctx.replicates)?;
-        grid_output(ctx, &points, &webs, rows)
+        let (points, source) = grid_units(ctx)?;
+        let rows = grid_rows(ctx, &points, &source, 0..points.len() * ctx.replicates)?;
+        grid_output(ctx, &points, &source, rows)
     }
     /// A unit is one (point, realisation): realisation k of a web is keyed by the web
     /// and k only, so any share of the units grids what the whole run grids.
@@ -85,17 +88,17 @@ impl Stage for GridStage {
         Ok(Some(Units { points: points.len(), per_point: ctx.replicates, note: None }))
     }
     fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
-        let (points, webs) = grid_units(ctx)?;
-        grid_rows(ctx, &points, &webs, range)
+        let (points, source) = grid_units(ctx)?;
+        grid_rows(ctx, &points, &source, range)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
-        let (points, webs) = grid_units(ctx)?;
-        grid_output(ctx, &points, &webs, rows)
+        let (points, source) = grid_units(ctx)?;
+        grid_output(ctx, &points, &source, rows)
     }
 }
 
 /// The per-realisation rows of the units `range` ([`Stage::run_units`]).
-fn grid_rows(ctx: &RunContext, points: &Points, webs: &[Web], range: std::ops::Range<usize>) -> Result<Output> {
+fn grid_rows(ctx: &RunContext, points: &Points, source: &Source, range: std::ops::Range<usize>) -> Result<Output> {
     let reps = ctx.replicates;
     let bar = crate::progress::bar(ctx.progress, range.len() as u64, &format!("{} realisations", ctx.stage_name));
     let mut results: Vec<Row> = Vec::with_capacity(range.len());
@@ -103,7 +106,7 @@ fn grid_rows(ctx: &RunContext, points: &Points, webs: &[Web], range: std::ops::R
         let (i, r) = (u / reps, u % reps);
         let (w, g) = &points[i];
         let t = Instant::now();
-        let res = grid_realisation(&webs[*w], g, r as u32).map_err(|e| BadInput(format!("point {i} (web point {w}), realisation {r}: {e}")))?;
+        let res = source.realisation(*w, g, r, ctx.replicates).map_err(|e| BadInput(format!("point {i} (web point {w}), realisation {r}: {e}")))?;
         results.push((i, r, res, t.elapsed().as_secs_f64()));
         bar.inc(1);
     }
@@ -113,11 +116,15 @@ fn grid_rows(ctx: &RunContext, points: &Points, webs: &[Web], range: std::ops::R
 
 /// The stage output from the rows of every unit ([`Stage::reduce`]), with the
 /// regeneration check, the web's swept parameters and the optional Table 4.
-fn grid_output(ctx: &RunContext, points: &Points, webs: &[Web], rows: Output) -> Result<Output> {
+fn grid_output(ctx: &RunContext, points: &Points, source: &Source, rows: Output) -> Result<Output> {
     let input = ctx.input(0);
-    let regen = check_regeneration(input, webs)?;
-    let mut out = assemble(points, webs, &rows, ctx.replicates, ctx.points[0].bool("store_density"))?;
-    if webs.len() > 1 {
+    let regen = match source {
+        Source::Web(webs) => check_regeneration(input, webs)?,
+        Source::Laid(_) => "laid web: fibres read as stored, nothing to regenerate".to_string(),
+    };
+    let expected: Vec<f64> = (0..source.len()).map(|w| source.expected_interior_density(w)).collect();
+    let mut out = assemble(points, &expected, &rows, ctx.replicates, ctx.points[0].bool("store_density"))?;
+    if source.len() > 1 {
         let web_points: Vec<usize> = points.iter().map(|u| u.0).collect();
         copy_web_sweep(input, &mut out, &web_points)?;
     }
@@ -131,11 +138,49 @@ fn grid_output(ctx: &RunContext, points: &Points, webs: &[Web], rows: Output) ->
 /// The grid's points as (web point, grid parameters).
 type Points = Vec<(usize, GridParams)>;
 
+/// What a grid reads: a stochastic web (regenerated per realisation) or a web laid by
+/// the physics (stored fibres, one replicate per realisation).
+enum Source {
+    Web(Vec<Web>),
+    Laid(Vec<LaidPoint>),
+}
+
+impl Source {
+    fn read(input: &crate::stages::Input) -> Result<Self> {
+        Ok(match input.kind.as_str() {
+            "laid_web" => Source::Laid(read_laid_web(input)?),
+            _ => Source::Web(web_from_input(input)?),
+        })
+    }
+    fn len(&self) -> usize {
+        match self {
+            Source::Web(w) => w.len(),
+            Source::Laid(l) => l.len(),
+        }
+    }
+    /// ρA/(Δw·c) of web point `w` (kg/m²).
+    fn expected_interior_density(&self, w: usize) -> f64 {
+        match self {
+            Source::Web(webs) => webs[w].params().interior_areal_density(),
+            Source::Laid(points) => points[w].expected_interior_density,
+        }
+    }
+    fn realisation(&self, w: usize, g: &GridParams, r: usize, replicates: usize) -> Result<GridResult> {
+        match self {
+            Source::Web(webs) => Ok(grid_realisation(&webs[w], g, r as u32)?),
+            Source::Laid(points) => {
+                let corner = points[w].window_corner(g, replicates)?;
+                Ok(points[w].grid(g, r, corner)?)
+            }
+        }
+    }
+}
+
 /// The grid's points — one per web point of a swept web, else one per own sweep point
 /// of a one-point web — and the webs.
-fn grid_units(ctx: &RunContext) -> Result<(Points, Vec<Web>)> {
+fn grid_units(ctx: &RunContext) -> Result<(Points, Source)> {
     let input = ctx.input(0);
-    let webs = web_from_input(input)?;
+    let webs = Source::read(input)?;
     let nw = webs.len();
     if nw > 1 && !ctx.sweep.is_empty() {
         return Err(BadInput(format!(
@@ -249,7 +294,7 @@ fn unit_rows(results: &[Row], store_density: bool) -> Output {
 /// The stage output from the rows of every (point, realisation) ([`unit_rows`], whole or
 /// gathered from the parts of a job array): the maps and per-realisation values on the
 /// (point, realisation) axes and the means and standard deviations over realisations.
-fn assemble(units: &[(usize, GridParams)], webs: &[Web], rows: &Output, reps: usize, store_density: bool) -> Result<Output> {
+fn assemble(units: &[(usize, GridParams)], expected_density: &[f64], rows: &Output, reps: usize, store_density: bool) -> Result<Output> {
     use crate::stages::rows as get;
     let np = units.len();
     let index = get::index(rows)?;
@@ -288,7 +333,7 @@ fn assemble(units: &[(usize, GridParams)], webs: &[Web], rows: &Output, reps: us
         out.f64("window_corner_cd", &["point"], corner("window_corner_cd")?, "m", "CD position of the window's lower edge (web centre line y = 0)");
     }
     out.i64("web_point", &["point"], Array1::from_iter(units.iter().map(|u| u.0 as i64)), "1", "point of the input web evaluated");
-    out.f64("expected_interior_density", &["point"], Array1::from_iter(units.iter().map(|u| webs[u.0].params().interior_areal_density() * 1e3)), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
+    out.f64("expected_interior_density", &["point"], Array1::from_iter(units.iter().map(|u| expected_density[u.0] * 1e3)), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
     let rho = per_rep("mean_areal_density")?;
     let cv = per_rep("cv")?;
     for (name, values, unit, long) in [

@@ -148,7 +148,7 @@ fn first_preset_cv_is_in_the_plausible_range() {
 
 #[test]
 fn parameter_tables_match_the_defaults() {
-    use crate::stages::param_table::ParamDefault;
+    use crate::param_table::ParamDefault;
     let value = |d: ParamDefault| match d {
         ParamDefault::Real(x) => x,
         ParamDefault::Integer(i) => i as f64,

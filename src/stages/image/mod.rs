@@ -236,7 +236,7 @@ impl Default for ImageParams {
     }
 }
 
-pub use crate::stages::param_table::{ParamDefault, ParamSpec};
+pub use crate::param_table::{ParamDefault, ParamSpec};
 
 /// The image stage's parameters: name, unit, default, range, meaning.
 pub const PARAMETERS: &[ParamSpec] = &[

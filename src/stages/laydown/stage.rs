@@ -22,10 +22,11 @@
 use super::params::{BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
-use crate::params::{ParamSet, ParamSpec, ParamValue};
+use crate::params::{ParamSet, ParamSpec};
+use crate::stages::rows::place;
 use crate::stages::{InputRule, RunContext, Stage, Units};
 use anyhow::{bail, Result};
-use ndarray::{Array1, Array2, Array3, Axis};
+use ndarray::{Array1, Array2, Array3};
 use rayon::prelude::*;
 
 /// Stage-level parameters (not scene parameters): the valid-replicate target and its cap.
@@ -37,27 +38,7 @@ pub struct LaydownStage;
 /// The scene of one sweep point, from its resolved parameters (names are the fields of
 /// [`LaydownParams`]; `effects.X` are the [`Effects`] flags).
 pub fn scene(p: &ParamSet) -> Result<LaydownParams, String> {
-    let mut root = serde_json::Map::new();
-    let mut effects = serde_json::Map::new();
-    for (name, value) in &p.0 {
-        let v = match value {
-            ParamValue::Float(f) => serde_json::json!(f),
-            ParamValue::Int(i) => serde_json::json!(i),
-            ParamValue::Bool(b) => serde_json::json!(b),
-            ParamValue::Text(s) => serde_json::json!(s),
-            ParamValue::List(v) => serde_json::json!(v),
-            ParamValue::Auto => serde_json::Value::Null,
-        };
-        if name == TARGET || name == CAP {
-            continue;
-        }
-        match name.strip_prefix("effects.") {
-            Some(flag) => effects.insert(flag.to_string(), v),
-            None => root.insert(name.clone(), v),
-        };
-    }
-    root.insert("effects".into(), serde_json::Value::Object(effects));
-    serde_json::from_value(serde_json::Value::Object(root)).map_err(|e| e.to_string())
+    LaydownParams::from_param_set(p, &[TARGET, CAP])
 }
 
 impl Stage for LaydownStage {
@@ -302,18 +283,6 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
     out.f64("laid_length", &[unit], column(&|r| r.laid_length), "m", "");
     out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
-    out
-}
-
-/// The row values of `name` placed at (point, replicate): shape (npoints, nreps, rest…),
-/// `fill` where a replicate was not attempted.
-fn place<T: Clone>(a: &ndarray::ArrayD<T>, index: &[(usize, usize)], npoints: usize, nreps: usize, fill: T) -> ndarray::ArrayD<T> {
-    let mut shape = vec![npoints, nreps];
-    shape.extend_from_slice(&a.shape()[1..]);
-    let mut out = ndarray::ArrayD::from_elem(ndarray::IxDyn(&shape), fill);
-    for (row, &(p, r)) in index.iter().enumerate() {
-        out.index_axis_mut(Axis(0), p).index_axis_mut(Axis(0), r).assign(&a.index_axis(Axis(0), row));
-    }
     out
 }
 

@@ -128,7 +128,7 @@ fn straight(origin: [f64; 3], dir: [f64; 3], n: usize, ds: f64) -> CustomStart {
         let s = i as f64 * ds;
         [origin[0] + s * dir[0], origin[1] + s * dir[1], origin[2] + s * dir[2]]
     });
-    CustomStart { positions: positions.collect(), velocities: vec![[0.0; 3]; n + 1], driven_top: false, clamped: 0 }
+    CustomStart { positions: positions.collect(), velocities: vec![[0.0; 3]; n + 1], driven_top: false, clamped: 0, rest_length: None }
 }
 
 /// Step `sim` with its stable step for `duration`, calling `f` after each step.
@@ -259,7 +259,7 @@ fn falling(d: f64, dir: [f64; 3], integrator: Integrator, duration: f64) -> (Lay
 fn drag_terminal_velocity_normal() {
     for (d, reference) in [(20e-6, 0.180), (50e-6, 0.330)] {
         let (p, v) = falling(d, [1.0, 0.0, 0.0], Integrator::TrapezoidalAxial, 0.4);
-        let law = effects::DragLaw::new(d, p.air_density, p.air_kinematic_viscosity, p.tangential_drag_beta);
+        let law = forces::DragLaw::new(d, p.air_density, p.air_kinematic_viscosity, p.tangential_drag_beta);
         let analytic = law.normal_terminal_speed(p.mass_per_length() * p.gravity);
         println!("horizontal d={d:e}: {v:.5} m/s, analytic {analytic:.5}, reference {reference}");
         assert!((v - analytic).abs() / analytic < 1e-3, "{v} vs {analytic}");

@@ -2,7 +2,7 @@
 use num_complex::Complex64;
 
 use super::{CurvatureSpectrum, SpectraError, SQUARE_WAVE_PARAMS};
-use crate::stages::param_table::spec;
+use crate::param_table::spec;
 
 /// The paper's three idealised spectra (Fig 10): (name, e, n_c).
 pub const SQUARE_WAVE_PRESETS: [(&str, f64, usize); 3] =

@@ -31,7 +31,7 @@ pub use ideal::{SquareWaveParams, SQUARE_WAVE_PRESETS};
 pub use sample::{integrate_curvature, reconstruct, sample_fibre, tangent_angles, wrap_angle, CurvatureSignal};
 pub use spectrum::{check_compatible, inverse_dft, CurvatureSpectrum};
 
-use crate::stages::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
 
 /// Errors of the spectra stage.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

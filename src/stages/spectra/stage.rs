@@ -1,5 +1,6 @@
 //! `kind: spectra` — the pipeline stage around the spectra numerics: curvature spectra
-//! of laid fibres (input: a laydown stage) or idealised square-wave spectra (no input).
+//! of laid fibres (input: a laydown stage, one fibre per valid replicate; or a laid_web
+//! stage, every valid fibre of every replicate) or idealised square-wave spectra (no input).
 use super::{analyse_fibres, CurvatureSpectrum, SpectraParams, SquareWaveParams, SPECTRA_PARAMS, SQUARE_WAVE_PARAMS};
 use crate::archive::data::Output;
 use crate::params::{ParamSet, ParamSpec};
@@ -32,7 +33,7 @@ impl Stage for SpectraStage {
         1
     }
     fn inputs(&self) -> InputRule {
-        InputRule { kinds: &["laydown"], min: 0, max: 1 }
+        InputRule { kinds: &["laydown", "laid_web"], min: 0, max: 1 }
     }
     fn params(&self) -> Vec<ParamSpec> {
         let mut v = vec![
@@ -67,7 +68,7 @@ impl Stage for SpectraStage {
             ctx.points.iter().map(|p| idealised(ctx, p)).collect::<Result<_>>()?
         } else {
             if !ctx.sweep.is_empty() {
-                return Err(BadInput("a spectra stage reading a laydown stage takes the laydown's sweep points; it cannot have a sweep of its own".into()).into());
+                return Err(BadInput("a spectra stage reading laid fibres takes the input's sweep points; it cannot have a sweep of its own".into()).into());
             }
             laid(ctx, &ctx.points[0])?
         };
@@ -102,42 +103,23 @@ fn idealised(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Row>> {
         .collect())
 }
 
-/// One row per laydown sweep point, each with one spectrum per replicate.
+/// One row per sweep point of the input, each with one spectrum per laid fibre.
 fn laid(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Vec<Row>>> {
     let input = ctx.input(0);
-    let name = if p.bool("belt_removed") { "laid_positions_belt_removed" } else { "laid_positions" };
-    let positions = input.read_f64(name)?; // (point, replicate, node, xyz)
-    let valid = input.read_u8("valid")?; // (point, replicate)
+    let belt_removed = p.bool("belt_removed");
     let params = SpectraParams { sample_spacing: p.f64("sample_spacing"), points_per_segment: p.usize("points_per_segment") };
     params.validate().map_err(|e| BadInput(e.to_string()))?;
-    let (npoints, nreps) = (positions.shape()[0], positions.shape()[1]);
+    let points = match input.kind.as_str() {
+        "laid_web" => laid_web_fibres(input, belt_removed)?,
+        _ => laydown_fibres(input, belt_removed)?,
+    };
     let mut out = vec![];
-    for pt in 0..npoints {
-        let mut fibres = vec![];
-        let mut which = vec![];
-        for r in 0..nreps {
-            if valid[[pt, r]] == 0 {
-                continue;
-            }
-            let nodes: Vec<[f64; 3]> = positions
-                .index_axis(Axis(0), pt)
-                .index_axis(Axis(0), r)
-                .outer_iter()
-                .map(|n| [n[0], n[1], n[2]])
-                .filter(|n| n.iter().all(|v| v.is_finite()))
-                .collect();
-            fibres.push(nodes);
-            which.push(r);
-        }
+    for (pt, (fibres, which)) in points.into_iter().enumerate() {
         if fibres.is_empty() {
-            return Err(BadInput(format!(
-                "laydown {} point {pt} has no valid replicate (all {nreps} were rejected); nothing to analyse",
-                input.version.group_path()
-            ))
-            .into());
+            return Err(BadInput(format!("{} {} point {pt} has no valid fibre (all were rejected); nothing to analyse", input.kind, input.version.group_path())).into());
         }
         let analyses = analyse_fibres(&fibres, &params)
-            .map_err(|(i, e)| BadInput(format!("laydown {} point {pt} replicate {}: {e}", input.version.group_path(), which[i])))?;
+            .map_err(|(i, e)| BadInput(format!("{} {} point {pt} {}: {e}", input.kind, input.version.group_path(), which[i])))?;
         out.push(
             analyses
                 .into_iter()
@@ -152,6 +134,63 @@ fn laid(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Vec<Row>>> {
         );
     }
     Ok(out)
+}
+
+/// Per point: the valid laid fibres and what each is (for messages).
+type PointFibres = Vec<(Vec<Vec<[f64; 3]>>, Vec<String>)>;
+
+/// A laydown stage's valid replicates, one fibre each.
+fn laydown_fibres(input: &crate::stages::Input, belt_removed: bool) -> Result<PointFibres> {
+    let name = if belt_removed { "laid_positions_belt_removed" } else { "laid_positions" };
+    let positions = input.read_f64(name)?; // (point, replicate, node, xyz)
+    let valid = input.read_u8("valid")?; // (point, replicate)
+    let (npoints, nreps) = (positions.shape()[0], positions.shape()[1]);
+    Ok((0..npoints)
+        .map(|pt| {
+            let (mut fibres, mut which) = (vec![], vec![]);
+            for r in (0..nreps).filter(|&r| valid[[pt, r]] != 0) {
+                let nodes: Vec<[f64; 3]> = positions
+                    .index_axis(Axis(0), pt)
+                    .index_axis(Axis(0), r)
+                    .outer_iter()
+                    .map(|n| [n[0], n[1], n[2]])
+                    .filter(|n| n.iter().all(|v| v.is_finite()))
+                    .collect();
+                fibres.push(nodes);
+                which.push(format!("replicate {r}"));
+            }
+            (fibres, which)
+        })
+        .collect())
+}
+
+/// A laid web's valid fibres of every replicate, projected on the belt plane; belt
+/// removed: x − v_b (T − landing time).
+fn laid_web_fibres(input: &crate::stages::Input, belt_removed: bool) -> Result<PointFibres> {
+    let positions = input.read_f64("laid_positions")?; // (point, replicate, laid_node, xyz)
+    let landing = input.read_f64("landing_time")?; // (point, replicate, laid_node)
+    let start = input.read_i64("fibre_node_start")?; // (point, replicate, fibre)
+    let count = input.read_i64("fibre_laid_nodes")?;
+    let valid = input.read_u8("valid")?;
+    let (belt_speed, feed_time) = (input.read_f64("belt_speed")?, input.read_f64("feed_time")?);
+    let (npoints, nreps, nf) = (start.shape()[0], start.shape()[1], start.shape()[2]);
+    Ok((0..npoints)
+        .map(|pt| {
+            let (mut fibres, mut which) = (vec![], vec![]);
+            let shift = |t: f64| if belt_removed { belt_speed[[pt]] * (feed_time[[pt]] - t) } else { 0.0 };
+            for r in 0..nreps {
+                for j in (0..nf).filter(|&j| valid[[pt, r, j]] != 0 && start[[pt, r, j]] >= 0) {
+                    let a = start[[pt, r, j]] as usize;
+                    let nodes = (a..a + count[[pt, r, j]] as usize)
+                        .map(|k| [positions[[pt, r, k, 0]] - shift(landing[[pt, r, k]]), positions[[pt, r, k, 1]], 0.0])
+                        .collect();
+                    fibres.push(nodes);
+                    which.push(format!("replicate {r} fibre {j}"));
+                }
+            }
+            (fibres, which)
+        })
+        .collect())
 }
 
 fn assemble(rows: &[Vec<Row>]) -> Output {

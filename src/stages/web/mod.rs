@@ -47,7 +47,7 @@ pub use stage::{web_from_input, WebStage};
 
 pub use generate::{fibre_rng, FibreScratch, Web};
 
-use crate::stages::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
 use crate::stages::spectra::SpectraError;
 
 /// Which spectrum of the set each segment uses.

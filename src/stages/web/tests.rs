@@ -134,14 +134,14 @@ fn invalid_inputs_are_named() {
             "fibre_density" => d.fibre_density,
             "seed" => d.seed as f64,
             "spectrum_selection" => {
-                assert_eq!(row.default, crate::stages::param_table::ParamDefault::Choice(d.spectrum_selection.name()));
+                assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.spectrum_selection.name()));
                 continue;
             }
             other => panic!("unexpected row {other}"),
         };
         let table = match row.default {
-            crate::stages::param_table::ParamDefault::Real(x) => x,
-            crate::stages::param_table::ParamDefault::Integer(i) => i as f64,
+            crate::param_table::ParamDefault::Real(x) => x,
+            crate::param_table::ParamDefault::Integer(i) => i as f64,
             _ => unreachable!(),
         };
         assert_eq!(v, table, "{}", row.name);

@@ -1,11 +1,11 @@
 //! Building a replicate from the parameters, running it, and batches of replicates.
 
 use super::contact::BeltContact;
-use super::effects::{Drag, DragLaw, Oscillation, Term};
-use super::integrator::{stable_time_step, Simulator, Snapshot, Work};
+use super::forces::{Drag, DragLaw, Oscillation, Term};
+use super::integrator::{stable_time_step, Simulator, StepControl, Work};
 use super::metrics::{laid_polyline, shape_measures, LaydownResult};
 use super::params::{BounceCheck, Integrator, LaydownParams};
-use super::rod::{Rod, Workspace};
+use super::state::{Rod, Workspace};
 use crate::geometry::arc_length;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -23,6 +23,9 @@ pub(crate) struct CustomStart {
     pub driven_top: bool,
     /// Number of leading nodes held fixed (2 = clamped end).
     pub clamped: usize,
+    /// Rest length of every segment; `None`: the paper's L/N with a driven top, else
+    /// the distances between the given positions.
+    pub rest_length: Option<f64>,
 }
 
 /// The paper's start: vertical fibre, bottom node on the belt, top at z = L, every node
@@ -38,7 +41,7 @@ pub(crate) fn paper_start<R: Rng + ?Sized>(p: &LaydownParams, elements: usize, r
         }
     }
     positions[elements][2] = p.length;
-    CustomStart { velocities: vec![[0.0, 0.0, -p.fibre_speed]; elements + 1], positions, driven_top: true, clamped: 0 }
+    CustomStart { velocities: vec![[0.0, 0.0, -p.fibre_speed]; elements + 1], positions, driven_top: true, clamped: 0, rest_length: None }
 }
 
 /// Assemble the simulator: only the enabled effects become terms.
@@ -46,10 +49,10 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
     let n = start.positions.len();
     let rest: Vec<f64> = start.positions.windows(2).map(|w| crate::geometry::distance(&w[0], &w[1])).collect();
     // The paper's rest length is L/N; the 1 µm imperfections change it by ~1e-9 relative.
-    let rest = if start.driven_top {
-        vec![p.length / (n - 1) as f64; n - 1]
-    } else {
-        rest
+    let rest = match start.rest_length {
+        Some(l) => vec![l; n - 1],
+        None if start.driven_top => vec![p.length / (n - 1) as f64; n - 1],
+        None => rest,
     };
     let ds = rest.iter().cloned().fold(f64::INFINITY, f64::min);
     let e = &p.effects;
@@ -74,6 +77,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         terms.push(Term::Oscillation(Oscillation {
             amplitude: p.oscillation_amplitude,
             angular_frequency: p.angular_frequency(),
+            phase: 0.0,
             stiffness: p.oscillation_stiffness,
             damping: p.oscillation_damping,
             zone_top: p.laydown_height,
@@ -118,6 +122,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         top_start_z,
         clamped: (0..start.clamped).collect(),
         clamp_positions,
+        clamp_velocity: [0.0; 3],
         work: Work::default(),
         landing_time: vec![f64::NAN; n],
         max_lift: vec![0.0; n],
@@ -182,7 +187,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     let mut last_good = sim.rod.x.clone();
     let mut error = None;
     let mut rejected = 0u64;
-    let mut min_dt = f64::INFINITY;
+    let min_dt;
     if p.integrator == Integrator::Explicit {
         // fixed step, rounded so that the run ends exactly at end_time
         let steps = (end_time / sim.dt).ceil().max(1.0) as u64;
@@ -211,40 +216,23 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             }
         }
     } else {
-        // adaptive step: dt <= dt_stable, growth <= 25 % per step, dt <= 0.5/sigma with sigma
-        // the compressive-buckling growth rate of the last step; a failed step is retaken at dt/4.
-        let dt_max = limits.chosen;
-        let dt_min = dt_max * 1e-4;
-        let mut dt = dt_max * 0.01;
-        let mut snap = Snapshot::default();
+        // adaptive step (see StepControl): dt <= dt_stable, growth <= 25 % per step,
+        // dt <= 0.5/sigma, a failed step retaken at dt/4.
+        let mut control = StepControl::new(limits.chosen, p.mass_per_length());
         let tol = end_time * 1e-12;
         while sim.t < end_time - tol {
-            let this = dt.min(end_time - sim.t);
-            sim.dt = this;
-            sim.save(&mut snap);
-            match sim.step() {
-                Ok(()) => {
-                    min_dt = min_dt.min(this);
-                    let sigma = sim.buckling_rate(p.mass_per_length());
-                    let limit = if sigma > 0.0 { 0.5 / sigma } else { f64::INFINITY };
-                    dt = (1.25 * this.max(dt)).min(dt_max).min(limit).max(dt_min);
-                    if sim.steps % stride == 0 || sim.t >= end_time - tol {
-                        diagnostics.push(sim.energy_sample());
-                        last_good.copy_from_slice(&sim.rod.x);
-                    }
-                }
-                Err(f) => {
-                    sim.restore(&snap);
-                    rejected += 1;
-                    if this <= dt_min {
-                        error = Some(f.0);
-                        break;
-                    }
-                    dt = (this * 0.25).max(dt_min);
-                }
+            if let Err(f) = control.advance(sim, end_time) {
+                error = Some(f);
+                break;
+            }
+            if sim.steps % stride == 0 || sim.t >= end_time - tol {
+                diagnostics.push(sim.energy_sample());
+                last_good.copy_from_slice(&sim.rod.x);
             }
         }
-        sim.dt = dt_max;
+        rejected = control.rejected;
+        min_dt = control.min_dt;
+        sim.dt = limits.chosen;
     }
     if error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
         sim.rod.x.copy_from_slice(&last_good);

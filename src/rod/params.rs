@@ -232,7 +232,7 @@ impl Default for LaydownParams {
     }
 }
 
-pub use crate::stages::param_table::ParamSpec;
+pub use crate::param_table::ParamSpec;
 
 const fn real(name: &'static str, unit: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
     ParamSpec::real(name, unit, default, min, max, doc)
@@ -366,6 +366,34 @@ impl LaydownParams {
         };
         *slot = value;
         Ok(())
+    }
+
+    /// From resolved pipeline parameters: the names of [`PARAMETERS`], `integrator`,
+    /// `bounce_check` and the `effects.X` flags; the names in `skip` (a stage's own
+    /// parameters) are ignored, any other name is an error.
+    pub fn from_param_set(p: &crate::params::ParamSet, skip: &[&str]) -> Result<Self, String> {
+        use crate::params::ParamValue;
+        let mut root = serde_json::Map::new();
+        let mut effects = serde_json::Map::new();
+        for (name, value) in &p.0 {
+            if skip.contains(&name.as_str()) {
+                continue;
+            }
+            let v = match value {
+                ParamValue::Float(f) => serde_json::json!(f),
+                ParamValue::Int(i) => serde_json::json!(i),
+                ParamValue::Bool(b) => serde_json::json!(b),
+                ParamValue::Text(s) => serde_json::json!(s),
+                ParamValue::List(v) => serde_json::json!(v),
+                ParamValue::Auto => serde_json::Value::Null,
+            };
+            match name.strip_prefix("effects.") {
+                Some(flag) => effects.insert(flag.to_string(), v),
+                None => root.insert(name.clone(), v),
+            };
+        }
+        root.insert("effects".into(), serde_json::Value::Object(effects));
+        serde_json::from_value(serde_json::Value::Object(root)).map_err(|e| e.to_string())
     }
 
     /// Check every parameter against [`PARAMETERS`] and the cross-constraints.

@@ -9,7 +9,7 @@
 //! implicitly means the oscillator damper (c/m ≈ 5·10⁵ 1/s) and the drag of thin
 //! fibres never limit the step.
 
-use super::rod::{Rod, Workspace};
+use super::state::{Rod, Workspace};
 
 /// Exponent of Re in the tangential skin-friction law, C_t = β Re^-0.61 (eq 2).
 pub const TANGENTIAL_RE_EXPONENT: f64 = 0.61;
@@ -88,11 +88,14 @@ pub struct Drag {
 }
 
 /// Oscillator of eq 7: nodes above z0 are tied in x and y to the dummy point
-/// (0, u0 sin ωt) by a spring k and a damper c per node.
+/// (0, u0 sin(ωt + φ)) by a spring k and a damper c per node. The paper's single fibre
+/// has φ = 0; in a laid web each fibre has its own turbulence phase.
 #[derive(Clone, Debug)]
 pub struct Oscillation {
     pub amplitude: f64,
     pub angular_frequency: f64,
+    /// Phase φ (rad).
+    pub phase: f64,
     pub stiffness: f64,
     pub damping: f64,
     pub zone_top: f64,
@@ -145,7 +148,7 @@ impl Term {
             Term::Drag(d) => drag_implicit(d, rod, ws, dt),
             Term::Oscillation(o) => {
                 let tn = t + dt;
-                let (s, c) = (o.angular_frequency * tn).sin_cos();
+                let (s, c) = (o.angular_frequency * tn + o.phase).sin_cos();
                 let u = o.amplitude * s;
                 let du = o.amplitude * o.angular_frequency * c;
                 let h = dt * o.damping + dt * dt * o.stiffness;
@@ -182,7 +185,7 @@ impl Term {
                 p
             }
             Term::Oscillation(o) => {
-                let (s, c) = (o.angular_frequency * t).sin_cos();
+                let (s, c) = (o.angular_frequency * t + o.phase).sin_cos();
                 let u = o.amplitude * s;
                 let du = o.amplitude * o.angular_frequency * c;
                 let mut p = 0.0;

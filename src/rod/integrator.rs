@@ -36,10 +36,10 @@
 //!   retaken at Δt/4.
 
 use super::contact::BeltContact;
-use super::effects::{axial_energy_of, bending_energy_of, Term};
+use super::forces::{axial_energy_of, bending_energy_of, Term};
 use super::params::Integrator;
-use super::effects::sym_mul;
-use super::rod::{sym_inverse, sym_inverse_xy, NodeContact, Rod, Workspace};
+use super::forces::sym_mul;
+use super::state::{sym_inverse, sym_inverse_xy, NodeContact, Rod, Workspace};
 
 /// Components of the automatic time step (s).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -133,9 +133,12 @@ pub struct Simulator {
     pub driven_top: Option<f64>,
     /// Initial height of the driven top node (m).
     pub top_start_z: f64,
-    /// Fully fixed nodes (cantilever clamp).
+    /// Nodes moved kinematically at `clamp_velocity` (a cantilever clamp at rest, or the
+    /// frozen end of a laid fibre carried by the belt); always the leading nodes.
     pub clamped: Vec<usize>,
+    /// Positions of the clamped nodes at t = 0 (extrapolated back along `clamp_velocity`).
     pub clamp_positions: Vec<[f64; 3]>,
+    pub clamp_velocity: [f64; 3],
     pub work: Work,
     /// Time each node first touched the belt (NaN = never).
     pub landing_time: Vec<f64>,
@@ -183,6 +186,65 @@ pub struct Snapshot {
     steps: u64,
 }
 
+/// Adaptive step control of the projection schemes: Δt ≤ the stable step Δt_max,
+/// growing by at most 25 % per step from 1 % of it, kept below ½/σ (σ the compressive
+/// buckling growth rate of the last step, [`Simulator::buckling_rate`]); a step that
+/// fails is retaken at Δt/4, down to 10⁻⁴ Δt_max.
+#[derive(Clone, Debug)]
+pub struct StepControl {
+    /// Step to try next (s).
+    pub dt: f64,
+    pub dt_max: f64,
+    pub dt_min: f64,
+    /// Steps rejected and retaken so far.
+    pub rejected: u64,
+    /// Smallest step taken (s).
+    pub min_dt: f64,
+    mass_per_length: f64,
+    snapshot: Snapshot,
+}
+
+impl StepControl {
+    pub fn new(dt_max: f64, mass_per_length: f64) -> Self {
+        StepControl {
+            dt: dt_max * 0.01,
+            dt_max,
+            dt_min: dt_max * 1e-4,
+            rejected: 0,
+            min_dt: f64::INFINITY,
+            mass_per_length,
+            snapshot: Snapshot::default(),
+        }
+    }
+
+    /// Take one accepted step of at most `until − t`, retaking failed ones with smaller
+    /// steps. `Err` (the failure of the smallest step) leaves the state as before it.
+    pub fn advance(&mut self, sim: &mut Simulator, until: f64) -> Result<(), String> {
+        loop {
+            let this = self.dt.min(until - sim.t);
+            sim.dt = this;
+            sim.save(&mut self.snapshot);
+            match sim.step() {
+                Ok(()) => {
+                    self.min_dt = self.min_dt.min(this);
+                    let sigma = sim.buckling_rate(self.mass_per_length);
+                    let limit = if sigma > 0.0 { 0.5 / sigma } else { f64::INFINITY };
+                    self.dt = (1.25 * this.max(self.dt)).min(self.dt_max).min(limit).max(self.dt_min);
+                    return Ok(());
+                }
+                Err(f) => {
+                    sim.restore(&self.snapshot);
+                    self.rejected += 1;
+                    if this <= self.dt_min {
+                        return Err(f.0);
+                    }
+                    self.dt = (this * 0.25).max(self.dt_min);
+                }
+            }
+        }
+    }
+}
+
 const PROJECTION_TOL: f64 = 1e-8;
 const PROJECTION_MAX_ITERS: usize = 12;
 
@@ -223,6 +285,62 @@ impl Simulator {
             return 0.0;
         }
         self.max_compression / (2.0 * (self.rod.bending_stiffness * mass_per_length).sqrt())
+    }
+
+    /// Continuous feed: add a node at `x` with velocity `v` above the driven top node,
+    /// joined by a segment of rest length `rest`; it becomes the driven top node
+    /// (its height follows z = x_z − speed (t' − t)). The per-step workspace is
+    /// reallocated (it holds nothing between steps).
+    pub fn push_top(&mut self, x: [f64; 3], v: [f64; 3], rest: f64, mass_per_length: f64) {
+        let top = self.rod.nodes() - 1;
+        self.rod.x.push(x);
+        self.rod.v.push(v);
+        self.rod.rest.push(rest);
+        let half = 0.5 * mass_per_length * rest;
+        self.rod.mass[top] += half;
+        self.rod.mass.push(half);
+        self.rod.inv_voronoi[top] = 2.0 / (self.rod.rest[top - 1] + rest);
+        self.rod.inv_voronoi.push(0.0);
+        self.rod.refresh_bounds();
+        self.landing_time.push(f64::NAN);
+        self.max_lift.push(0.0);
+        self.lift_time.push(f64::NAN);
+        self.segment_force.push(0.0);
+        if let Some(speed) = self.driven_top {
+            self.top_start_z = x[2] + speed * self.t;
+        }
+        self.ws = Workspace::new(self.rod.nodes());
+    }
+
+    /// Drop the first `count` nodes (they leave the simulation, e.g. frozen on the belt)
+    /// and clamp the new first `clamp` nodes to move at `velocity` from their current
+    /// positions.
+    pub fn drop_front(&mut self, count: usize, clamp: usize, velocity: [f64; 3]) {
+        let r = &mut self.rod;
+        // the new first node becomes an end: it keeps only its half of the next element
+        let share = r.rest[count] / (r.rest[count - 1] + r.rest[count]);
+        r.x.drain(..count);
+        r.v.drain(..count);
+        r.rest.drain(..count);
+        r.mass.drain(..count);
+        r.inv_voronoi.drain(..count);
+        r.mass[0] *= share;
+        r.inv_voronoi[0] = 0.0;
+        r.refresh_bounds();
+        self.landing_time.drain(..count);
+        self.max_lift.drain(..count);
+        self.lift_time.drain(..count);
+        self.segment_force.drain(..count);
+        let t = self.t;
+        self.clamped = (0..clamp).collect();
+        self.clamp_velocity = velocity;
+        self.clamp_positions = (0..clamp)
+            .map(|i| {
+                let x = self.rod.x[i];
+                [x[0] - velocity[0] * t, x[1] - velocity[1] * t, x[2] - velocity[2] * t]
+            })
+            .collect();
+        self.ws = Workspace::new(self.rod.nodes());
     }
 
     /// Elastic energies at the current state (refreshes the segment geometry).
@@ -284,13 +402,13 @@ impl Simulator {
             } else {
                 sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?
             };
-            self.rod.v[i] = super::effects::sym_mul(&ai, &b);
+            self.rod.v[i] = super::forces::sym_mul(&ai, &b);
             if need_w {
                 self.ws.winv[i] = ai;
             }
         }
         for &i in &self.clamped {
-            self.rod.v[i] = [0.0; 3];
+            self.rod.v[i] = self.clamp_velocity;
             self.ws.winv[i] = [0.0; 6];
         }
 
@@ -310,7 +428,7 @@ impl Simulator {
                     }
                 }
             }
-            let (wn, wf) = c.apply(&mut self.rod, &mut self.ws, dt, skip_top, need_w);
+            let (wn, wf) = c.apply(&mut self.rod, &mut self.ws, dt, self.clamped.len()..skip_top, need_w);
             self.work.contact += wn;
             self.work.friction += wf;
         }
@@ -339,7 +457,7 @@ impl Simulator {
                     let end = if self.driven_top.is_some() { n - 1 } else { n };
                     for _round in 0..8 {
                         let mut pushed = 0;
-                        for i in 0..end {
+                        for i in self.clamped.len()..end {
                             if self.rod.x[i][2] < 0.0 {
                                 self.rod.x[i][2] = 0.0;
                                 if self.ws.contact[i] == NodeContact::Free {
@@ -371,7 +489,8 @@ impl Simulator {
             self.rod.x[n - 1][2] = self.top_start_z - speed * t_new;
         }
         for (k, &i) in self.clamped.iter().enumerate() {
-            self.rod.x[i] = self.clamp_positions[k];
+            let (x0, v) = (self.clamp_positions[k], self.clamp_velocity);
+            self.rod.x[i] = [x0[0] + v[0] * t_new, x0[1] + v[1] * t_new, x0[2] + v[2] * t_new];
         }
 
         // 6. belt plane, landing, blow-up checks

@@ -37,9 +37,15 @@ impl Rod {
         for i in 1..n - 1 {
             inv_voronoi[i] = 2.0 / (rest[i - 1] + rest[i]);
         }
-        let min_rest = rest.iter().cloned().fold(f64::INFINITY, f64::min);
-        let max_inv_mass = mass.iter().map(|m| 1.0 / m).fold(0.0, f64::max);
-        Rod { x, v, mass, rest, inv_voronoi, axial_stiffness: ea, bending_stiffness: ei, min_rest, max_inv_mass }
+        let mut rod = Rod { x, v, mass, rest, inv_voronoi, axial_stiffness: ea, bending_stiffness: ei, min_rest: 0.0, max_inv_mass: 0.0 };
+        rod.refresh_bounds();
+        rod
+    }
+
+    /// Recompute `min_rest` and `max_inv_mass` after nodes were added or removed.
+    pub fn refresh_bounds(&mut self) {
+        self.min_rest = self.rest.iter().cloned().fold(f64::INFINITY, f64::min);
+        self.max_inv_mass = self.mass.iter().map(|m| 1.0 / m).fold(0.0, f64::max);
     }
 
     pub fn nodes(&self) -> usize {
@@ -162,7 +168,7 @@ pub fn sym_inverse_xy(a: &[f64; 6]) -> Option<[f64; 6]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::laydown::effects::sym_mul;
+    use crate::rod::forces::sym_mul;
 
     #[test]
     fn inverse_of_symmetric() {

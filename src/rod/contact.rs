@@ -17,7 +17,7 @@
 //! effective inverse mass in the length projection: a sticking node is fixed, a
 //! sliding one keeps only its in-plane freedom.
 
-use super::rod::{sym_inverse_xy, NodeContact, Rod, Workspace};
+use super::state::{sym_inverse_xy, NodeContact, Rod, Workspace};
 
 #[derive(Clone, Debug)]
 pub struct BeltContact {
@@ -27,14 +27,15 @@ pub struct BeltContact {
 }
 
 impl BeltContact {
-    /// Apply contact and friction to the velocities of nodes 0..`end` (the driven
-    /// top node is excluded). Returns the work of the normal and of the tangential impulses (J).
-    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, end: usize, restrict_w: bool) -> (f64, f64) {
+    /// Apply contact and friction to the velocities of the nodes in `nodes` (clamped
+    /// and driven nodes are excluded). Returns the work of the normal and of the
+    /// tangential impulses (J).
+    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool) -> (f64, f64) {
         let mut w_normal = 0.0;
         let mut w_friction = 0.0;
         let vb = self.belt_speed;
         let idt = 1.0 / dt;
-        for i in 0..end {
+        for i in nodes {
             let z = rod.x[i][2];
             let v = rod.v[i];
             let m = rod.mass[i];

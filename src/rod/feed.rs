@@ -1,0 +1,245 @@
+//! Continuous feed: a fibre of any length fed through the laydown zone onto the belt,
+//! integrating only its hanging part and its last landed stretch.
+//!
+//! The fibre starts as the paper's does (vertical, bottom node on the belt, every node
+//! moving down at v_f, x/y imperfections), but only up to the feed height
+//! z_f = z0 + `buffer_elements`·Δs: the nodes above z0 are held by the oscillator of
+//! eq 7, so a short buffer there carries what the paper's long vertical fibre carries.
+//! The top node is driven down at v_f; whenever it has descended one element a new
+//! node is added above it at z_f (same x, y and velocity), so material enters at the
+//! feed point at v_f for as long as the run lasts.
+//!
+//! **Freezing.** A landed node that has settled (no more than `lift_tolerance` above
+//! the belt and crept less than `creep_tolerance`·Δs relative to it for `settle_time`;
+//! the laid fibre slips in short bursts of ~10⁻⁴ m/s as tension waves from the hanging
+//! part pass, so the friction state alone flickers), or that has been on the belt for
+//! `age_limit`, is frozen once a run of at least `freeze_batch` such nodes has formed
+//! at the start of the active rod: those nodes leave the simulation and are carried with the belt at
+//! no cost (x ← x + v_b (t_end − t_freeze)); the two nodes after them are clamped to
+//! the belt, so the bending of the next free node still sees the laid tangent. With
+//! `freeze` off every node stays active (the reference the frozen runs are checked
+//! against).
+//!
+//! ```no_run
+//! use laydown::rod::{feed::{feed_fibre, FeedSettings}, LaydownParams, replicate_rng};
+//! let mut p = LaydownParams::default();
+//! let t_end = 0.5; // s: fed length v_f t_end = 2.5 m
+//! p.length = p.fibre_speed * t_end;
+//! p.elements = (p.length / 1e-3).round() as usize;
+//! let fibre = feed_fibre(&p, 0.0, t_end, &FeedSettings::default(), &mut replicate_rng(1, 0));
+//! println!("{} laid nodes, {} frozen, error {:?}", fibre.laid_nodes(), fibre.frozen_nodes, fibre.error);
+//! ```
+
+use super::integrator::{Simulator, StepControl};
+use super::params::LaydownParams;
+use super::scene::{build, CustomStart};
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+use std::time::Instant;
+
+/// Settings of the continuous feed and of freezing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FeedSettings {
+    /// Elements of the fibre above the laydown height z0 (held by the oscillator).
+    pub buffer_elements: usize,
+    /// Freeze stuck landed nodes (off: every node stays active).
+    pub freeze: bool,
+    /// Time a landed node must have stuck without interruption before it may freeze (s).
+    pub settle_time: f64,
+    /// Highest a settled node may be above the belt (m).
+    pub lift_tolerance: f64,
+    /// Largest creep relative to the belt during the settling time, in elements Δs.
+    pub creep_tolerance: f64,
+    /// Nodes frozen at once (the active rod is rebuilt each time).
+    pub freeze_batch: usize,
+    /// A node on the belt for this long is frozen even if it still creeps (s): slow
+    /// creep of the fibre's start-up end would otherwise keep the whole laid fibre active.
+    pub age_limit: f64,
+}
+
+impl Default for FeedSettings {
+    fn default() -> Self {
+        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2 }
+    }
+}
+
+/// One continuously fed fibre at the end of the run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FedFibre {
+    /// Every node in fibre order at the end time, lab frame (x = 0 under the feed point;
+    /// a laid node has been carried along +x by the belt). Never NaN: after a failure,
+    /// the last good state.
+    pub positions: Vec<[f64; 3]>,
+    /// Time each node first touched the belt (s); NaN: still hanging.
+    pub landing_time: Vec<f64>,
+    /// Nodes frozen during the run (a prefix of `positions`).
+    pub frozen_nodes: usize,
+    /// Highest landed, unfrozen node above the belt at the end time (m).
+    pub final_lift_of_landed: f64,
+    /// Index of that node.
+    pub final_lift_node: usize,
+    /// Simulated time reached (s).
+    pub end_time: f64,
+    /// Element length Δs (m).
+    pub element_length: f64,
+    pub steps: u64,
+    pub rejected_steps: u64,
+    pub min_time_step: f64,
+    /// Σ over steps of the active nodes: the work done, in node-steps.
+    pub node_steps: u64,
+    /// Most nodes active at once.
+    pub max_active_nodes: usize,
+    pub wall_seconds: f64,
+    /// Set when the run could not be completed.
+    pub error: Option<String>,
+}
+
+impl FedFibre {
+    /// Nodes that have landed (finite landing time).
+    pub fn laid_nodes(&self) -> usize {
+        self.landing_time.iter().filter(|t| t.is_finite()).count()
+    }
+}
+
+/// Feed one fibre for `end_time` seconds. `p.length` is the fed length and
+/// `p.length / p.resolved_elements()` the element length Δs; `phase` is the phase φ of
+/// the oscillation u0 sin(ωt + φ). Imperfections are drawn from `rng` as in the paper's
+/// scene. Never panics on bad input: errors are reported in [`FedFibre::error`].
+pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64, settings: &FeedSettings, rng: &mut R) -> FedFibre {
+    let clock = Instant::now();
+    let ds = p.length / p.resolved_elements() as f64;
+    let start_elements = ((p.laydown_height / ds).ceil() as usize + settings.buffer_elements).max(2);
+    let feed_height = start_elements as f64 * ds;
+    let mut positions: Vec<[f64; 3]> = (0..=start_elements).map(|i| [0.0, 0.0, i as f64 * ds]).collect();
+    if p.effects.imperfections && p.imperfection_std > 0.0 {
+        if let Ok(normal) = Normal::new(0.0, p.imperfection_std) {
+            for x in positions.iter_mut() {
+                x[0] = normal.sample(rng);
+                x[1] = normal.sample(rng);
+            }
+        }
+    }
+    let start = CustomStart {
+        velocities: vec![[0.0, 0.0, -p.fibre_speed]; start_elements + 1],
+        positions,
+        driven_top: true,
+        clamped: 0,
+        rest_length: Some(ds),
+    };
+    let mut sim = build(p, start);
+    for term in sim.terms.iter_mut() {
+        if let super::forces::Term::Oscillation(o) = term {
+            o.phase = phase;
+        }
+    }
+    let mpl = p.mass_per_length();
+    let belt = [p.belt_speed, 0.0, 0.0];
+    let mut control = StepControl::new(sim.limits.chosen, mpl);
+    // Frozen nodes: position at freezing, freezing time, landing time.
+    let mut frozen: Vec<([f64; 3], f64, f64)> = Vec::new();
+    let mut stuck_since: Vec<f64> = vec![f64::NAN; sim.rod.nodes()];
+    // belt-frame position of each node when its settling started
+    let mut anchors: Vec<[f64; 2]> = vec![[0.0; 2]; sim.rod.nodes()];
+    let creep_tolerance = settings.creep_tolerance * ds;
+    let mut node_steps = 0u64;
+    let mut max_active = sim.rod.nodes();
+    let mut error = None;
+    let mut last_good = sim.rod.x.clone();
+    let tol = end_time * 1e-12;
+    while sim.t < end_time - tol {
+        // feed: a new top node whenever the driven one has descended an element
+        let top = sim.rod.nodes() - 1;
+        if sim.rod.x[top][2] <= feed_height - ds {
+            let (x, v) = (sim.rod.x[top], sim.rod.v[top]);
+            sim.push_top([x[0], x[1], x[2] + ds], v, ds, mpl);
+            stuck_since.push(f64::NAN);
+            anchors.push([0.0; 2]);
+            max_active = max_active.max(sim.rod.nodes());
+        }
+        if settings.freeze {
+            if freeze_stuck(&mut sim, &mut stuck_since, &mut frozen, settings, belt) {
+                anchors.drain(..anchors.len() - stuck_since.len());
+            }
+        }
+        node_steps += sim.rod.nodes() as u64;
+        if let Err(f) = control.advance(&mut sim, end_time) {
+            error = Some(f);
+            break;
+        }
+        if sim.steps % 256 == 0 {
+            last_good.clone_from(&sim.rod.x);
+        }
+        // settling bookkeeping: a node on the belt is settled once it has crept less
+        // than creep_tolerance relative to the belt for settle_time
+        let t = sim.t;
+        for (i, (since, anchor)) in stuck_since.iter_mut().zip(anchors.iter_mut()).enumerate() {
+            let x = sim.rod.x[i];
+            let on_belt = sim.landing_time[i].is_finite() && x[2] <= settings.lift_tolerance;
+            let here = [x[0] - p.belt_speed * t, x[1]];
+            if !on_belt {
+                *since = f64::NAN;
+            } else if since.is_nan() || (here[0] - anchor[0]).hypot(here[1] - anchor[1]) > creep_tolerance {
+                *since = t;
+                *anchor = here;
+            }
+        }
+    }
+    if error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
+        sim.rod.x.clone_from(&last_good);
+    }
+    let t_end = sim.t;
+    let frozen_nodes = frozen.len();
+    let mut positions: Vec<[f64; 3]> = frozen.iter().map(|(x, tf, _)| [x[0] + p.belt_speed * (t_end - tf), x[1], x[2]]).collect();
+    let mut landing_time: Vec<f64> = frozen.iter().map(|f| f.2).collect();
+    positions.extend_from_slice(&sim.rod.x);
+    landing_time.extend_from_slice(&sim.landing_time);
+    let (final_lift_node, final_lift_of_landed) = (frozen_nodes..positions.len())
+        .filter(|&i| landing_time[i].is_finite())
+        .map(|i| (i, positions[i][2]))
+        .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+    FedFibre {
+        positions,
+        landing_time,
+        frozen_nodes,
+        final_lift_of_landed,
+        final_lift_node,
+        end_time: t_end,
+        element_length: ds,
+        steps: sim.steps,
+        rejected_steps: control.rejected,
+        min_time_step: control.min_dt,
+        node_steps,
+        max_active_nodes: max_active,
+        wall_seconds: clock.elapsed().as_secs_f64(),
+        error,
+    }
+}
+
+/// Freeze the leading run of nodes that have stuck for the settling time, once it is
+/// `freeze_batch` long; the two nodes after it become the clamped (belt-carried) end.
+fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Vec<([f64; 3], f64, f64)>, s: &FeedSettings, belt: [f64; 3]) -> bool {
+    const CLAMPED: usize = 2;
+    let t = sim.t;
+    let clamped = sim.clamped.len();
+    let settled = (clamped..stuck_since.len())
+        .take_while(|&i| {
+            let since = stuck_since[i];
+            (since.is_finite() && t - since >= s.settle_time) || t - sim.landing_time[i] >= s.age_limit
+        })
+        .count();
+    // nodes clamped now are settled by construction
+    let run = clamped + settled;
+    if run < s.freeze_batch + CLAMPED || run + 2 >= sim.rod.nodes() {
+        return false;
+    }
+    let count = run - CLAMPED;
+    for i in 0..count {
+        frozen.push((sim.rod.x[i], t, sim.landing_time[i]));
+    }
+    sim.drop_front(count, CLAMPED, belt);
+    stuck_since.drain(..count);
+    for since in stuck_since.iter_mut().take(CLAMPED) {
+        *since = t;
+    }
+    true
+}

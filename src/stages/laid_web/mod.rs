@@ -1,0 +1,312 @@
+//! `kind: laid_web`: a web laid by the fibre physics itself. n_w fibres, one per
+//! spinneret hole in a cross-direction row Δw apart, are fed continuously at v_f onto
+//! the belt moving at v_b for a belt travel B (feed time T = B/v_b, fed length v_f T
+//! per fibre), each with the physics of the `laydown` stage ([`crate::rod`]: drag
+//! eqs 1-4, oscillation eq 7, gravity, belt contact and Coulomb friction, damping,
+//! imperfections) and its continuous feed with freezing ([`crate::rod::feed`]).
+//!
+//! - **Turbulence.** Each fibre's oscillation u0 sin(ωt + φ) has its own phase φ drawn
+//!   uniformly from the replicate's stream (`turbulence: independent`), optionally with
+//!   relative frequency and amplitude jitter (normal, clipped at ±3σ); `coherent` gives
+//!   every fibre of a replicate the same φ and jitter (a diffuser whose turbulence is
+//!   coherent across the row).
+//! - **Domain.** Cross direction periodic with period n_wΔw (no web edges): fibre j is
+//!   fed at y_j = (j + ½)Δw − n_wΔw/2 and the grid folds y onto the period. In the
+//!   machine direction the web runs from the touchdown (x ≈ 0 at the end of the run)
+//!   to x ≈ B (the start-up); the stage reports the interior MD range free of both:
+//!   [k·σ, v_b (T − t_s) − k·σ], σ the RMS belt-removed radius of gyration of the
+//!   valid fibres, k = `edge_margin_spreads`, t_s = 2 z_f/v_f + 1/f the start-up time
+//!   (the initial hanging column laid twice over, then one oscillation period).
+//! - **Fibre-fibre contact** is not modelled: fibres pass through one another.
+//! - **Random streams.** Fibre j of replicate r draws from stream (seed, r, j + 1)
+//!   (phase, jitter, then imperfections); the coherent turbulence draws from (seed, r, 0).
+//!   Fibres are independent, computed in parallel, identical for any thread count.
+//!
+//! Outputs are in belt coordinates at the end of the run, see [`stage`].
+//!
+//! ```no_run
+//! use laydown::stages::laid_web::{lay_web, LaidWebParams};
+//! let p = LaidWebParams { fibres_across: 4, belt_travel: 0.02, ..LaidWebParams::default() };
+//! p.validate().unwrap();
+//! let web = lay_web(&p, 42, 0, &indicatif::ProgressBar::hidden());
+//! for f in &web.fibres {
+//!     println!("S (belt removed) = {:.2} mm, valid = {}", 1e3 * f.radius_of_gyration_belt_removed, f.valid);
+//! }
+//! ```
+pub mod stage;
+
+pub use stage::LaidWebStage;
+
+use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings};
+use crate::rod::{laid_polyline, shape_measures, LaydownParams};
+use crate::stages::stream_rng;
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// How the oscillation phases of the fibres of one web relate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Turbulence {
+    /// Each fibre its own phase (and jitter).
+    #[default]
+    Independent,
+    /// One phase (and jitter) for every fibre of the web.
+    Coherent,
+}
+
+impl Turbulence {
+    pub const NAMES: [&'static str; 2] = ["independent", "coherent"];
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "independent" => Some(Turbulence::Independent),
+            "coherent" => Some(Turbulence::Coherent),
+            _ => None,
+        }
+    }
+}
+
+/// Parameters of one laid web.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaidWebParams {
+    /// The fibre physics, as for the `laydown` stage; `length`, `elements` and
+    /// `duration` are set from the fields below.
+    pub scene: LaydownParams,
+    /// n_w, fibres across the row.
+    pub fibres_across: usize,
+    /// Δw, CD distance between the spinneret holes (m).
+    pub fibre_spacing: f64,
+    /// B, belt length laid (m): the run lasts T = B/v_b.
+    pub belt_travel: f64,
+    /// Δs, element length (m), refined by the scene's `coil_resolution`.
+    pub element_length: f64,
+    pub turbulence: Turbulence,
+    /// Relative standard deviation of each fibre's oscillation frequency.
+    pub frequency_jitter: f64,
+    /// Relative standard deviation of each fibre's oscillation amplitude.
+    pub amplitude_jitter: f64,
+    /// k of the interior MD range, in belt-removed spreads.
+    pub edge_margin_spreads: f64,
+    pub feed: FeedSettings,
+}
+
+impl Default for LaidWebParams {
+    fn default() -> Self {
+        LaidWebParams {
+            scene: LaydownParams::default(),
+            fibres_across: 8,
+            fibre_spacing: 2e-3,
+            belt_travel: 0.05,
+            element_length: 1e-3,
+            turbulence: Turbulence::Independent,
+            frequency_jitter: 0.0,
+            amplitude_jitter: 0.0,
+            edge_margin_spreads: 3.0,
+            feed: FeedSettings::default(),
+        }
+    }
+}
+
+impl LaidWebParams {
+    /// T = B/v_b (s).
+    pub fn feed_time(&self) -> f64 {
+        self.belt_travel / self.scene.belt_speed
+    }
+    /// v_f T, the length fed per fibre (m).
+    pub fn fed_length(&self) -> f64 {
+        self.scene.fibre_speed * self.feed_time()
+    }
+    /// CD period n_wΔw (m).
+    pub fn cd_period(&self) -> f64 {
+        self.fibres_across as f64 * self.fibre_spacing
+    }
+    /// c = v_b/v_f.
+    pub fn belt_speed_ratio(&self) -> f64 {
+        self.scene.belt_speed / self.scene.fibre_speed
+    }
+    /// ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies (kg/m²).
+    pub fn interior_areal_density(&self) -> f64 {
+        self.scene.mass_per_length() / (self.fibre_spacing * self.belt_speed_ratio())
+    }
+    /// The scene of one fibre: fed length L = v_f T in elements of Δs (refined by
+    /// coil_resolution), oscillation frequency and amplitude scaled by the fibre's jitter.
+    pub fn fibre_scene(&self, frequency_scale: f64, amplitude_scale: f64) -> LaydownParams {
+        let mut s = self.scene.clone();
+        s.length = self.fed_length();
+        s.elements = (s.length / self.element_length).round().max(1.0) as usize;
+        s.duration = 0.0;
+        s.oscillation_frequency *= frequency_scale;
+        s.oscillation_amplitude *= amplitude_scale;
+        s
+    }
+    /// Element length actually used (m).
+    pub fn resolved_element_length(&self) -> f64 {
+        let s = self.fibre_scene(1.0, 1.0);
+        s.length / s.resolved_elements() as f64
+    }
+    /// Feed height z_f = z0 + buffer (m), as [`feed_fibre`] places it.
+    pub fn feed_height(&self) -> f64 {
+        let ds = self.resolved_element_length();
+        ((self.scene.laydown_height / ds).ceil() + self.feed.buffer_elements as f64).max(2.0) * ds
+    }
+    /// Start-up time t_s = 2 z_f/v_f + 1/f (s).
+    pub fn startup_time(&self) -> f64 {
+        let period = if self.scene.effects.oscillation && self.scene.oscillation_frequency > 0.0 { 1.0 / self.scene.oscillation_frequency } else { 0.0 };
+        2.0 * self.feed_height() / self.scene.fibre_speed + period
+    }
+    /// Nodes stored per web (laid nodes of every fibre, an upper bound).
+    pub fn nodes_per_web(&self) -> f64 {
+        self.fibres_across as f64 * (self.fed_length() / self.resolved_element_length() + 1.0)
+    }
+
+    /// Checks every parameter: `Err((parameter, message))`.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        if !(self.scene.belt_speed > 0.0) {
+            return Err(("belt_speed".into(), "a laid web needs a moving belt (belt_speed > 0): its length is the belt travel".into()));
+        }
+        // the scene's own checks; its length and elements are the laid web's (fed
+        // length, element length), checked below
+        let s = LaydownParams { length: 1.0, elements: 1000, duration: 0.0, ..self.scene.clone() };
+        s.validate().map_err(|e| {
+            let name = match &e {
+                crate::rod::ParamError::OutOfRange { name, .. } | crate::rod::ParamError::NotFinite { name, .. } => name.to_string(),
+                _ => "belt_travel".to_string(),
+            };
+            (name, e.to_string())
+        })?;
+        if self.fed_length() <= 2.0 * self.scene.laydown_height {
+            return Err(("belt_travel".into(), format!(
+                "belt_travel {} m feeds only {:.4} m of fibre at v_f/v_b = {:.1}, less than twice the laydown height {} m: nothing would be laid",
+                self.belt_travel,
+                self.fed_length(),
+                1.0 / self.belt_speed_ratio(),
+                self.scene.laydown_height
+            )));
+        }
+        let nodes = self.fed_length() / self.resolved_element_length();
+        if !(nodes <= 1e9) {
+            return Err(("belt_travel".into(), format!(
+                "belt_travel {} m feeds {:.3e} m of fibre per hole in {:.3e} elements of {:.3e} m: more than 10⁹ elements per fibre",
+                self.belt_travel,
+                self.fed_length(),
+                nodes,
+                self.resolved_element_length()
+            )));
+        }
+        if !(self.frequency_jitter < 1.0 / 3.0) || !(self.amplitude_jitter < 1.0) {
+            return Err(("frequency_jitter".into(), "frequency_jitter must be below 1/3 (a fibre's frequency stays positive within ±3σ) and amplitude_jitter below 1".into()));
+        }
+        Ok(())
+    }
+}
+
+/// One laid fibre of a web.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaidFibre {
+    pub fed: FedFibre,
+    /// y of the fibre's feed point (m).
+    pub feed_cd: f64,
+    /// Oscillation phase φ (rad), frequency and amplitude scales of the fibre.
+    pub phase: f64,
+    pub frequency_scale: f64,
+    pub amplitude_scale: f64,
+    /// S (eq 5) and e (eq 6) of the laid fibre as it lies on the belt, and with the belt
+    /// motion removed (x − v_b (t_end − landing time)).
+    pub radius_of_gyration: f64,
+    pub bending_energy: f64,
+    pub radius_of_gyration_belt_removed: f64,
+    pub bending_energy_belt_removed: f64,
+    /// Completed, and no landed node above `bounce_tolerance` at the end (the paper's rule).
+    pub valid: bool,
+    pub invalid_reason: Option<String>,
+}
+
+/// One laid web.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaidWeb {
+    pub fibres: Vec<LaidFibre>,
+    /// Interior MD range [min, max] (m), see the module docs; min > max when the web is
+    /// too short to have an interior.
+    pub interior_md: [f64; 2],
+    /// σ: RMS belt-removed S of the valid fibres (m).
+    pub spread: f64,
+}
+
+/// Lay replicate `replicate` of the web (fibres in parallel on the current rayon pool;
+/// identical for any thread count). `bar` counts fibres done.
+pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::ProgressBar) -> LaidWeb {
+    let t_end = p.feed_time();
+    let shared = draw_turbulence(p, &mut stream_rng(seed, replicate as u64, 0));
+    let fibres: Vec<LaidFibre> = (0..p.fibres_across)
+        .into_par_iter()
+        .map(|j| {
+            let mut rng = stream_rng(seed, replicate as u64, j as u64 + 1);
+            let (phase, fs, fa) = match p.turbulence {
+                Turbulence::Independent => draw_turbulence(p, &mut rng),
+                Turbulence::Coherent => shared,
+            };
+            let scene = p.fibre_scene(fs, fa);
+            let fed = feed_fibre(&scene, phase, t_end, &p.feed, &mut rng);
+            let fibre = finish_fibre(p, &scene, j, fed, (phase, fs, fa));
+            bar.inc(1);
+            fibre
+        })
+        .collect();
+    let valid: Vec<f64> = fibres.iter().filter(|f| f.valid).map(|f| f.radius_of_gyration_belt_removed).collect();
+    let spread = if valid.is_empty() { f64::NAN } else { (valid.iter().map(|s| s * s).sum::<f64>() / valid.len() as f64).sqrt() };
+    let margin = p.edge_margin_spreads * spread;
+    let interior_md = [margin, p.scene.belt_speed * (t_end - p.startup_time()) - margin];
+    LaidWeb { fibres, interior_md, spread }
+}
+
+/// Phase φ ~ U[0, 2π), then the frequency and amplitude scales 1 + σ ξ (ξ standard
+/// normal clipped at ±3).
+fn draw_turbulence<R: Rng + ?Sized>(p: &LaidWebParams, rng: &mut R) -> (f64, f64, f64) {
+    let phase = 2.0 * PI * rng.random::<f64>();
+    let mut scale = |sigma: f64| {
+        if sigma > 0.0 {
+            let xi: f64 = StandardNormal.sample(rng);
+            1.0 + sigma * xi.clamp(-3.0, 3.0)
+        } else {
+            1.0
+        }
+    };
+    let fs = scale(p.frequency_jitter);
+    let fa = scale(p.amplitude_jitter);
+    (phase, fs, fa)
+}
+
+fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibre, turbulence: (f64, f64, f64)) -> LaidFibre {
+    let laid = laid_polyline(&fed.positions, &fed.landing_time, None);
+    let removed = laid_polyline(&fed.positions, &fed.landing_time, Some((scene.belt_speed, fed.end_time)));
+    let (s, e) = shape_measures(&laid);
+    let (sr, er) = shape_measures(&removed);
+    let invalid_reason = if let Some(err) = &fed.error {
+        Some(err.clone())
+    } else if fed.final_lift_of_landed > scene.bounce_tolerance {
+        Some(format!(
+            "bounced: landed node {} is {:.3e} m above the belt at the end (bounce_tolerance {:.3e} m)",
+            fed.final_lift_node, fed.final_lift_of_landed, scene.bounce_tolerance
+        ))
+    } else if laid.len() < 2 {
+        Some("fewer than two nodes landed".into())
+    } else {
+        None
+    };
+    LaidFibre {
+        feed_cd: (j as f64 + 0.5) * p.fibre_spacing - 0.5 * p.cd_period(),
+        phase: turbulence.0,
+        frequency_scale: turbulence.1,
+        amplitude_scale: turbulence.2,
+        radius_of_gyration: s,
+        bending_energy: e,
+        radius_of_gyration_belt_removed: sr,
+        bending_energy_belt_removed: er,
+        valid: invalid_reason.is_none(),
+        invalid_reason,
+        fed,
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,293 @@
+//! The `laid_web` pipeline stage. A unit of work is one web, (point, replicate); its
+//! fibres run in parallel. Outputs, on (point, replicate) like every stage:
+//!
+//! - `laid_positions` (point, replicate, laid_node, xyz): the landed nodes of every
+//!   fibre in belt coordinates at the end of the run (x from the feed point's MD
+//!   position, y with the fibre's feed offset, not folded onto the CD period), fibre
+//!   after fibre; fibre j occupies `fibre_node_start[j] .. + fibre_laid_nodes[j]`;
+//!   `landing_time` (point, replicate, laid_node) the time each first touched the belt;
+//! - per fibre (point, replicate, fibre): S and e raw and belt removed, `valid`,
+//!   oscillation `phase`, `frozen_nodes`, `final_lift_of_landed`, `node_steps`, ...;
+//! - per web: `interior_md_min`/`interior_md_max` (the MD range free of start-up and
+//!   touchdown), `cd_period`, `spread`; per point: `expected_interior_density`,
+//!   `element_length`, `mass_per_length`, `feed_time`.
+use super::{lay_web, LaidWeb, LaidWebParams, Turbulence};
+use crate::archive::data::Output;
+use crate::params::{ParamSet, ParamSpec};
+use crate::rod::feed::FeedSettings;
+use crate::rod::LaydownParams;
+use crate::stages::laydown::LaydownStage;
+use crate::stages::rows::{self as get, place};
+use crate::stages::{InputRule, RunContext, Stage, Units, UNIT_DIM};
+use anyhow::{bail, Result};
+use ndarray::{Array1, Array2, Array3, ArrayD};
+
+pub struct LaidWebStage;
+
+/// Parameters of the laydown stage that a laid web sets itself.
+const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration", "diagnostic_stride", "valid_replicates_target", "max_replicates"];
+/// The laid web's own parameters (not scene parameters).
+const OWN: &[&str] = &[
+    "fibres_across",
+    "fibre_spacing",
+    "belt_travel",
+    "element_length",
+    "turbulence",
+    "frequency_jitter",
+    "amplitude_jitter",
+    "edge_margin_spreads",
+    "freeze",
+    "settle_time",
+];
+
+/// Bytes per stored laid node (positions, landing time) and per node while a web is
+/// assembled (rows, placed arrays and the HDF5 write buffer).
+const BYTES_PER_NODE: f64 = 4.0 * 8.0 * 3.0;
+
+/// The typed parameters of one sweep point.
+pub fn laid_web_params(p: &ParamSet) -> Result<LaidWebParams, String> {
+    let mut skip: Vec<&str> = OWN.to_vec();
+    skip.extend_from_slice(NOT_FROM_LAYDOWN);
+    let scene = LaydownParams::from_param_set(p, &skip)?;
+    Ok(LaidWebParams {
+        scene,
+        fibres_across: p.usize("fibres_across"),
+        fibre_spacing: p.f64("fibre_spacing"),
+        belt_travel: p.f64("belt_travel"),
+        element_length: p.f64("element_length"),
+        turbulence: Turbulence::from_name(p.text("turbulence")).ok_or("unknown turbulence")?,
+        frequency_jitter: p.f64("frequency_jitter"),
+        amplitude_jitter: p.f64("amplitude_jitter"),
+        edge_margin_spreads: p.f64("edge_margin_spreads"),
+        feed: FeedSettings { freeze: p.bool("freeze"), settle_time: p.f64("settle_time"), ..FeedSettings::default() },
+    })
+}
+
+/// Memory available to a run (bytes): MemAvailable of /proc/meminfo, or 8 GiB where
+/// that cannot be read.
+fn available_memory() -> f64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("MemAvailable:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok()))
+        .map(|kib| kib * 1024.0)
+        .unwrap_or(8.0 * (1u64 << 30) as f64)
+}
+
+impl Stage for LaidWebStage {
+    fn kind(&self) -> &'static str {
+        "laid_web"
+    }
+    fn summary(&self) -> &'static str {
+        "a web laid by the fibre physics: n_w fibres fed continuously onto the moving belt, CD periodic, stuck fibre frozen"
+    }
+    fn cache_version(&self) -> u32 {
+        1
+    }
+    fn inputs(&self) -> InputRule {
+        InputRule { kinds: &[], min: 0, max: 0 }
+    }
+    fn params(&self) -> Vec<ParamSpec> {
+        let mut v: Vec<ParamSpec> = LaydownStage.params().into_iter().filter(|s| !NOT_FROM_LAYDOWN.contains(&s.name)).collect();
+        v.push(ParamSpec::int("fibres_across", "1", 8, 1, 1_000_000, "n_w, fibres (spinneret holes) across the row; the CD period is n_w·fibre_spacing"));
+        v.push(ParamSpec::float("fibre_spacing", "m", 2e-3, 1e-6, 1.0, "Δw, CD distance between the spinneret holes"));
+        v.push(ParamSpec::float("belt_travel", "m", 0.05, 1e-4, 100.0, "B, belt length laid: the run lasts B/belt_speed"));
+        v.push(ParamSpec::float("element_length", "m", 1e-3, 1e-6, 0.1, "Δs, rod element length (refined by coil_resolution)"));
+        v.push(ParamSpec::choice("turbulence", &Turbulence::NAMES, "independent", "independent: each fibre its own oscillation phase (and jitter); coherent: one for the whole row"));
+        v.push(ParamSpec::float("frequency_jitter", "1", 0.0, 0.0, 0.3, "relative standard deviation of each fibre's oscillation frequency"));
+        v.push(ParamSpec::float("amplitude_jitter", "1", 0.0, 0.0, 0.9, "relative standard deviation of each fibre's oscillation amplitude"));
+        v.push(ParamSpec::float("edge_margin_spreads", "1", 3.0, 0.0, 100.0, "interior MD range: this many belt-removed spreads from the touchdown and from the start-up"));
+        v.push(ParamSpec::flag("freeze", true, "freeze landed nodes that have stuck for settle_time (carried with the belt at no cost)"));
+        v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a landed node must stick without interruption before it may freeze"));
+        v
+    }
+    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
+        let lw = laid_web_params(p).map_err(|e| ("turbulence".to_string(), e))?;
+        lw.validate()?;
+        let bytes = lw.nodes_per_web() * BYTES_PER_NODE;
+        let available = available_memory();
+        if bytes > 0.5 * available {
+            return Err((
+                "belt_travel".into(),
+                format!(
+                    "one web of {} fibres × {:.3e} m fed at Δs = {:.3e} m needs about {:.1} GiB (≈ {:.3e} nodes), more than half the {:.1} GiB available: lower fibres_across, belt_travel or raise element_length",
+                    lw.fibres_across,
+                    lw.fed_length(),
+                    lw.resolved_element_length(),
+                    bytes / (1u64 << 30) as f64,
+                    lw.nodes_per_web(),
+                    available / (1u64 << 30) as f64
+                ),
+            ));
+        }
+        Ok(())
+    }
+    fn run(&self, ctx: &RunContext) -> Result<Output> {
+        crate::stages::run_by_units(self, ctx)
+    }
+    fn units(&self, ctx: &RunContext) -> Result<Option<Units>> {
+        Ok(Some(Units { points: ctx.points.len(), per_point: ctx.replicates, note: None }))
+    }
+    fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
+        let params: Vec<LaidWebParams> = ctx.points.iter().map(|p| laid_web_params(p).expect("checked")).collect();
+        let reps = ctx.replicates;
+        let fibres: u64 = range.clone().map(|u| params[u / reps].fibres_across as u64).sum();
+        let bar = crate::progress::bar(ctx.progress, fibres, &format!("{} fibres", ctx.stage_name));
+        let webs: Vec<(usize, usize, LaidWeb)> = range
+            .map(|u| {
+                let (p, r) = (u / reps, u % reps);
+                (p, r, lay_web(&params[p], ctx.seed, r, &bar))
+            })
+            .collect();
+        bar.finish_and_clear();
+        Ok(unit_rows(&webs))
+    }
+    fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
+        let params: Vec<LaidWebParams> = ctx.points.iter().map(|p| laid_web_params(p).expect("checked")).collect();
+        assemble(&params, ctx.replicates, &rows)
+    }
+}
+
+/// Per-fibre scalar columns: (name, unit, long name, value).
+type FibreColumn = (&'static str, &'static str, &'static str, fn(&super::LaidFibre) -> f64);
+const FIBRE_COLUMNS: &[FibreColumn] = &[
+    ("radius_of_gyration", "m", "S of the laid fibre as it lies on the belt (eq 5)", |f| f.radius_of_gyration),
+    ("bending_energy", "1", "e = V_b L / EI of the laid fibre as it lies on the belt (eq 6)", |f| f.bending_energy),
+    ("radius_of_gyration_belt_removed", "m", "S with the belt motion removed: spread around the deposition point", |f| f.radius_of_gyration_belt_removed),
+    ("bending_energy_belt_removed", "1", "e with the belt motion removed", |f| f.bending_energy_belt_removed),
+    ("phase", "rad", "oscillation phase φ of the fibre, u0 sin(ωt + φ)", |f| f.phase),
+    ("frequency_scale", "1", "oscillation frequency of the fibre over oscillation_frequency (jitter)", |f| f.frequency_scale),
+    ("amplitude_scale", "1", "oscillation amplitude of the fibre over oscillation_amplitude (jitter)", |f| f.amplitude_scale),
+    ("feed_cd", "m", "CD position of the fibre's feed point", |f| f.feed_cd),
+    ("laid_length", "m", "arc length of the laid fibre", |f| f.fed.laid_nodes().saturating_sub(1) as f64 * f.fed.element_length),
+    ("frozen_nodes", "1", "nodes frozen (stuck, carried with the belt at no cost) during the run", |f| f.fed.frozen_nodes as f64),
+    ("final_lift_of_landed", "m", "highest landed node above the belt at the end", |f| f.fed.final_lift_of_landed),
+    ("steps", "1", "time steps", |f| f.fed.steps as f64),
+    ("node_steps", "1", "sum over steps of the active nodes (the work done)", |f| f.fed.node_steps as f64),
+    ("max_active_nodes", "1", "most nodes integrated at once", |f| f.fed.max_active_nodes as f64),
+    ("wall_seconds", "s", "wall time of the fibre", |f| f.fed.wall_seconds),
+];
+
+/// The per-web rows of `webs` ((point, replicate, web) in any order). Laid-node and
+/// fibre axes are NaN-padded to the longest web.
+fn unit_rows(webs: &[(usize, usize, LaidWeb)]) -> Output {
+    let n = webs.len();
+    let nodes = webs.iter().map(|w| w.2.fibres.iter().map(|f| f.fed.laid_nodes()).sum::<usize>()).max().unwrap_or(0);
+    let nf = webs.iter().map(|w| w.2.fibres.len()).max().unwrap_or(0);
+    let mut laid = Array3::from_elem((n, nodes, 3), f64::NAN);
+    let mut landing = Array2::from_elem((n, nodes), f64::NAN);
+    let mut start = Array2::from_elem((n, nf), -1i64);
+    let mut count = Array2::from_elem((n, nf), 0i64);
+    let mut valid = Array2::from_elem((n, nf), false);
+    let mut reasons = Vec::with_capacity(n * nf);
+    let mut columns: Vec<Array2<f64>> = FIBRE_COLUMNS.iter().map(|_| Array2::from_elem((n, nf), f64::NAN)).collect();
+    for (u, (_, _, web)) in webs.iter().enumerate() {
+        let mut k = 0;
+        for (j, f) in web.fibres.iter().enumerate() {
+            start[[u, j]] = k as i64;
+            for (x, &t) in f.fed.positions.iter().zip(&f.fed.landing_time) {
+                if t.is_finite() {
+                    laid[[u, k, 0]] = x[0];
+                    laid[[u, k, 1]] = x[1] + f.feed_cd;
+                    laid[[u, k, 2]] = x[2];
+                    landing[[u, k]] = t;
+                    k += 1;
+                }
+            }
+            count[[u, j]] = k as i64 - start[[u, j]];
+            valid[[u, j]] = f.valid;
+            for (c, col) in FIBRE_COLUMNS.iter().enumerate() {
+                columns[c][[u, j]] = (col.3)(f);
+            }
+            reasons.push(f.invalid_reason.clone().unwrap_or_default());
+        }
+        reasons.extend(std::iter::repeat_n(String::from("no fibre"), nf - web.fibres.len()));
+    }
+    let web_col = |f: &dyn Fn(&LaidWeb) -> f64| Array1::from_iter(webs.iter().map(|w| f(&w.2)));
+    let mut out = Output::new();
+    out.i64("unit_point", &[UNIT_DIM], Array1::from_iter(webs.iter().map(|w| w.0 as i64)), "1", "point of the row");
+    out.i64("unit_replicate", &[UNIT_DIM], Array1::from_iter(webs.iter().map(|w| w.1 as i64)), "1", "replicate of the row");
+    out.f64("laid_positions", &[UNIT_DIM, "laid_node", "xyz"], laid, "m", "");
+    out.f64("landing_time", &[UNIT_DIM, "laid_node"], landing, "s", "");
+    out.i64("fibre_node_start", &[UNIT_DIM, "fibre"], start, "1", "");
+    out.i64("fibre_laid_nodes", &[UNIT_DIM, "fibre"], count, "1", "");
+    out.flags("valid", &[UNIT_DIM, "fibre"], valid, "");
+    out.strings("invalid_reason", "unit_fibre", reasons, "");
+    for (c, col) in FIBRE_COLUMNS.iter().enumerate() {
+        out.f64(col.0, &[UNIT_DIM, "fibre"], columns[c].clone(), col.1, "");
+    }
+    out.f64("interior_md_min", &[UNIT_DIM], web_col(&|w| w.interior_md[0]), "m", "");
+    out.f64("interior_md_max", &[UNIT_DIM], web_col(&|w| w.interior_md[1]), "m", "");
+    out.f64("spread", &[UNIT_DIM], web_col(&|w| w.spread), "m", "");
+    out
+}
+
+/// The stage output from the per-web rows of every (point, replicate).
+fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Output> {
+    let np = params.len();
+    let index = get::index(rows)?;
+    let expected: Vec<(usize, usize)> = (0..np).flat_map(|p| (0..reps).map(move |r| (p, r))).collect();
+    let mut sorted = index.clone();
+    sorted.sort();
+    if sorted != expected {
+        bail!("the per-web rows are not every (point, replicate) of {np} points × {reps} replicates");
+    }
+    let f = |name: &str| -> Result<ArrayD<f64>> { Ok(place(get::f64(rows, name)?, &index, np, reps, f64::NAN)) };
+    let i = |name: &str, fill: i64| -> Result<ArrayD<i64>> { Ok(place(get::i64(rows, name)?, &index, np, reps, fill)) };
+    let nf = get::u8(rows, "valid")?.shape()[1];
+    let mut out = Output::new();
+    out.strings("xyz", "xyz", vec!["x".into(), "y".into(), "z".into()], "axis: x machine direction (belt motion), y cross direction, z up");
+    out.f64("laid_positions", &["point", "replicate", "laid_node", "xyz"], f("laid_positions")?, "m", "landed nodes in belt coordinates at the end of the run, fibre after fibre (x from the feed point, y not folded onto the CD period)");
+    out.f64("landing_time", &["point", "replicate", "laid_node"], f("landing_time")?, "s", "time each laid node first touched the belt");
+    out.i64("fibre_node_start", &["point", "replicate", "fibre"], i("fibre_node_start", -1)?, "1", "index of the fibre's first node on the laid_node axis");
+    out.i64("fibre_laid_nodes", &["point", "replicate", "fibre"], i("fibre_laid_nodes", 0)?, "1", "laid nodes of the fibre");
+    let valid = place(get::u8(rows, "valid")?, &index, np, reps, 0).mapv(|v| v != 0);
+    out.flags("valid", &["point", "replicate", "fibre"], valid.clone(), "fibre completed and no landed node above bounce_tolerance at the end");
+    // reasons: row-major (unit, fibre) → (point, replicate, fibre)
+    let row_reasons = get::strings(rows, "invalid_reason")?;
+    let mut reasons = vec![String::new(); np * reps * nf];
+    for (row, &(p, r)) in index.iter().enumerate() {
+        for j in 0..nf {
+            reasons[(p * reps + r) * nf + j] = row_reasons[row * nf + j].clone();
+        }
+    }
+    out.strings("invalid_reason", "web_fibre", reasons, "why a fibre is invalid, per web_fibre = (point * replicates + replicate) * fibres + fibre (empty: valid)");
+    for col in FIBRE_COLUMNS {
+        out.f64(col.0, &["point", "replicate", "fibre"], f(col.0)?, col.1, col.2);
+    }
+    for (name, unit, long) in [
+        ("radius_of_gyration_belt_removed", "m", "belt-removed S"),
+        ("bending_energy", "1", "e"),
+        ("bending_energy_belt_removed", "1", "belt-removed e"),
+    ] {
+        let v = f(name)?;
+        let (mut means, mut stds) = (vec![], vec![]);
+        for p in 0..np {
+            let xs: Vec<f64> = (0..reps)
+                .flat_map(|r| (0..nf).map(move |j| (r, j)))
+                .filter(|&(r, j)| valid[[p, r, j]])
+                .map(|(r, j)| v[[p, r, j]])
+                .filter(|x| x.is_finite())
+                .collect();
+            let (m, s) = crate::stages::mean_std(&xs);
+            means.push(m);
+            stds.push(s);
+        }
+        out.f64(&format!("{name}_mean"), &["point"], Array1::from(means), unit, &format!("mean over the valid fibres of every replicate of the {long}"));
+        out.f64(&format!("{name}_std"), &["point"], Array1::from(stds), unit, &format!("sample standard deviation over the valid fibres of the {long}"));
+    }
+    let valid_count = Array2::from_shape_fn((np, reps), |(p, r)| (0..nf).filter(|&j| valid[[p, r, j]]).count() as i64);
+    out.i64("valid_fibres", &["point", "replicate"], valid_count, "1", "valid fibres of the web");
+    out.f64("interior_md_min", &["point", "replicate"], f("interior_md_min")?, "m", "lower end of the interior MD range: edge_margin_spreads × spread from the touchdown (x = 0)");
+    out.f64("interior_md_max", &["point", "replicate"], f("interior_md_max")?, "m", "upper end of the interior MD range: v_b (T − t_s) − edge_margin_spreads × spread, t_s the start-up time");
+    out.f64("spread", &["point", "replicate"], f("spread")?, "m", "RMS belt-removed radius of gyration of the valid fibres");
+    let per_point = |g: &dyn Fn(&LaidWebParams) -> f64| Array1::from_iter(params.iter().map(g));
+    out.f64("cd_period", &["point"], per_point(&|p| p.cd_period()), "m", "CD period n_w·Δw of the web");
+    out.f64("element_length", &["point"], per_point(&|p| p.resolved_element_length()), "m", "Δs, element length used (after coil_resolution)");
+    out.f64("mass_per_length", &["point"], per_point(&|p| p.scene.mass_per_length()), "kg m-1", "ρπd²/4");
+    out.f64("feed_time", &["point"], per_point(&|p| p.feed_time()), "s", "T = belt_travel/belt_speed");
+    out.f64("startup_time", &["point"], per_point(&|p| p.startup_time()), "s", "t_s = 2 z_f/v_f + 1/f, the start-up excluded from the interior");
+    out.f64("belt_speed", &["point"], per_point(&|p| p.scene.belt_speed), "m s-1", "v_b, belt speed");
+    out.f64("belt_speed_ratio", &["point"], per_point(&|p| p.belt_speed_ratio()), "1", "c = v_b/v_f");
+    out.f64("expected_interior_density", &["point"], per_point(&|p| p.interior_areal_density() * 1e3), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
+    Ok(out)
+}

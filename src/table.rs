@@ -7,6 +7,7 @@
 //! | kind | rows (default) | rows with `--all` |
 //! |---|---|---|
 //! | `laydown` | point | point, replicate |
+//! | `laid_web` | point | point, replicate |
 //! | `spectra` | point, bin (mean spectra) | point, fibre (per-fibre bending energies) |
 //! | `web` | point | – (no per-realisation values are stored; the per-point table) |
 //! | `grid` | point | point, realisation |
@@ -73,6 +74,8 @@ pub fn row_dims(kind: &str, all: bool) -> Option<&'static [&'static str]> {
     Some(match (kind, all) {
         ("laydown", false) => &["point"],
         ("laydown", true) => &["point", "replicate"],
+        ("laid_web", false) => &["point"],
+        ("laid_web", true) => &["point", "replicate"],
         ("spectra", false) => &["point", "bin"],
         ("spectra", true) => &["point", "fibre"],
         ("web", false) => &["point"],

@@ -225,3 +225,22 @@ fn markdown_and_json_hold_the_same_values_and_bad_references_are_clear_errors() 
         assert!(e.contains(expect), "{args:?}: {e}");
     }
 }
+
+#[test]
+fn a_laid_web_tabulates_per_point_and_per_replicate() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    write_pipeline(
+        d,
+        "p.yaml",
+        "pipeline: laid\narchive: t.h5\nseed: 4\nstages:\n  - name: laid\n    kind: laid_web\n    params: {fibres_across: 2, belt_travel: 0.03}\n    replicates: 2\n",
+    );
+    let o = run_in(d, &["run", "p.yaml"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o).1);
+    let (t, _) = table(d, &["laid"]);
+    assert_eq!(t.col("point"), ["0"]);
+    assert!(same(&t.num("expected_interior_density"), &dataset(d, "laid", "expected_interior_density")));
+    let (t, _) = table(d, &["laid", "--all"]);
+    assert_eq!(t.col("replicate"), ["0", "1"]);
+    assert!(same(&t.num("spread"), &dataset(d, "laid", "spread")));
+}

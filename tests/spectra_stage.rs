@@ -52,7 +52,7 @@ fn laydown_with_no_valid_replicate_is_bad_input() {
     let valid = hdf::read_u8(&fibre.open().unwrap(), "valid").unwrap();
     assert!(valid.iter().all(|&v| v == 0), "the scene must invalidate every replicate: {valid}");
     assert_eq!(out.status.code(), Some(2), "{o}{e}");
-    assert!(e.contains("has no valid replicate"), "{e}");
+    assert!(e.contains("has no valid fibre"), "{e}");
     assert!(a.versions("spectra").unwrap().is_empty(), "nothing written for the failed stage");
 }
 

@@ -220,3 +220,37 @@ fn grid_accuracy_over_points_and_cell_size() {
     // Point masses every Δs = 4 mm on a 1 mm grid (N = 250) add sampling noise to CV.
     assert!(error[[0, 1]] > 0.05, "N = 250 CV error {:+.3}", error[[0, 1]]);
 }
+
+/// Short form of the laid-web part: freezing settled fibre against the all-active
+/// reference. Freezing does less work (node-steps, counted, not timed) and changes the
+/// belt-removed S and e only slightly.
+#[test]
+fn laid_web_freezing_against_the_all_active_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(
+        dir.path(),
+        "p.yaml",
+        "pipeline: acc\narchive: acc.h5\nseed: 7\nstages:\n  \
+         - {name: reference, kind: laid_web, params: {freeze: false, fibres_across: 2, belt_travel: 0.06}}\n  \
+         - {name: frozen, kind: laid_web, params: {fibres_across: 2, belt_travel: 0.06}, sweep: {settle_time: [0.02, 0.05]}}\n  \
+         - {name: cost, kind: accuracy, input: [reference, frozen], params: {metrics: [radius_of_gyration_belt_removed, bending_energy]}}\n",
+    );
+    let o = run_in(dir.path(), &["run", "p.yaml"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let a = Archive::open_read(&dir.path().join("acc.h5")).unwrap();
+    let g = a.version("cost", None).unwrap().open().unwrap();
+    let error = hdf::read_f64(&g, "relative_error").unwrap();
+    assert_eq!(error.shape(), [2, 2]);
+    for c in 0..2 {
+        assert!(error[[c, 0]].abs() < 0.02, "S error of candidate {c}: {}", error[[c, 0]]);
+        assert!(error[[c, 1]].abs() < 0.05, "e error of candidate {c}: {}", error[[c, 1]]);
+    }
+    let steps = |stage: &str| -> f64 {
+        let g = a.version(stage, None).unwrap().open().unwrap();
+        let v = hdf::read_f64(&g, "node_steps").unwrap();
+        v.iter().sum()
+    };
+    let frozen = hdf::read_f64(&a.version("frozen", None).unwrap().open().unwrap(), "frozen_nodes").unwrap();
+    assert!(frozen.iter().all(|&n| n > 0.0), "every fibre froze nodes: {frozen:?}");
+    assert!(steps("frozen") < 2.0 * steps("reference"), "two candidates together do less work than twice the reference");
+}

@@ -196,7 +196,7 @@ impl Stage for AccuracyStage {
         ]
     }
     fn inputs(&self) -> InputRule {
-        InputRule { kinds: &["laydown", "grid", "spectra", "web", "image"], min: 2, max: 64 }
+        InputRule { kinds: &["laydown", "laid_web", "grid", "spectra", "web", "image"], min: 2, max: 64 }
     }
     fn check(&self, p: &ParamSet) -> std::result::Result<(), (String, String)> {
         let (m, r) = (p.text_list("metrics"), p.text_list("reference_metrics"));

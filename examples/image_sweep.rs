@@ -39,7 +39,7 @@ fn main() {
                 extra += &format!(" | m{e}: plain {:+.2}% comp {:+.2}%", 100.0 * (cf / ct - 1.0), 100.0 * (cvar / ct - 1.0));
             }
             println!("σ {s} w {wdn} case {seed}: plain {:+.2}% comp {:+.2}% peaks {} resid edge {:.3} interior {:.3} (of truth var){extra}",
-                100.0 * (a.cv_corr / t - 1.0), 100.0 * (a.cv_corr_compensated / t - 1.0), a.peaks.len(), se / ne as f64 / tv, si / ni as f64 / tv);
+                100.0 * (a.cv_corr_plain / t - 1.0), 100.0 * (a.cv_corr_compensated / t - 1.0), a.peaks.len(), se / ne as f64 / tv, si / ni as f64 / tv);
         }
     }
 }

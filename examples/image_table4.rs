@@ -26,7 +26,7 @@ fn main() {
     };
     let bonded = RenderParams { bonds: Some(bonds), ..Default::default() };
     let plain = RenderParams::default();
-    println!("{:>7}  {:>9}  {:>14}  {:>14}  {:>14}  {:>14}  {:>7}", "v_b/v_f", "ρ (g/m²)", "CV raw %", "CV_corr %", "CV_corr comp %", "CV web %", "notches");
+    println!("{:>7}  {:>9}  {:>14}  {:>14}  {:>14}  {:>14}  {:>7}", "v_b/v_f", "ρ (g/m²)", "CV raw %", "CV_corr plain %", "CV_corr %", "CV web %", "notches");
     for c in [0.020, 0.028, 0.050, 0.070] {
         let web = Web::new(
             WebParams { fibres_across: 400, fibre_spacing: 0.25e-3, segments_per_fibre: 10, fibre_diameter: 16.2e-6, belt_speed_ratio: c, ..WebParams::default() },
@@ -42,7 +42,7 @@ fn main() {
             let web_img = render(&gsm, grid.cell_size, &plain).unwrap().grey;
             let a = analyze(&img, grid.cell_size, &ImageParams::default()).unwrap();
             raw.push(a.cv_raw);
-            corr.push(a.cv_corr);
+            corr.push(a.cv_corr_plain);
             comp.push(a.cv_corr_compensated);
             truth.push(coefficient_of_variation(web_img.iter().copied()));
             notches.push(a.notch_count as f64);

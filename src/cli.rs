@@ -88,6 +88,18 @@ pub enum Command {
     Stages { kind: Option<String> },
     /// Print the JSON schema of pipeline files (schemas/pipeline.schema.json).
     Schema,
+    /// Print a stage version's per-point results as a table (swept parameters as columns,
+    /// means and standard deviations; per replicate with --all), at full precision.
+    Table {
+        archive: PathBuf,
+        /// `STAGE` or `STAGE@vN`.
+        stage: String,
+        /// One row per replicate (laydown, grid), sample (image) or fibre (spectra).
+        #[arg(long)]
+        all: bool,
+        #[arg(long, value_enum, default_value = "csv")]
+        format: crate::table::Format,
+    },
     /// Draw a stage version's figures (PNG or SVG) and print their paths.
     Plot {
         archive: PathBuf,
@@ -136,7 +148,20 @@ pub fn main_with(cli: Cli) -> i32 {
             }
             let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal(), executor: None };
             match runner::run(&p, &opts) {
-                Ok(_) => {
+                Ok(reports) => {
+                    // The results of every image stage that ran, on stdout (as `laydown table`).
+                    for r in reports.iter().filter(|r| r.ran_because.is_some()) {
+                        if p.stage(&r.stage).is_some_and(|s| s.kind == "image") {
+                            let stage_ref = format!("{}@v{}", r.stage, r.version);
+                            match crate::table::read_table(&p.archive, &stage_ref, false) {
+                                Ok(t) => print!("{stage_ref} (laydown table {} {stage_ref}):\n{}", p.archive.display(), t.render(crate::table::Format::Csv)),
+                                Err(e) => {
+                                    eprintln!("error: table of {stage_ref}: {e:#}");
+                                    return 1;
+                                }
+                            }
+                        }
+                    }
                     println!("archive: {}", p.archive.display());
                     0
                 }
@@ -169,6 +194,7 @@ pub fn main_with(cli: Cli) -> i32 {
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
         Command::Stages { kind } => report(describe_stages(kind.as_deref())),
         Command::Plot { archive, stages, out, format } => report(plot(&archive, &stages, out.as_deref(), format)),
+        Command::Table { archive, stage, all, format } => report(table(&archive, &stage, all, format)),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&crate::schema::pipeline_schema()).unwrap());
             0
@@ -337,6 +363,15 @@ fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
     for (n, shape, u, l) in datasets {
         println!("  {n:<36} {:<20} [{u}] {l}", format!("{shape:?}"));
     }
+    Ok(())
+}
+
+fn table(archive: &std::path::Path, stage_ref: &str, all: bool, format: crate::table::Format) -> Result<()> {
+    let t = crate::table::read_table(archive, stage_ref, all)?;
+    if let Some(note) = &t.note {
+        eprintln!("{}: {note}", t.group);
+    }
+    print!("{}", t.render(format));
     Ok(())
 }
 

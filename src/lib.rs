@@ -10,7 +10,8 @@
 //! - [`executor`]: where a stage's units run (local threads or a Slurm job array);
 //! - [`rod`]: the fibre physics (discrete elastic rod, drag, oscillation, belt contact)
 //!   that the laydown and laid_web stages compose;
-//! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation).
+//! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation);
+//! - [`plot`], [`table`]: figures and tables of a stage version, read back from the archive.
 pub mod archive;
 pub mod cli;
 /// What source code each stage kind's results depend on, hashed at build time (see build.rs).
@@ -26,4 +27,5 @@ pub mod rod;
 pub mod runner;
 pub mod schema;
 pub mod stages;
+pub mod table;
 pub mod uniformity;

@@ -49,14 +49,14 @@ fn lattice_case(name: &str, rows: usize, cols: usize, seed: u64, b: BondPattern)
     let a = analyze(&img, PX, &ImageParams::default()).unwrap();
     let cv_true = cv(&truth);
     let err = a.cv_corr_compensated / cv_true - 1.0;
-    let err_plain = a.cv_corr / cv_true - 1.0;
+    let err_plain = a.cv_corr_plain / cv_true - 1.0;
     let lat = a.lattice.as_ref().expect("lattice");
     println!(
         "{name}: truth {:.4} raw {:.4} ({:+.0} %) corr {:.4} ({:+.2} %) compensated {:.4} ({:+.2} %) peaks {} notches {} removed {:.3} lattice {:?} mm at {:?}°, between {:?}",
         cv_true,
         a.cv_raw,
         100.0 * (a.cv_raw / cv_true - 1.0),
-        a.cv_corr,
+        a.cv_corr_plain,
         100.0 * err_plain,
         a.cv_corr_compensated,
         100.0 * err,
@@ -72,7 +72,9 @@ fn lattice_case(name: &str, rows: usize, cols: usize, seed: u64, b: BondPattern)
     assert!(a.cv_raw > 1.4 * cv_true, "{name}: raw CV {} not far from truth {cv_true}", a.cv_raw);
     assert!(err.abs() < 0.05, "{name}: compensated CV_corr {} vs truth {cv_true}", a.cv_corr_compensated);
     // The plain CV of the filtered image is low by the web power under the notches.
-    assert!(err_plain < 0.02 && err_plain > -0.12, "{name}: CV_corr {} vs truth {cv_true}", a.cv_corr);
+    assert!(err_plain < 0.02 && err_plain > -0.12, "{name}: plain CV_corr {} vs truth {cv_true}", a.cv_corr_plain);
+    // The reported CV_corr is the compensated one (CV_CORR_RULE).
+    assert_eq!(a.cv_corr, a.cv_corr_compensated);
     // The fitted lattice has the rendered repeat distances.
     let mut want = [b.period1, b.period2];
     want.sort_by(|x, y| x.total_cmp(y));
@@ -143,8 +145,10 @@ fn one_sided_pattern_biases_cv_corr_and_the_one_sided_estimate_recovers_it() {
         "one-sided bonds: truth {cv_true:.4} raw {:.4} corr (mean kept) {:.4} one-sided {:.4} bond mean est {:.4}",
         a.cv_raw, a.cv_corr, os, a.bond_mean_estimate
     );
-    // Mean kept: biased low by the bond mean; the one-sided estimate removes the bias.
-    assert!(a.cv_corr < 0.97 * cv_true);
+    // Mean kept: biased low by the bond mean (compensated or not); the one-sided
+    // estimate removes the bias.
+    assert!(a.cv_corr < 0.99 * cv_true && a.cv_corr_plain < 0.97 * cv_true);
+    assert!((os / cv_true - 1.0).abs() < (a.cv_corr / cv_true - 1.0).abs());
     assert!((os / cv_true - 1.0).abs() < 0.05, "{os} vs {cv_true}");
 }
 
@@ -450,4 +454,214 @@ fn cli_image_smaller_than_the_bond_period_is_returned_unchanged() {
     assert_eq!(read(&archive, "scans", "cv_corr"), read(&archive, "scans", "cv_raw"));
     assert!(read(&archive, "scans", "lattice_period1")[0].is_nan());
     assert!(!d.join("out/study_figures").exists());
+}
+
+/// 8-bit grey levels of a rendered web (64 × 64 px).
+fn web_bytes(seed: u64) -> Vec<u8> {
+    let g = render(&web(64, 64, seed), PX, &RenderParams::default()).unwrap().grey;
+    g.iter().map(|v| (v * 255.0).round().clamp(0.0, 255.0) as u8).collect()
+}
+
+fn png_phys(path: &Path, data: &[u8], xppu: u32, yppu: u32) {
+    let f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut e = png::Encoder::new(f, 64, 64);
+    e.set_color(png::ColorType::Grayscale);
+    e.set_depth(png::BitDepth::Eight);
+    e.set_pixel_dims(Some(png::PixelDimensions { xppu, yppu, unit: png::Unit::Meter }));
+    e.write_header().unwrap().write_image_data(data).unwrap();
+}
+
+fn tiff_res<C: tiff::encoder::colortype::ColorType>(path: &Path, data: &[C::Inner], unit: tiff::tags::ResolutionUnit, per_unit: u32)
+where
+    [C::Inner]: tiff::encoder::TiffValue,
+{
+    let mut enc = tiff::encoder::TiffEncoder::new(std::fs::File::create(path).unwrap()).unwrap();
+    let mut img = enc.new_image::<C>(64, 64).unwrap();
+    img.resolution(unit, tiff::encoder::Rational { n: per_unit, d: 1 });
+    img.write_data(data).unwrap();
+}
+
+#[test]
+fn cli_pixel_size_from_the_file_with_its_source_and_parameters_override_it() {
+    use image::codecs::jpeg::{JpegEncoder, PixelDensity, PixelDensityUnit};
+    use tiff::encoder::colortype::{Gray32Float, Gray8};
+    use tiff::tags::ResolutionUnit;
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    png_phys(&d.join("a.png"), &web_bytes(1), 11811, 11811);
+    tiff_res::<Gray8>(&d.join("b.tif"), &web_bytes(2), ResolutionUnit::Inch, 300);
+    let mut f = std::fs::File::create(d.join("c.jpg")).unwrap();
+    let mut e = JpegEncoder::new_with_quality(&mut f, 95);
+    e.set_pixel_density(PixelDensity { density: (200, 200), unit: PixelDensityUnit::Inches });
+    e.encode(&web_bytes(3), 64, 64, image::ExtendedColorType::L8).unwrap();
+    drop(f);
+    let floats: Vec<f32> = web_bytes(4).iter().map(|&v| v as f32 / 255.0).collect();
+    tiff_res::<Gray32Float>(&d.join("d.tif"), &floats, ResolutionUnit::Centimeter, 50);
+    png(d, "e.png", &render(&web(64, 64, 5), PX, &RenderParams::default()).unwrap().grey);
+    let want = [1.0 / 11811.0, 0.0254 / 300.0, 0.0254 / 200.0, 0.01 / 50.0];
+    let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-12;
+
+    // No parameter: each file's own size; the one without gets the default and a warning.
+    let p = pipeline(d, "      files: [a.png, b.tif, c.jpg, d.tif, e.png]\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let archive = d.join("out/study.h5");
+    let px = read(&archive, "scans", "pixel_size");
+    let declared = read(&archive, "scans", "file_pixel_size");
+    for i in 0..4 {
+        assert!(close(px[i], want[i]) && close(declared[i], want[i]), "sample {i}: {} {} want {}", px[i], declared[i], want[i]);
+    }
+    assert!(close(px[4], 297e-3 / 871.0) && declared[4].is_nan());
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["file", "file", "file", "file", "default"]);
+    // Without `groups`, each file is its own group, labelled by its stem; the run prints
+    // the per-condition table on stdout at full precision.
+    assert_eq!(read_strings(&archive, "scans", "group"), ["a", "b", "c", "d", "e"]);
+    let o = text(&out).0;
+    let cv = read(&archive, "scans", "cv_corr_mean");
+    assert!(o.contains("scans@v1 (laydown table out/study.h5 scans@v1):\ncondition,condition_samples,"), "{o}");
+    assert!(o.lines().any(|l| l.starts_with("c,1,") && l.contains(&format!(",{:?},", cv[2]))), "{o}");
+    let warning: Vec<&str> = e.lines().filter(|l| l.contains("warning")).collect();
+    assert!(warning.len() == 1 && warning[0].contains("e.png") && !warning[0].contains("a.png"), "{e}");
+    assert!(e.contains("pixel size declared by the file: 0.084667 mm (2 images), 0.127000 mm (1 image), 0.200000 mm (1 image)"), "{e}");
+    // The float TIFF was analysed as it is: its CV is the 8-bit data's.
+    let cv_raw = read(&archive, "scans", "cv_raw");
+    let bytes: Vec<f64> = web_bytes(4).iter().map(|&v| v as f64).collect();
+    assert!((cv_raw[3] / coefficient_of_variation(bytes.iter().copied()) - 1.0).abs() < 1e-6);
+
+    // Every file declares a size: no warning.
+    let p = pipeline(d, "      files: [a.png, b.tif]\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(!text(&out).1.contains("warning"), "{}", text(&out).1);
+
+    // dpi (or pixel_size) overrides the files; what they declare is still stored.
+    let p = pipeline(d, "      files: [a.png, e.png]\n      dpi: 600\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(!text(&out).1.contains("warning"));
+    assert_eq!(read(&archive, "scans", "pixel_size"), [0.0254 / 600.0; 2]);
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["dpi", "dpi"]);
+    assert!(close(read(&archive, "scans", "file_pixel_size")[0], want[0]));
+    let p = pipeline(d, "      files: [a.png]\n      pixel_size: 0.0002\n      panels: false\n");
+    assert_eq!(run_in(d, &["run", p.to_str().unwrap()]).status.code(), Some(0));
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["pixel_size"]);
+    assert_eq!(read(&archive, "scans", "pixel_size"), [0.0002]);
+
+    // 72 dpi, a common software default, is used but flagged.
+    png_phys(&d.join("screen.png"), &web_bytes(7), 2835, 2835);
+    let p = pipeline(d, "      files: [screen.png, a.png]\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let warning: Vec<&str> = e.lines().filter(|l| l.contains("warning")).collect();
+    assert!(warning.len() == 1 && warning[0].contains("screen.png: the file declares 72 or 96 dpi") && !warning[0].contains("a.png"), "{e}");
+    assert_eq!(read_strings(&archive, "scans", "pixel_size_source"), ["file", "file"]);
+
+    // Non-square pixels declared and no override: bad input naming the file.
+    png_phys(&d.join("skew.png"), &web_bytes(6), 11811, 5906);
+    let p = pipeline(d, "      files: [skew.png]\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    assert!(e.contains("skew.png") && e.contains("non-square") && e.contains("give pixel_size or dpi"), "{e}");
+}
+
+#[test]
+fn cli_zone_curve_stores_the_zone_sizes_actually_used_without_holes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // 1 mm pixels, zones asked from 0.5 to 16 mm: 0.5, 0.71, 1 and 1.41 mm are all the
+    // one-pixel zone; the curve holds it once, as 1 mm.
+    let big = render(&web(64, 64, 11), PX, &RenderParams::default()).unwrap().grey;
+    let small = render(&web(20, 20, 12), PX, &RenderParams::default()).unwrap().grey;
+    png(d, "big.png", &big);
+    png(d, "small.png", &small);
+    let p = pipeline(d, "      files: [big.png, small.png]\n      pixel_size: 0.001\n      zone_min: 0.0005\n      zone_max: 0.016\n      panels: false\n");
+    let out = run_in(d, &["run", p.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    let archive = d.join("out/study.h5");
+    let cells = read(&archive, "scans", "zone_cells");
+    let sizes = read(&archive, "scans", "zone_size");
+    let (raw, filtered) = (read(&archive, "scans", "zone_cv_raw"), read(&archive, "scans", "zone_cv_filtered"));
+    let want_cells = [1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 11.0, 16.0];
+    let nz = want_cells.len();
+    assert_eq!(cells.len(), 2 * nz, "{cells:?}");
+    assert_eq!(&cells[..nz], want_cells);
+    for j in 0..nz {
+        assert!((sizes[j] - want_cells[j] * 1e-3).abs() < 1e-15, "zone {j}: {} m", sizes[j]);
+    }
+    // Each CV is the CV of the block sums at that size, computed independently; the
+    // first is the one-pixel CV.
+    let img = laydown::stages::image::read_grey(&d.join("big.png")).unwrap().data;
+    let zones: Vec<f64> = want_cells.iter().map(|k| k * 1e-3).collect();
+    let direct = laydown::uniformity::cv_by_zone_size(img.view(), 1e-3, &zones);
+    assert_eq!(direct.len(), nz);
+    for (j, z) in direct.iter().enumerate() {
+        assert!((raw[j] / z.cv - 1.0).abs() < 1e-9, "zone {j}: {} vs {}", raw[j], z.cv);
+    }
+    assert_eq!(raw[0], read(&archive, "scans", "cv_raw")[0]);
+    // Bond-free: nothing notched, the filtered curve is the raw one.
+    assert_eq!(&filtered[..nz], &raw[..nz]);
+    // The 20 × 20 px image fits 4 zones up to 8 px (at 11 px only one zone fits):
+    // its curve stops there, padded after its last size, never inside.
+    let last = 6;
+    assert_eq!(&cells[nz..nz + last], &want_cells[..last]);
+    assert!(raw[nz..nz + last].iter().chain(&sizes[nz..nz + last]).all(|v| v.is_finite()));
+    assert!(raw[nz + last..].iter().chain(&sizes[nz + last..]).chain(&filtered[nz + last..]).all(|v| v.is_nan()));
+    assert!(cells[nz + last..].iter().all(|&c| c == 0.0));
+}
+
+/// The rule behind the reported `cv_corr` (CV_CORR_RULE): on bonded renderings of known
+/// web CV, including strong, rotated, staggered and large elliptical bonds whose periods
+/// do not divide the image, the compensated CV has the smaller worst-case and mean error;
+/// the paper's plain CV is closer only on weak or dark patterns, where both are within
+/// 2.5 %. (300 × 360 px here: compensated −2.1 to +1.9 %, plain −6.7 to −0.7 %; at
+/// 617 × 871 px, 3 seeds, examples/image_estimators.rs: −2.6 to +0.9 % and −4.5 to −0.4 %.)
+#[test]
+fn reported_cv_corr_is_the_compensated_estimate_and_closer_to_the_truth() {
+    let cases = [
+        ("weak 4.2 mm at 45°", BondPattern { period1: 4.2e-3, period2: 4.2e-3, angle_deg: 45.0, contrast: 0.15, shape: BondShape::Circle { diameter: 1.5e-3 }, ..Default::default() }),
+        ("strong 4.1 mm off-grid", BondPattern { period1: 4.1e-3, period2: 4.1e-3, contrast: 0.5, shape: BondShape::Circle { diameter: 1.6e-3 }, ..Default::default() }),
+        (
+            "rotated 30°, elliptical",
+            BondPattern { period1: 5e-3, period2: 3.5e-3, angle_deg: 30.0, contrast: 0.5, shape: BondShape::Ellipse { major: 1.8e-3, minor: 1.1e-3, angle_deg: 30.0 }, ..Default::default() },
+        ),
+        (
+            "large ellipses",
+            BondPattern { period1: 5.3e-3, period2: 5.3e-3, angle_deg: 10.0, contrast: 0.4, shape: BondShape::Ellipse { major: 3e-3, minor: 1.6e-3, angle_deg: 35.0 }, ..Default::default() },
+        ),
+        (
+            "staggered rectangles, dark",
+            BondPattern {
+                period1: 4.5e-3,
+                period2: 4.5e-3,
+                angle_deg: 15.0,
+                angle_between_deg: 60.0,
+                contrast: -0.4,
+                shape: BondShape::Rectangle { width: 1.6e-3, height: 1.1e-3, angle_deg: 15.0 },
+                ..Default::default()
+            },
+        ),
+    ];
+    let mut errors: Vec<(f64, f64)> = vec![];
+    for (k, (name, b)) in cases.into_iter().enumerate() {
+        let density = web(300, 360, 60 + k as u64);
+        let (truth, img) = bonded(&density, b);
+        let a = analyze(&img, PX, &ImageParams::default()).unwrap();
+        let t = cv(&truth);
+        let (comp, plain) = ((a.cv_corr_compensated / t - 1.0).abs(), (a.cv_corr_plain / t - 1.0).abs());
+        println!("{name}: compensated {:+.2} %, plain {:+.2} %", 100.0 * (a.cv_corr_compensated / t - 1.0), 100.0 * (a.cv_corr_plain / t - 1.0));
+        assert_eq!(a.cv_corr, a.cv_corr_compensated, "{name}");
+        assert!(comp < 0.025, "{name}: compensated off by {comp}");
+        errors.push((comp, plain));
+    }
+    let worst = |f: fn(&(f64, f64)) -> f64| errors.iter().map(f).fold(0.0, f64::max);
+    let mean = |f: fn(&(f64, f64)) -> f64| errors.iter().map(f).sum::<f64>() / errors.len() as f64;
+    assert!(worst(|e| e.0) < worst(|e| e.1) && mean(|e| e.0) < mean(|e| e.1), "{errors:?}");
+    // Nothing notched: every corrected CV is the raw one.
+    let plain_web = render(&web(200, 200, 70), PX, &RenderParams::default()).unwrap().grey;
+    let a = analyze(&plain_web, PX, &ImageParams::default()).unwrap();
+    assert!(a.peaks.is_empty());
+    assert!(a.cv_corr == a.cv_raw && a.cv_corr_plain == a.cv_raw && a.cv_corr_compensated == a.cv_raw);
 }

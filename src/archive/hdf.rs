@@ -18,6 +18,8 @@ mod ds {
     extern "C" {
         pub fn H5DSset_scale(dsid: hid_t, dimname: *const c_char) -> herr_t;
         pub fn H5DSattach_scale(did: hid_t, dsid: hid_t, idx: c_uint) -> herr_t;
+        pub fn H5DSis_attached(did: hid_t, dsid: hid_t, idx: c_uint) -> hdf5_sys::h5::htri_t;
+        pub fn H5DSis_scale(did: hid_t) -> hdf5_sys::h5::htri_t;
     }
 }
 
@@ -281,6 +283,38 @@ pub fn read_u8(group: &hdf5::Group, name: &str) -> Result<ArrayD<u8>> {
 pub fn read_strings(group: &hdf5::Group, name: &str) -> Result<Vec<String>> {
     let ds = group.dataset(name).with_context(|| format!("no dataset `{name}` in {}", group.name()))?;
     Ok(ds.read_raw::<VarLenUnicode>()?.into_iter().map(|s| s.as_str().to_string()).collect())
+}
+
+/// The dimension names of every dataset of a group, read back from its dimension scales
+/// (a scale is named after its dimension, see [`write_output`]; a scale's own dimension is
+/// itself). A dimension with no attached scale is named `dim<i>`.
+pub fn dimension_names(group: &hdf5::Group) -> Result<BTreeMap<String, Vec<String>>> {
+    let mut datasets = Vec::new();
+    for name in group.member_names()? {
+        if let Ok(d) = group.dataset(&name) {
+            datasets.push((name, d));
+        }
+    }
+    let is_scale = |d: &hdf5::Dataset| hdf5::sync::sync(|| unsafe { ds::H5DSis_scale(d.id()) }) > 0;
+    let scales: Vec<&(String, hdf5::Dataset)> = datasets.iter().filter(|(_, d)| is_scale(d)).collect();
+    let mut out = BTreeMap::new();
+    for (name, d) in &datasets {
+        let dims = if is_scale(d) {
+            vec![name.clone()]
+        } else {
+            (0..d.ndim())
+                .map(|i| {
+                    scales
+                        .iter()
+                        .find(|(_, s)| hdf5::sync::sync(|| unsafe { ds::H5DSis_attached(d.id(), s.id(), i as u32) }) > 0)
+                        .map(|(n, _)| n.clone())
+                        .unwrap_or_else(|| format!("dim{i}"))
+                })
+                .collect()
+        };
+        out.insert(name.clone(), dims);
+    }
+    Ok(out)
 }
 
 /// A swept parameter of a stage version: a coordinate along `point` carrying a

@@ -88,6 +88,13 @@ pub fn read(path: &Path) -> Result<(Output, BTreeMap<String, Attr>)> {
 /// ragged data to the longest unit, with NaN) are padded to the longest with NaN, as
 /// the stage does when it computes all points at once.
 pub fn gather(parts: &[Output], stack_dims: &[&str]) -> Result<Output> {
+    /// Equal values, NaN equal to NaN (a NaN marks a missing value the same way in every part).
+    fn same_values(a: &Values, b: &Values) -> bool {
+        match (a, b) {
+            (Values::F64(x), Values::F64(y)) => x.shape() == y.shape() && x.iter().zip(y.iter()).all(|(p, q)| p == q || p.is_nan() && q.is_nan()),
+            _ => a == b,
+        }
+    }
     let first = parts.first().ok_or_else(|| anyhow!("no partial results to gather"))?;
     for (t, p) in parts.iter().enumerate() {
         let names: Vec<&str> = p.variables.iter().map(|v| v.name.as_str()).collect();
@@ -110,7 +117,7 @@ pub fn gather(parts: &[Output], stack_dims: &[&str]) -> Result<Output> {
         }
         let stacked = v0.dims.first().is_some_and(|d| stack_dims.contains(&d.as_str()));
         let values = if !stacked {
-            if let Some(t) = vs.iter().position(|v| v.values != v0.values) {
+            if let Some(t) = vs.iter().position(|v| !same_values(&v.values, &v0.values)) {
                 bail!("variable `{}` is not stacked but differs between partial 0 and partial {t}", v0.name);
             }
             v0.values.clone()

@@ -72,7 +72,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     }
     // CV per condition, or against the swept parameter.
     let conditions = d.strings("condition")?;
-    let metrics = [("cv_raw", "CV raw"), ("cv_corr", "CV_corr"), ("cv_corr_compensated", "CV_corr compensated"), ("cv_web", "CV of the web (truth)")];
+    let metrics = [("cv_raw", "CV raw"), ("cv_corr", "CV_corr"), ("cv_corr_plain", "CV_corr plain (paper)"), ("cv_web", "CV of the web (truth)")];
     // The x values and one line per condition (swept: a line along the points for each
     // condition; unswept: one line across the conditions).
     let (x, x_label, log_x, lines): (Vec<f64>, String, bool, Vec<(String, Option<usize>)>) = if swept {
@@ -94,6 +94,9 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let mut series = vec![];
     for (k, (suffix, condition)) in lines.iter().enumerate() {
         for (i, (name, label)) in metrics.iter().enumerate() {
+            if !d.has(&format!("{name}_mean")) {
+                continue; // cv_corr_plain: versions written before it existed
+            }
             let (m, s) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
             let (m, s) = match condition {
                 Some(c) => (m.index_axis(Axis(1), *c).to_owned(), s.index_axis(Axis(1), *c).to_owned()),
@@ -107,11 +110,27 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             series.push(Series::new(Some(&label), x.iter().zip(m.iter()).map(|(&a, &b)| (a, b)).collect(), style, i + 4 * k).with_error(s.iter().copied().collect()));
         }
     }
-    let zone = d.f64("zone_size")?;
+    // Zone sides actually used are per sample (pixel sizes may differ): the mean over the
+    // samples that share a side, at each side.
+    let zone = d.f64("zone_size")?.into_dimensionality::<Ix2>()?;
     let (raw, filtered) = (d.f64("zone_cv_raw")?, d.f64("zone_cv_filtered")?);
     let zone_series = |a: ndarray::ArrayD<f64>, label: &str, style, colour| -> Result<Series> {
         let a = a.into_dimensionality::<Ix2>()?;
-        Ok(Series::new(Some(label), zone.iter().zip(a.mean_axis(Axis(0)).unwrap().iter()).map(|(&z, &c)| (z * 1e3, c)).collect(), style, colour))
+        let mut by_size: Vec<(f64, f64, usize)> = Vec::new();
+        for (&z, &c) in zone.iter().zip(a.iter()) {
+            if !(z.is_finite() && c.is_finite()) {
+                continue;
+            }
+            match by_size.iter_mut().find(|(s, _, _)| (s / z - 1.0).abs() < 1e-9) {
+                Some(e) => {
+                    e.1 += c;
+                    e.2 += 1;
+                }
+                None => by_size.push((z, c, 1)),
+            }
+        }
+        by_size.sort_by(|x, y| x.0.total_cmp(&y.0));
+        Ok(Series::new(Some(label), by_size.iter().map(|&(z, c, n)| (z * 1e3, c / n as f64)).collect(), style, colour))
     };
     let mut zones = vec![zone_series(at(&raw, swept, 0), "raw", Style::LineMarkers, 0)?];
     for p in 0..points {

@@ -10,7 +10,7 @@
 //!
 //! Metrics are per-point datasets `<metric>_mean` of the inputs (laydown:
 //! `radius_of_gyration`, `bending_energy`, ...; grid: `mean_areal_density`, `cv`;
-//! image, with one condition: `cv_corr`, `cv_corr_compensated`); the time is the
+//! image, with one condition: `cv_corr`, `cv_corr_plain`); the time is the
 //! input's `wall_seconds` averaged over everything but the point (per replicate,
 //! realisation or image), or the version's wall time divided by its points when a stage
 //! records none per unit.
@@ -54,7 +54,7 @@ fn metric(input: &Input, metric: &str, points: usize) -> Result<Vec<f64>> {
     let name = format!("{metric}_mean");
     if !input.has(&name) {
         return Err(bad(format!(
-            "input `{}` (kind {}) has no per-point `{name}`; choose metrics it records (e.g. laydown: radius_of_gyration, bending_energy; grid: mean_areal_density, cv; image: cv_corr, cv_corr_compensated)",
+            "input `{}` (kind {}) has no per-point `{name}`; choose metrics it records (e.g. laydown: radius_of_gyration, bending_energy; grid: mean_areal_density, cv; image: cv_corr, cv_corr_plain)",
             input.name, input.kind
         )));
     }
@@ -124,7 +124,7 @@ fn default_metrics(kind: &str) -> Vec<String> {
     match kind {
         "laydown" => vec!["radius_of_gyration".into(), "bending_energy".into()],
         "grid" => vec!["mean_areal_density".into(), "cv".into()],
-        "image" => vec!["cv_corr".into(), "cv_corr_compensated".into()],
+        "image" => vec!["cv_corr".into(), "cv_corr_plain".into()],
         _ => vec![],
     }
 }
@@ -187,7 +187,7 @@ impl Stage for AccuracyStage {
         vec![
             ParamSpec::text_list(
                 "metrics",
-                "per-point quantities to compare (`<name>_mean` in every input); empty: laydown radius_of_gyration, bending_energy; grid mean_areal_density, cv; image cv_corr, cv_corr_compensated",
+                "per-point quantities to compare (`<name>_mean` in every input); empty: laydown radius_of_gyration, bending_energy; grid mean_areal_density, cv; image cv_corr, cv_corr_plain",
             ),
             ParamSpec::text_list(
                 "reference_metrics",

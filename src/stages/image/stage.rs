@@ -5,8 +5,12 @@
 //! * **files**: `files:` lists paths or globs (relative to the pipeline file), read as
 //!   grey levels (PNG/TIFF/JPEG, 8/16 bit, RGB → BT.601 luma). `groups:` (optional, same
 //!   length) labels each entry with its condition, e.g. one glob of 8 scans per belt speed;
-//!   without it every entry is its own group. Pixel size from `pixel_size` (m) or `dpi`;
-//!   neither: 297/871 mm (A4 at 871 px, the paper's scans), with a warning.
+//!   without it every entry is its own group, labelled by [`default_groups`] (the file
+//!   stem, or a whole-directory glob's directory). Pixel size per image: `pixel_size` (m) or
+//!   `dpi` if given (they override the file), else what the file declares (PNG pHYs, TIFF
+//!   resolution tags, JPEG JFIF density; [`super::io`]), else 297/871 mm (A4 at 871 px, the
+//!   paper's scans) with a warning naming the files. Each sample's size and its source
+//!   (`pixel_size_source`: file, dpi, pixel_size, default, grid) are stored.
 //! * **a grid stage** (`input:`): its `density` (point, realisation, md, cd) in g/m² with
 //!   scalar `cell_size` (m) is rendered per (point, realisation) as a transmission image
 //!   (`render.*`: Beer–Lambert, rows = MD, columns = CD) with the bond lattice `bonds.*`
@@ -20,6 +24,10 @@
 //!   `false_alarm_rate` on noise and count the peaks) and the hard cases
 //!   (pipelines/stability/images.yaml).
 //!
+//! Results: the datasets of schemas/archive_layout.md; a Table-4-like summary rounded to
+//! 0.01 % on stderr, and `laydown run` prints the full-precision per-condition table
+//! (`laydown table`, [`crate::table`]) on stdout.
+//!
 //! **Sweeps** of the analysis, `render.*`, `bonds.*` or `synthetic.mean/cv/correlation`
 //! run every point on the same samples; each result gains a leading `point` dimension
 //! (schemas/archive_layout.md).
@@ -30,7 +38,7 @@
 //! stderr); a lattice whose period exceeds the image is not detected and the image is
 //! returned unchanged (`notches` = 0, `cv_corr` = `cv_raw`).
 use super::render::{render, render_with_coverage, BondPattern, BondShape, RenderParams};
-use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PARAMETERS};
+use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PixelSource, PARAMETERS};
 use crate::archive::data::{Attr, Output, Values};
 use crate::params::{ParamSet, ParamSpec};
 use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
@@ -52,7 +60,9 @@ struct Sample {
     group: String,
     file: String,
     source: Source,
+    /// Pixel size (m) and its source; for files, decided when the file is read.
     pixel: f64,
+    pixel_source: PixelSource,
     grid_point: i64,
     realisation: i64,
 }
@@ -96,6 +106,11 @@ struct Kept {
     cv_web: f64,
     /// Wall time of reading or rendering and analysing the image.
     wall_seconds: f64,
+    /// Pixel size used (m) and where it came from.
+    pixel: f64,
+    pixel_source: PixelSource,
+    /// Pixel size the file declares (m; NaN: none, or not a file).
+    file_pixel: f64,
 }
 
 impl Stage for ImageStage {
@@ -106,7 +121,10 @@ impl Stage for ImageStage {
         "CV of a bonded nonwoven image, raw and after FFT notch removal of the bond lattice (§3.4, Table 4, Figs 11-12)"
     }
     fn cache_version(&self) -> u32 {
-        1
+        // 2: pixel size from the image file (pixel_size_source, file_pixel_size); zone
+        // curves on the sides used; default group labels are file stems; cv_corr is the
+        // compensated CV (cv_corr_plain the paper's).
+        2
     }
     fn inputs(&self) -> InputRule {
         InputRule { kinds: &["grid"], min: 0, max: 1 }
@@ -121,9 +139,9 @@ impl Stage for ImageStage {
             ParamSpec::float("synthetic.mean", "1", 0.5, 0.0, 1.0, "mean grey level of a synthetic image (full scale 1)"),
             ParamSpec::float("synthetic.cv", "1", 0.2, 0.0, 10.0, "CV of the noise before clipping to [0, 1]"),
             ParamSpec::float("synthetic.correlation", "1", 1.0, 0.0, 100.0, "standard deviation (pixels) of the Gaussian that smooths the noise; 0 = white"),
-            ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group"),
-            ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files; give this or dpi; neither: 297/871 mm (A4 at 871 px); grid input: the grid's cell_size").auto_default(),
-            ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m); give this or pixel_size").auto_default(),
+            ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group, labelled by its file stem (a glob of a whole directory, v020/*.png: the directory)"),
+            ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files, overriding what each file declares; give this or dpi; neither: each file's own (PNG pHYs, TIFF resolution tags, JPEG JFIF density), else 297/871 mm (A4 at 871 px) with a warning; grid input: the grid's cell_size").auto_default(),
+            ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m), overriding what each file declares; give this or pixel_size").auto_default(),
             ParamSpec::float("zone_min", "m", 0.5e-3, 1e-7, 1.0, "smallest zone side of the CV-per-zone-size curves"),
             ParamSpec::float("zone_max", "m", 16e-3, 1e-7, 1.0, "largest zone side of the CV-per-zone-size curves (≥ zone_min)"),
             ParamSpec::int("max_stored_images", "1", 4, 0, 10_000, "images (raw, filtered, log spectra) stored in the archive and drawn as PNG panels: the first N samples"),
@@ -260,6 +278,9 @@ impl Stage for ImageStage {
                     eprintln!("{}: warning: {point}{what}: {w}", ctx.stage_name);
                 }
             }
+            if k == 0 {
+                report_pixel_sizes(&ctx.stage_name, &samples, &kept);
+            }
             let groups = group_stats(&samples, &kept);
             let label = if ctx.sweep.is_empty() { ctx.stage_name.clone() } else { format!("{} point {}", ctx.stage_name, k) };
             eprint!("{}", table(&label, &groups, &kept));
@@ -270,7 +291,7 @@ impl Stage for ImageStage {
         let parts: Vec<Output> = per_point
             .iter()
             .zip(&ctx.points)
-            .map(|(kept, p)| assemble(&samples, kept, &image_params(p), p, &grid_sweep, peaks))
+            .map(|(kept, p)| assemble(&samples, kept, p, &grid_sweep, peaks))
             .collect();
         let mut out = stack_points(parts, !ctx.sweep.is_empty())?;
         if p.bool("panels") && per_point.iter().flatten().any(|k| k.store) {
@@ -309,7 +330,65 @@ const NOT_SWEPT: &[&str] = &[
 
 /// Variables that describe the samples and conditions, not their analysis: the same at
 /// every sweep point, stored once.
-const SAMPLE_DESCRIPTORS: &[&str] = &["sample", "grid_point", "realisation", "pixel_size", "rows", "cols", "condition_samples", "stored_sample"];
+const SAMPLE_DESCRIPTORS: &[&str] =
+    &["sample", "grid_point", "realisation", "pixel_size", "file_pixel_size", "rows", "cols", "condition_samples", "stored_sample", "zone_size", "zone_cells"];
+
+/// Says on stderr which pixel sizes the files were analysed at and where they came from;
+/// a warning names the files that declare none when no parameter gives one.
+fn report_pixel_sizes(stage: &str, samples: &[Sample], kept: &[Kept]) {
+    if !samples.iter().any(|s| matches!(s.source, Source::File(_))) {
+        return;
+    }
+    // Per source, the distinct sizes (to the µm/1000 shown) and how many images have each.
+    let mut seen: Vec<(PixelSource, Vec<(String, usize)>)> = Vec::new();
+    for k in kept {
+        let size = format!("{:.6}", k.pixel * 1e3);
+        let sizes = match seen.iter_mut().find(|(s, _)| *s == k.pixel_source) {
+            Some((_, v)) => v,
+            None => {
+                seen.push((k.pixel_source, Vec::new()));
+                &mut seen.last_mut().expect("just pushed").1
+            }
+        };
+        match sizes.iter_mut().find(|(s, _)| *s == size) {
+            Some(e) => e.1 += 1,
+            None => sizes.push((size, 1)),
+        }
+    }
+    for (source, sizes) in &seen {
+        let from = match source {
+            PixelSource::File => "declared by the file",
+            PixelSource::Dpi => "from dpi",
+            PixelSource::PixelSize => "from pixel_size",
+            PixelSource::Default => "assumed",
+            PixelSource::Grid => "the grid's cell_size",
+        };
+        let list: Vec<String> = sizes.iter().map(|(s, n)| format!("{s} mm ({n} image{})", if *n == 1 { "" } else { "s" })).collect();
+        eprintln!("{stage}: pixel size {from}: {}", list.join(", "));
+    }
+    // 72 and 96 dpi are what many programs write when they know no resolution (within
+    // 0.1 %: PNG stores whole pixels per metre, 2835 for 72 dpi).
+    let placeholder: Vec<&str> = samples
+        .iter()
+        .zip(kept)
+        .filter(|(_, k)| k.pixel_source == PixelSource::File && [72.0, 96.0].iter().any(|d| (0.0254 / k.pixel / d - 1.0).abs() < 1e-3))
+        .map(|(s, _)| s.file.as_str())
+        .collect();
+    if !placeholder.is_empty() {
+        let shown = placeholder.iter().take(5).copied().collect::<Vec<_>>().join(", ");
+        let more = if placeholder.len() > 5 { format!(" and {} more", placeholder.len() - 5) } else { String::new() };
+        eprintln!("{stage}: warning: {shown}{more}: the file declares 72 or 96 dpi, what many programs write when they know no resolution; if the scan's resolution differs, give dpi");
+    }
+    let missing: Vec<&str> = samples.iter().zip(kept).filter(|(_, k)| k.pixel_source == PixelSource::Default).map(|(s, _)| s.file.as_str()).collect();
+    if !missing.is_empty() {
+        let shown = missing.iter().take(5).copied().collect::<Vec<_>>().join(", ");
+        let more = if missing.len() > 5 { format!(" and {} more", missing.len() - 5) } else { String::new() };
+        eprintln!(
+            "{stage}: warning: {shown}{more}: no pixel size in the file (PNG pHYs, TIFF resolution tags, JPEG JFIF density) and neither pixel_size nor dpi given; assuming {:.4} mm per pixel (A4 at 871 px, the paper's scans)",
+            super::DEFAULT_PIXEL_SIZE_MM
+        );
+    }
+}
 
 /// Analyses every sample with the parameters of one sweep point, in parallel; only the
 /// first `max_store` keep their images.
@@ -328,21 +407,27 @@ fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ParamSet, max_
         .enumerate()
         .map(|(i, smp)| {
             let started = std::time::Instant::now();
+            let (mut pixel, mut pixel_source, mut file_pixel) = (smp.pixel, smp.pixel_source, f64::NAN);
             let (image, cv_web) = match (&smp.source, grid) {
-                (Source::File(path), _) => (read_grey(path).map_err(|e| BadInput(e.to_string()))?.data, f64::NAN),
+                (Source::File(path), _) => {
+                    let img = read_grey(path).map_err(|e| BadInput(e.to_string()))?;
+                    (pixel, pixel_source) = ip.pixel_size_for(&img).map_err(|e| BadInput(e.to_string()))?;
+                    file_pixel = img.resolution.as_ref().map(|r| r.x).unwrap_or(f64::NAN);
+                    (img.data, f64::NAN)
+                }
                 (Source::Grid(pt, r), Some(g)) => g.render(*pt, *r, &bonded, &plain, coverage.as_ref())?,
                 (Source::Grid(..), None) => unreachable!("grid samples come with the grid"),
                 (Source::Synthetic(seed), _) => synthetic_image(p, *seed, smp.pixel, &bonded, &plain, coverage.as_ref())?,
             };
             let (rows, cols) = image.dim();
-            let a = analyze(&image, smp.pixel, &ip).map_err(|e| {
+            let a = analyze(&image, pixel, &ip).map_err(|e| {
                 let what = if smp.file.is_empty() { format!("group {} sample {i}", smp.group) } else { smp.file.clone() };
                 anyhow::Error::new(BadInput(format!("{what}: {e}")))
             })?;
             drop(image);
             let store = i < max_store;
             let a = if store { a } else { strip(a) };
-            Ok(Kept { a, store, rows, cols, cv_web, wall_seconds: started.elapsed().as_secs_f64() })
+            Ok(Kept { a, store, rows, cols, cv_web, wall_seconds: started.elapsed().as_secs_f64(), pixel, pixel_source, file_pixel })
         })
         .collect()
 }
@@ -435,16 +520,44 @@ pub fn bond_pattern(p: &ParamSet) -> Option<BondPattern> {
     })
 }
 
+/// The group label of each `files` entry when `groups` is not given: its file stem
+/// (`scans/a01.png` → `a01`, `scans/w*.png` → `w*`), or for a glob naming every file of
+/// a directory (`v020/*.png`, `v020/*`) that directory (`v020`). Entries whose labels
+/// would coincide keep the whole entry, so that distinct entries stay distinct groups.
+pub fn default_groups(files: &[String]) -> Vec<String> {
+    let label = |f: &String| -> String {
+        let path = Path::new(f);
+        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let only_glob = !stem.is_empty() && stem.chars().all(|c| matches!(c, '*' | '?'));
+        if only_glob {
+            let parent = path.parent().and_then(|p| p.file_name()).map(|s| s.to_string_lossy().into_owned());
+            return parent.filter(|p| !p.contains(['*', '?', '['])).unwrap_or_else(|| f.clone());
+        }
+        if stem.is_empty() {
+            f.clone()
+        } else {
+            stem
+        }
+    };
+    let labels: Vec<String> = files.iter().map(label).collect();
+    labels
+        .iter()
+        .zip(files)
+        .map(|(l, f)| if files.iter().zip(&labels).any(|(g, m)| m == l && g != f) { f.clone() } else { l.clone() })
+        .collect()
+}
+
 /// (file, group) of every `files` entry, globs expanded (sorted within a pattern),
 /// relative paths taken from `dir`. Missing files and empty globs are bad input.
 fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
     let (files, groups) = (p.text_list("files"), p.text_list("groups"));
+    let groups = if groups.is_empty() { default_groups(files) } else { groups.to_vec() };
     let specs: Vec<super::InputSpec> = files
         .iter()
         .enumerate()
         .map(|(i, f)| {
             let path = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
-            super::InputSpec { pattern: path.display().to_string(), group: groups.get(i).cloned().unwrap_or_else(|| f.clone()) }
+            super::InputSpec { pattern: path.display().to_string(), group: groups[i].clone() }
         })
         .collect();
     super::expand_inputs(&specs).map_err(|e| BadInput(e.to_string()).into())
@@ -453,13 +566,6 @@ fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
 fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
     let files = expand(p, &ctx.pipeline_dir)?;
     let ip = image_params(p);
-    if ip.pixel_size_mm.is_none() && ip.dpi.is_none() {
-        eprintln!(
-            "{}: warning: neither pixel_size nor dpi given; assuming {:.4} mm per pixel (A4 at 871 px, the paper's scans)",
-            ctx.stage_name,
-            ip.pixel_size_m() * 1e3
-        );
-    }
     Ok(files
         .into_iter()
         .map(|(path, group)| Sample {
@@ -467,7 +573,9 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
             // Relative to the pipeline file: results do not depend on the working directory.
             file: path.strip_prefix(&ctx.pipeline_dir).unwrap_or(&path).display().to_string(),
             source: Source::File(path),
+            // Replaced by the file's own size unless a parameter gives one.
             pixel: ip.pixel_size_m(),
+            pixel_source: ip.pixel_source(),
             grid_point: -1,
             realisation: -1,
         })
@@ -477,13 +585,15 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
 /// One image per `synthetic.count`, each with its own random stream of the stage seed.
 fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
     let kind = p.text("synthetic.kind");
-    let pixel = image_params(p).pixel_size_m();
+    let ip = image_params(p);
+    let pixel = ip.pixel_size_m();
     (0..p.usize("synthetic.count"))
         .map(|k| Sample {
             group: kind.to_string(),
             file: String::new(),
             source: Source::Synthetic(rand::RngCore::next_u64(&mut crate::stages::stream_rng(ctx.seed, k as u64, 0))),
             pixel,
+            pixel_source: ip.pixel_source(),
             grid_point: -1,
             realisation: k as i64,
         })
@@ -562,6 +672,7 @@ fn grid_samples(input: &Input) -> Result<(Vec<Sample>, GridSweep, Option<GridDat
             file: String::new(),
             source: Source::Grid(pt, r),
             pixel: cell,
+            pixel_source: PixelSource::Grid,
             grid_point: pt as i64,
             realisation: r as i64,
         })
@@ -583,12 +694,13 @@ fn group_stats(samples: &[Sample], kept: &[Kept]) -> Vec<(GroupStats, MeanStd)> 
         .collect()
 }
 
-/// The Table-4-like summary: per group n, CV raw and CV_corr as mean ± std (per cent).
+/// The Table-4-like summary: per group n, CV raw, the reported CV_corr and the paper's
+/// plain CV_corr as mean ± std (per cent).
 fn table(stage: &str, groups: &[(GroupStats, MeanStd)], kept: &[Kept]) -> String {
     let has_web = kept.iter().any(|k| k.cv_web.is_finite());
     let width = groups.iter().map(|(g, _)| g.group.chars().count()).max().unwrap_or(5).max(5);
     let mut t = format!("{stage}: CV of grey levels, mean ± std over the samples of each group (per cent)\n");
-    t += &format!("{stage}: {:<width$}  {:>3}  {:>14}  {:>14}  {:>14}  {:>7}", "group", "n", "CV raw", "CV_corr", "CV_corr comp.", "notches");
+    t += &format!("{stage}: {:<width$}  {:>3}  {:>14}  {:>14}  {:>14}  {:>7}", "group", "n", "CV raw", "CV_corr", "CV_corr plain", "notches");
     if has_web {
         t += &format!("  {:>14}", "CV web (truth)");
     }
@@ -601,7 +713,7 @@ fn table(stage: &str, groups: &[(GroupStats, MeanStd)], kept: &[Kept]) -> String
             g.n,
             pm(&g.cv_raw),
             pm(&g.cv_corr),
-            pm(&g.cv_corr_compensated),
+            pm(&g.cv_corr_plain),
             g.notch_count.mean
         );
         if has_web {
@@ -617,7 +729,7 @@ fn nan_if_none(v: Option<f64>) -> f64 {
 }
 
 /// The datasets of one sweep point; the peak table is `peaks` wide.
-fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, sweep: &GridSweep, peaks: usize) -> Output {
+fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, peaks: usize) -> Output {
     let n = samples.len();
     let nan = f64::NAN;
     let mut out = Output::new();
@@ -627,12 +739,20 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.strings("file", "sample", samples.iter().map(|s| s.file.clone()).collect(), "image file (empty for rendered grid samples)");
     out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point index of a rendered sample (−1 for files and synthetic images)");
     out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "grid realisation of a rendered sample, or index of a synthetic image (−1 for files)");
-    out.f64("pixel_size", &["sample"], Array1::from_iter(samples.iter().map(|s| s.pixel)), "m", "pixel size");
+    out.f64("pixel_size", &["sample"], Array1::from_iter(kept.iter().map(|k| k.pixel)), "m", "pixel size used (see pixel_size_source)");
+    out.strings(
+        "pixel_size_source",
+        "sample",
+        kept.iter().map(|k| k.pixel_source.as_str().to_string()).collect(),
+        "where pixel_size came from: file (declared by the image file), dpi, pixel_size (parameters, overriding the file), default (297/871 mm), grid (the grid's cell_size)",
+    );
+    out.f64("file_pixel_size", &["sample"], Array1::from_iter(kept.iter().map(|k| k.file_pixel)), "m", "pixel size the image file declares (NaN: none, or not a file)");
     out.i64("rows", &["sample"], Array1::from_iter(kept.iter().map(|k| k.rows as i64)), "1", "image height (pixels; rows = MD for grid samples)");
     out.i64("cols", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cols as i64)), "1", "image width (pixels)");
     out.f64("mean_grey", &["sample"], col(&|a| a.mean), "1", "mean grey level (full scale 1; kept by the filter)");
     out.f64("cv_raw", &["sample"], col(&|a| a.cv_raw), "1", "CV of the raw grey levels (population std / mean)");
-    out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr: CV of the notch-filtered image, mean kept, interior only (the paper's quantity)");
+    out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr, the reported uniformity, chosen by the version attribute cv_corr_rule: cv_corr_compensated");
+    out.f64("cv_corr_plain", &["sample"], col(&|a| a.cv_corr_plain), "1", "CV of the notch-filtered image, mean kept, interior only (the paper's CV_corr; biased low by the web variance under the notches)");
     out.f64("cv_corr_compensated", &["sample"], col(&|a| a.cv_corr_compensated), "1", "CV_corr with the web variance removed under the notches added back (background model)");
     out.f64("cv_corr_one_sided", &["sample"], col(&|a| nan_if_none(a.cv_corr_one_sided)), "1", "compensated CV about the mean without an estimated one-sided bond brightening (NaN when undefined)");
     out.f64("bond_mean_estimate", &["sample"], col(&|a| a.bond_mean_estimate), "1", "grey level the bonds add on average if they are one-sided");
@@ -666,17 +786,24 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.f64("peak_notch_sigma", &["sample", "peak"], peak(&|q| q.notch_sigma), "1", "notch standard deviation (frequency bins)");
     out.i64("peak_pass", &["sample", "peak"], Array2::from_shape_fn((n, np), |(i, j)| kept[i].a.peaks.get(j).map(|q| q.pass as i64).unwrap_or(-1)), "1", "detection pass (−1: padding)");
 
-    // Zone curves on the requested zone sizes (NaN where a size was skipped).
-    let zones = crate::uniformity::log_zone_sizes(ip.zone_min_mm * 1e-3, ip.zone_max_mm * 1e-3, ip.zones_per_octave);
+    // Zone curves on the zone sides actually used (whole pixels, each once), padded at
+    // the end only: a sample's curve fills zone 0..len, and the filtered interior may
+    // lose its largest sizes.
+    let nz = kept.iter().map(|k| k.a.zone_cv_raw.len().max(k.a.zone_cv_filtered.len())).max().unwrap_or(0);
+    let longest = |k: &Kept| -> Vec<crate::uniformity::ZoneCv> {
+        if k.a.zone_cv_raw.len() >= k.a.zone_cv_filtered.len() { k.a.zone_cv_raw.clone() } else { k.a.zone_cv_filtered.clone() }
+    };
+    let sizes: Vec<Vec<crate::uniformity::ZoneCv>> = kept.iter().map(longest).collect();
     let zc = |raw: bool| {
-        Array2::from_shape_fn((n, zones.len()), |(i, j)| {
+        Array2::from_shape_fn((n, nz), |(i, j)| {
             let c = if raw { &kept[i].a.zone_cv_raw } else { &kept[i].a.zone_cv_filtered };
-            c.iter().find(|z| z.zone_size == zones[j]).map(|z| z.cv).unwrap_or(nan)
+            c.get(j).map(|z| z.cv).unwrap_or(nan)
         })
     };
-    out.coord("zone_size", zones.clone(), "m", "zone side (requested; rounded to whole pixels)");
-    out.f64("zone_cv_raw", &["sample", "zone_size"], zc(true), "1", "CV of zone means of the raw image (NaN: zone size skipped)");
-    out.f64("zone_cv_filtered", &["sample", "zone_size"], zc(false), "1", "CV of zone means of the filtered image interior");
+    out.f64("zone_size", &["sample", "zone"], Array2::from_shape_fn((n, nz), |(i, j)| sizes[i].get(j).map(|z| z.zone_size).unwrap_or(nan)), "m", "zone side actually used: zone_cells × pixel_size, from zone_min to zone_max rounded to whole pixels, each size once (NaN padding after a sample's last size)");
+    out.i64("zone_cells", &["sample", "zone"], Array2::from_shape_fn((n, nz), |(i, j)| sizes[i].get(j).map(|z| z.cells_per_side as i64).unwrap_or(0)), "1", "pixels per zone side (0: padding)");
+    out.f64("zone_cv_raw", &["sample", "zone"], zc(true), "1", "CV of zone means of the raw image at zone_size (NaN padding: fewer than 4 zones fit)");
+    out.f64("zone_cv_filtered", &["sample", "zone"], zc(false), "1", "CV of zone means of the filtered image interior at zone_size (NaN padding: fewer than 4 zones fit the interior)");
 
     // Per-group statistics.
     let groups = group_stats(samples, kept);
@@ -688,6 +815,8 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
     out.f64("cv_raw_std", &["condition"], gcol(&|s| s.0.cv_raw.std), "1", "sample std (n−1) of cv_raw over the group");
     out.f64("cv_corr_mean", &["condition"], gcol(&|s| s.0.cv_corr.mean), "1", "mean of cv_corr over the group");
     out.f64("cv_corr_std", &["condition"], gcol(&|s| s.0.cv_corr.std), "1", "sample std (n−1) of cv_corr over the group");
+    out.f64("cv_corr_plain_mean", &["condition"], gcol(&|s| s.0.cv_corr_plain.mean), "1", "mean of cv_corr_plain");
+    out.f64("cv_corr_plain_std", &["condition"], gcol(&|s| s.0.cv_corr_plain.std), "1", "sample std of cv_corr_plain");
     out.f64("cv_corr_compensated_mean", &["condition"], gcol(&|s| s.0.cv_corr_compensated.mean), "1", "mean of cv_corr_compensated");
     out.f64("cv_corr_compensated_std", &["condition"], gcol(&|s| s.0.cv_corr_compensated.std), "1", "sample std of cv_corr_compensated");
     out.f64("cv_web_mean", &["condition"], gcol(&|s| s.1.mean), "1", "mean of cv_web (NaN for files)");
@@ -726,6 +855,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], ip: &ImageParams, p: &ParamSet, s
         out.f64("log_spectrum_notched", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_notched), "1", "log10 energy spectrum after notching, fftshifted");
     }
     out.set_attr("max_stored_images", p.int("max_stored_images"));
+    out.set_attr("cv_corr_rule", super::CV_CORR_RULE);
     out.set_attr("background_model", "median of |F|² in polar cells / ln 2, divided out (whitening), not subtracted");
     out
 }

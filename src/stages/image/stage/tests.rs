@@ -229,3 +229,15 @@ fn bits(v: &Values) -> (Vec<usize>, Vec<u64>) {
     };
     (v.shape(), b)
 }
+
+#[test]
+fn default_group_labels_are_file_stems_or_the_directory_of_a_whole_directory_glob() {
+    let v = |s: &[&str]| s.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    assert_eq!(
+        default_groups(&v(&["scans/a01.png", "/data/scans/v020/*.png", "v028/*", "b/w*.tif", "c.jpg"])),
+        v(&["a01", "v020", "v028", "w*", "c"])
+    );
+    // Labels that would merge distinct entries keep the whole entry.
+    assert_eq!(default_groups(&v(&["a/x.png", "b/x.png", "y.png"])), v(&["a/x.png", "b/x.png", "y"]));
+    assert_eq!(default_groups(&v(&["*.png"])), v(&["*.png"]), "a glob with no directory has nothing shorter");
+}

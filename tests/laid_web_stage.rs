@@ -147,3 +147,17 @@ stages:
     let rho = read(tmp.path(), "grid", "mean_areal_density")[[0, 0]];
     assert!(rho.is_finite() && rho > 0.0);
 }
+
+/// The image method runs on a laid web rendered through its grid, and reads the
+/// rendering's own CV back within a few per cent when no bonds are printed on it.
+#[test]
+fn image_renders_a_laid_web_grid() {
+    let tmp = tempfile::tempdir().unwrap();
+    let yaml = pipeline("fibres_across: 3, fibre_spacing: 0.004, belt_travel: 0.03, edge_margin_spreads: 0.0", "cell_size: 0.0005, window_side: 0.012, edge_margin_spreads: 0.0", 1)
+        + "  - name: scans\n    kind: image\n    input: grid\n";
+    run_ok(tmp.path(), &yaml, 2);
+    let raw = read(tmp.path(), "scans", "cv_raw");
+    let truth = read(tmp.path(), "scans", "cv_web");
+    assert!(raw.iter().all(|v| v.is_finite() && *v > 0.0), "{raw}");
+    assert!(truth.iter().all(|v| v.is_finite() && *v > 0.0), "{truth}");
+}

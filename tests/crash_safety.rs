@@ -118,6 +118,9 @@ fn a_symlinked_archive_is_one_archive_with_one_lock() {
 
     // Concurrent runs, one through the symlink and one through the real path: the second is refused.
     write_pipeline(tmp.path(), "p.yaml", &PIPE.replace("archive: study.h5", "archive: data/real.h5"));
+    // The lock file stays after a run; remove it so that its reappearance says the first
+    // run has reached the lock (else, on a loaded machine, the second may start first).
+    std::fs::remove_file(tmp.path().join("data/real.h5.lock")).unwrap();
     let mut first = laydown()
         .current_dir(tmp.path())
         .args(["run", "p.yaml", "--archive", "link.h5"])
@@ -128,7 +131,7 @@ fn a_symlinked_archive_is_one_archive_with_one_lock() {
     while !tmp.path().join("data/real.h5.lock").exists() && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(5));
     }
-    std::thread::sleep(Duration::from_millis(30));
+    std::thread::sleep(Duration::from_millis(200));
     let second = run_in(tmp.path(), &["run", "p.yaml"]);
     let still_running = first.try_wait().unwrap().is_none();
     assert_eq!(first.wait().unwrap().code(), Some(0));

@@ -31,6 +31,14 @@ def ms(a, scale=1.0, digits=2):
     return f"{a.mean():.{digits}f} ± {a.std(ddof=1):.{digits}f}"
 
 
+def swept(group, name):
+    """A swept parameter's values per point (stored as `name` or `sweep_<name>`)."""
+    for key in (name, f"sweep_{name}"):
+        if key in group:
+            return group[key][...]
+    raise KeyError(f"{group.name} has no swept {name}")
+
+
 def zone_index(zones, size):
     return int(np.argmin(np.abs(np.asarray(zones) - size)))
 
@@ -51,10 +59,9 @@ def grid_row(g, p):
 def study_table():
     f = h5py.File(STUDY, "r")
     laid, lg = current(f, "laid"), current(f, "laid_grid")
-    u0 = laid["sweep_oscillation_amplitude"][...] if "sweep_oscillation_amplitude" in laid else None
-    amps = u0 if u0 is not None else laid["point"][...]
+    amps = swept(laid, "oscillation_amplitude")
     c = laid["belt_speed_ratio"][...]
-    print("| u0 (mm) | c | web | S belt removed (mm) | ρ_av (g/m²) | CV (%) | n_f 1 mm | n_f 10 mm | wall per web (s) |")
+    print("| u0 (mm) | c | web | S belt removed (mm) | ρ_av (g/m²) | CV (%) | n_f 1 mm | n_f 11 mm | time per web (s) |")
     print("|---:|---:|---|---:|---:|---:|---:|---:|---:|")
     for p in range(len(c)):
         tag = f"u{int(round(amps[p] * 1000))}_c{int(round(c[p] * 100)):03d}"
@@ -80,8 +87,9 @@ def table4_table():
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for p in range(len(c)):
         row, _ = grid_row(g, p)
-        dw = laid["cd_period"][p] / laid["valid"].shape[2]
-        print(f"| {c[p]:g} | {laid['valid'].shape[2]} | {dw * 1e3:.4f} | {g['expected_interior_density'][p]:.2f} | {row[0]} | {row[1]} | {row[2]} | {ref[p]:g} | {int(laid['valid_fibres'][p].sum())} |")
+        n_w = int((laid["fibre_node_start"][p, 0] >= 0).sum())
+        dw = laid["cd_period"][p] / n_w
+        print(f"| {c[p]:g} | {n_w} | {dw * 1e3:.4f} | {g['expected_interior_density'][p]:.2f} | {row[0]} | {row[1]} | {row[2]} | {ref[p]:g} | {int(laid['valid_fibres'][p].sum())} |")
 
 
 def figure():
@@ -92,7 +100,7 @@ def figure():
 
     f = h5py.File(STUDY, "r")
     laid = current(f, "laid")
-    amps = laid["sweep_oscillation_amplitude"][...]
+    amps = swept(laid, "oscillation_amplitude")
     c = laid["belt_speed_ratio"][...]
     points = [p for p in range(len(c)) if abs(c[p] - 0.05) < 1e-9 and amps[p] in (0.001, 0.05)]
     fig, axes = plt.subplots(2, len(points), figsize=(7.0, 6.0), constrained_layout=True)

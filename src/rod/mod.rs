@@ -116,6 +116,9 @@ pub mod params;
 pub mod scene;
 pub mod state;
 
+#[cfg(test)]
+mod tests;
+
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, LaydownResult};
 pub use params::{parameter_table_markdown, BounceCheck, Effects, Integrator, LaydownParams, ParamError, PARAMETERS};

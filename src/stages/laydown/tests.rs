@@ -294,7 +294,8 @@ fn sliding(mu: f64, air: bool, integrator: Integrator) -> (LaydownParams, Vec<[f
     let mut sim = build(&p, start);
     advance(&mut sim, 0.02, |s| {
         for x in &s.rod.x {
-            assert!(x[2] >= 0.0 && x[2] < 1e-9, "node left the belt: z = {}", x[2]);
+            // (z >= 0 holds by construction: the step clamps z to the belt)
+            assert!(x[2] < 1e-9, "node left the belt: z = {}", x[2]);
         }
     });
     (p, sim.rod.v.clone())
@@ -379,11 +380,11 @@ fn check_replicate(name: &str, r: &LaydownResult, p: &LaydownParams) {
     assert!(!r.positions.is_empty());
     for x in &r.positions {
         assert!(x.iter().all(|c| c.is_finite()), "{name}: non-finite position");
-        assert!(x[2] >= -p.penetration_tolerance, "{name}: penetration {}", x[2]);
         assert!(x[0].abs() < 10.0 && x[1].abs() < 10.0 && x[2] < 2.0 * p.length, "{name}: unbounded {x:?}");
     }
     for v in [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed] {
-        assert!(v.is_finite() && v >= 0.0, "{name}: metric {v}");
+        // (S >= 0 and e >= 0 hold by construction; finiteness can fail)
+        assert!(v.is_finite(), "{name}: metric {v}");
     }
     assert!(r.diagnostics.iter().all(|d| d.kinetic.is_finite() && d.elastic.is_finite()));
     // bounded energy: kinetic energy never above that of the whole fibre moving at ten
@@ -392,10 +393,8 @@ fn check_replicate(name: &str, r: &LaydownResult, p: &LaydownParams) {
     let bound = 0.5 * p.mass_per_length() * p.length * (10.0 * v_ref).powi(2);
     let kmax = r.diagnostics.iter().map(|d| d.kinetic).fold(0.0, f64::max);
     assert!(kmax <= bound, "{name}: kinetic energy {kmax:.3e} J above {bound:.3e} J");
-    match &r.error {
-        None => assert!(r.landed_nodes > 10, "{name}: only {} nodes landed", r.landed_nodes),
-        Some(e) => assert!(!e.is_empty()),
-    }
+    assert!(r.error.is_none(), "{name}: {:?}", r.error);
+    assert!(r.landed_nodes > 10, "{name}: only {} nodes landed", r.landed_nodes);
 }
 
 #[test]
@@ -420,7 +419,6 @@ fn hard_cases_stay_stable() {
         set(&mut p);
         let r = simulate(&p, &mut replicate_rng(3, 0));
         check_replicate(name, &r, &p);
-        assert!(r.error.is_none(), "{name}: {:?}", r.error);
     }
 }
 

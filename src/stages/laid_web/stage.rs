@@ -96,8 +96,8 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::float("frequency_jitter", "1", 0.0, 0.0, 0.3, "relative standard deviation of each fibre's oscillation frequency"));
         v.push(ParamSpec::float("amplitude_jitter", "1", 0.0, 0.0, 0.9, "relative standard deviation of each fibre's oscillation amplitude"));
         v.push(ParamSpec::float("edge_margin_spreads", "1", 3.0, 0.0, 100.0, "interior MD range: this many belt-removed spreads from the touchdown and from the start-up"));
-        v.push(ParamSpec::flag("freeze", true, "freeze landed nodes that have stuck for settle_time (carried with the belt at no cost)"));
-        v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a landed node must stick without interruption before it may freeze"));
+        v.push(ParamSpec::flag("freeze", true, "freeze settled laid nodes (crept < 1 % of an element relative to the belt for settle_time, or on the belt for 0.2 s): carried with the belt at no cost"));
+        v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a laid node must stay put on the belt (creep below 1 % of an element) before it may freeze"));
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {

@@ -139,7 +139,10 @@ impl Stage for LaidWebStage {
             })
             .collect();
         bar.finish_and_clear();
-        Ok(unit_rows(&webs))
+        // every unit's fibre axis is the widest point's, so rows computed apart (Slurm
+        // tasks) stack without padding
+        let fibres = params.iter().map(|p| p.fibres_across).max().unwrap_or(0);
+        Ok(unit_rows(&webs, fibres))
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let params: Vec<LaidWebParams> = ctx.points.iter().map(|p| laid_web_params(p).expect("checked")).collect();
@@ -167,18 +170,21 @@ const FIBRE_COLUMNS: &[FibreColumn] = &[
     ("wall_seconds", "s", "wall time of the fibre", |f| f.fed.wall_seconds),
 ];
 
-/// The per-web rows of `webs` ((point, replicate, web) in any order). Laid-node and
-/// fibre axes are NaN-padded to the longest web.
-fn unit_rows(webs: &[(usize, usize, LaidWeb)]) -> Output {
+/// Separates the fibres' invalid reasons in a web's row (text is stored per row).
+const REASON_SEPARATOR: char = '\u{1f}';
+
+/// The per-web rows of `webs` ((point, replicate, web) in any order): the laid-node axis
+/// is NaN-padded to the longest web, the fibre axis is `nf` wide (padded with −1, 0, NaN,
+/// invalid). A web's fibre reasons are one text joined by [`REASON_SEPARATOR`].
+fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Output {
     let n = webs.len();
     let nodes = webs.iter().map(|w| w.2.fibres.iter().map(|f| f.fed.laid_nodes()).sum::<usize>()).max().unwrap_or(0);
-    let nf = webs.iter().map(|w| w.2.fibres.len()).max().unwrap_or(0);
     let mut laid = Array3::from_elem((n, nodes, 3), f64::NAN);
     let mut landing = Array2::from_elem((n, nodes), f64::NAN);
     let mut start = Array2::from_elem((n, nf), -1i64);
     let mut count = Array2::from_elem((n, nf), 0i64);
     let mut valid = Array2::from_elem((n, nf), false);
-    let mut reasons = Vec::with_capacity(n * nf);
+    let mut reasons = Vec::with_capacity(n);
     let mut columns: Vec<Array2<f64>> = FIBRE_COLUMNS.iter().map(|_| Array2::from_elem((n, nf), f64::NAN)).collect();
     for (u, (_, _, web)) in webs.iter().enumerate() {
         let mut k = 0;
@@ -198,9 +204,10 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)]) -> Output {
             for (c, col) in FIBRE_COLUMNS.iter().enumerate() {
                 columns[c][[u, j]] = (col.3)(f);
             }
-            reasons.push(f.invalid_reason.clone().unwrap_or_default());
         }
-        reasons.extend(std::iter::repeat_n(String::from("no fibre"), nf - web.fibres.len()));
+        let mut web_reasons: Vec<String> = web.fibres.iter().map(|f| f.invalid_reason.clone().unwrap_or_default()).collect();
+        web_reasons.resize(nf, "no fibre".into());
+        reasons.push(web_reasons.join(&REASON_SEPARATOR.to_string()));
     }
     let web_col = |f: &dyn Fn(&LaidWeb) -> f64| Array1::from_iter(webs.iter().map(|w| f(&w.2)));
     let mut out = Output::new();
@@ -211,7 +218,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)]) -> Output {
     out.i64("fibre_node_start", &[UNIT_DIM, "fibre"], start, "1", "");
     out.i64("fibre_laid_nodes", &[UNIT_DIM, "fibre"], count, "1", "");
     out.flags("valid", &[UNIT_DIM, "fibre"], valid, "");
-    out.strings("invalid_reason", "unit_fibre", reasons, "");
+    out.strings("invalid_reason", UNIT_DIM, reasons, "");
     for (c, col) in FIBRE_COLUMNS.iter().enumerate() {
         out.f64(col.0, &[UNIT_DIM, "fibre"], columns[c].clone(), col.1, "");
     }
@@ -246,8 +253,12 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
     let row_reasons = get::strings(rows, "invalid_reason")?;
     let mut reasons = vec![String::new(); np * reps * nf];
     for (row, &(p, r)) in index.iter().enumerate() {
-        for j in 0..nf {
-            reasons[(p * reps + r) * nf + j] = row_reasons[row * nf + j].clone();
+        let web: Vec<&str> = row_reasons[row].split(REASON_SEPARATOR).collect();
+        if web.len() != nf {
+            bail!("row {row} holds {} fibre reasons, the fibre axis is {nf} wide", web.len());
+        }
+        for (j, text) in web.into_iter().enumerate() {
+            reasons[(p * reps + r) * nf + j] = text.to_string();
         }
     }
     out.strings("invalid_reason", "web_fibre", reasons, "why a fibre is invalid, per web_fibre = (point * replicates + replicate) * fibres + fibre (empty: valid)");

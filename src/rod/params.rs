@@ -396,6 +396,22 @@ impl LaydownParams {
         serde_json::from_value(serde_json::Value::Object(root)).map_err(|e| e.to_string())
     }
 
+    /// Table 1 parameters with every effect off except those named (the `effects.X`
+    /// flag names); an unknown name panics. For tests that isolate one piece of physics.
+    #[cfg(test)]
+    pub(crate) fn with_only_effects(effects: &[&str]) -> Self {
+        let mut p = LaydownParams::default();
+        let mut flags = serde_json::Map::new();
+        for (name, _) in Effects::FLAGS {
+            flags.insert(name.to_string(), serde_json::Value::Bool(effects.contains(&name)));
+        }
+        for e in effects {
+            assert!(Effects::FLAGS.iter().any(|(name, _)| name == e), "unknown effect {e}");
+        }
+        p.effects = serde_json::from_value(serde_json::Value::Object(flags)).expect("every flag named");
+        p
+    }
+
     /// Check every parameter against [`PARAMETERS`] and the cross-constraints.
     pub fn validate(&self) -> Result<(), ParamError> {
         for spec in PARAMETERS {

@@ -5,7 +5,7 @@
 
 use super::forces::{axial_energy_of, bending_energy_of, Term};
 use super::integrator::{EnergySample, Simulator, StepControl};
-use super::params::{Effects, Integrator, LaydownParams};
+use super::params::{Integrator, LaydownParams};
 use super::scene::{build, CustomStart};
 use super::state::{Rod, Workspace};
 use rand::{Rng, SeedableRng};
@@ -160,30 +160,9 @@ fn forces_are_minus_the_energy_gradient() {
 
 // ------------------------------------------------------------ energy balance
 
-/// Parameters with only the listed effects on.
+/// Parameters with only the listed effects on, integrated by `integrator`.
 fn only(effects: &[&str], integrator: Integrator) -> LaydownParams {
-    let mut p = LaydownParams::default();
-    p.effects = Effects {
-        elasticity: false,
-        gravity: false,
-        drag: false,
-        oscillation: false,
-        contact: false,
-        friction: false,
-        damping: false,
-        imperfections: false,
-    };
-    for e in effects {
-        match *e {
-            "elasticity" => p.effects.elasticity = true,
-            "gravity" => p.effects.gravity = true,
-            "drag" => p.effects.drag = true,
-            "damping" => p.effects.damping = true,
-            _ => panic!("unknown effect {e}"),
-        }
-    }
-    p.integrator = integrator;
-    p
+    LaydownParams { integrator, ..LaydownParams::with_only_effects(effects) }
 }
 
 /// A 20 mm rod of `elements` segments bent out of plane (a 90° arc in x-z with a

@@ -95,31 +95,7 @@ use std::f64::consts::PI;
 
 /// Parameters with every effect off except those listed.
 fn only(effects: &[&str]) -> LaydownParams {
-    let mut p = LaydownParams::default();
-    p.effects = Effects {
-        elasticity: false,
-        gravity: false,
-        drag: false,
-        oscillation: false,
-        contact: false,
-        friction: false,
-        damping: false,
-        imperfections: false,
-    };
-    for e in effects {
-        match *e {
-            "elasticity" => p.effects.elasticity = true,
-            "gravity" => p.effects.gravity = true,
-            "drag" => p.effects.drag = true,
-            "oscillation" => p.effects.oscillation = true,
-            "contact" => p.effects.contact = true,
-            "friction" => p.effects.friction = true,
-            "damping" => p.effects.damping = true,
-            "imperfections" => p.effects.imperfections = true,
-            _ => panic!("unknown effect {e}"),
-        }
-    }
-    p
+    LaydownParams::with_only_effects(effects)
 }
 
 /// A straight fibre of `n` segments of length `ds` from `origin` along `dir`, at rest.

@@ -106,110 +106,187 @@ impl FedFibre {
 /// the oscillation u0 sin(ωt + φ). Imperfections are drawn from `rng` as in the paper's
 /// scene. Never panics on bad input: errors are reported in [`FedFibre::error`].
 pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64, settings: &FeedSettings, rng: &mut R) -> FedFibre {
-    let clock = Instant::now();
-    let ds = p.length / p.resolved_elements() as f64;
-    let start_elements = ((p.laydown_height / ds).ceil() as usize + settings.buffer_elements).max(2);
-    let feed_height = start_elements as f64 * ds;
-    let mut positions: Vec<[f64; 3]> = (0..=start_elements).map(|i| [0.0, 0.0, i as f64 * ds]).collect();
-    if p.effects.imperfections && p.imperfection_std > 0.0 {
-        if let Ok(normal) = Normal::new(0.0, p.imperfection_std) {
-            for x in positions.iter_mut() {
-                x[0] = normal.sample(rng);
-                x[1] = normal.sample(rng);
+    let mut feeder = Feeder::new(p, phase, settings, rng);
+    feeder.advance_to(end_time);
+    feeder.finish()
+}
+
+/// A fibre being fed, advanced in pieces ([`Feeder::advance_to`]) so that several can
+/// be advanced together (fibre-fibre contact); [`feed_fibre`] runs one to the end.
+pub struct Feeder {
+    sim: Simulator,
+    control: StepControl,
+    settings: FeedSettings,
+    belt_speed: f64,
+    mass_per_length: f64,
+    element_length: f64,
+    feed_height: f64,
+    /// Frozen nodes: position at freezing, freezing time, landing time.
+    frozen: Vec<([f64; 3], f64, f64)>,
+    stuck_since: Vec<f64>,
+    /// Belt-frame position of each node when its settling started.
+    anchors: Vec<[f64; 2]>,
+    node_steps: u64,
+    max_active: usize,
+    error: Option<String>,
+    last_good: Vec<[f64; 3]>,
+    wall_seconds: f64,
+}
+
+impl Feeder {
+    /// The fibre at t = 0: vertical up to the feed height, moving down at v_f.
+    pub fn new<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, settings: &FeedSettings, rng: &mut R) -> Self {
+        let clock = Instant::now();
+        let ds = p.length / p.resolved_elements() as f64;
+        let start_elements = ((p.laydown_height / ds).ceil() as usize + settings.buffer_elements).max(2);
+        let feed_height = start_elements as f64 * ds;
+        let mut positions: Vec<[f64; 3]> = (0..=start_elements).map(|i| [0.0, 0.0, i as f64 * ds]).collect();
+        if p.effects.imperfections && p.imperfection_std > 0.0 {
+            if let Ok(normal) = Normal::new(0.0, p.imperfection_std) {
+                for x in positions.iter_mut() {
+                    x[0] = normal.sample(rng);
+                    x[1] = normal.sample(rng);
+                }
             }
         }
-    }
-    let start = CustomStart {
-        velocities: vec![[0.0, 0.0, -p.fibre_speed]; start_elements + 1],
-        positions,
-        driven_top: true,
-        clamped: 0,
-        rest_length: Some(ds),
-    };
-    let mut sim = build(p, start);
-    for term in sim.terms.iter_mut() {
-        if let super::forces::Term::Oscillation(o) = term {
-            o.phase = phase;
-        }
-    }
-    let mpl = p.mass_per_length();
-    let belt = [p.belt_speed, 0.0, 0.0];
-    let mut control = StepControl::new(sim.limits.chosen, mpl);
-    // Frozen nodes: position at freezing, freezing time, landing time.
-    let mut frozen: Vec<([f64; 3], f64, f64)> = Vec::new();
-    let mut stuck_since: Vec<f64> = vec![f64::NAN; sim.rod.nodes()];
-    // belt-frame position of each node when its settling started
-    let mut anchors: Vec<[f64; 2]> = vec![[0.0; 2]; sim.rod.nodes()];
-    let creep_tolerance = settings.creep_tolerance * ds;
-    let mut node_steps = 0u64;
-    let mut max_active = sim.rod.nodes();
-    let mut error = None;
-    let mut last_good = sim.rod.x.clone();
-    let tol = end_time * 1e-12;
-    while sim.t < end_time - tol {
-        // feed: a new top node whenever the driven one has descended an element
-        let top = sim.rod.nodes() - 1;
-        if sim.rod.x[top][2] <= feed_height - ds {
-            let (x, v) = (sim.rod.x[top], sim.rod.v[top]);
-            sim.push_top([x[0], x[1], x[2] + ds], v, ds, mpl);
-            stuck_since.push(f64::NAN);
-            anchors.push([0.0; 2]);
-            max_active = max_active.max(sim.rod.nodes());
-        }
-        if settings.freeze && freeze_stuck(&mut sim, &mut stuck_since, &mut frozen, settings, belt) {
-            anchors.drain(..anchors.len() - stuck_since.len());
-        }
-        node_steps += sim.rod.nodes() as u64;
-        if let Err(f) = control.advance(&mut sim, end_time) {
-            error = Some(f);
-            break;
-        }
-        if sim.steps % 256 == 0 {
-            last_good.clone_from(&sim.rod.x);
-        }
-        // settling bookkeeping: a node on the belt is settled once it has crept less
-        // than creep_tolerance relative to the belt for settle_time
-        let t = sim.t;
-        for (i, (since, anchor)) in stuck_since.iter_mut().zip(anchors.iter_mut()).enumerate() {
-            let x = sim.rod.x[i];
-            let on_belt = sim.landing_time[i].is_finite() && x[2] <= settings.lift_tolerance;
-            let here = [x[0] - p.belt_speed * t, x[1]];
-            if !on_belt {
-                *since = f64::NAN;
-            } else if since.is_nan() || (here[0] - anchor[0]).hypot(here[1] - anchor[1]) > creep_tolerance {
-                *since = t;
-                *anchor = here;
+        let start = CustomStart {
+            velocities: vec![[0.0, 0.0, -p.fibre_speed]; start_elements + 1],
+            positions,
+            driven_top: true,
+            clamped: 0,
+            rest_length: Some(ds),
+        };
+        let mut sim = build(p, start);
+        for term in sim.terms.iter_mut() {
+            if let super::forces::Term::Oscillation(o) = term {
+                o.phase = phase;
             }
         }
+        let mpl = p.mass_per_length();
+        let control = StepControl::new(sim.limits.chosen, mpl);
+        let nodes = sim.rod.nodes();
+        let last_good = sim.rod.x.clone();
+        Feeder {
+            control,
+            settings: settings.clone(),
+            belt_speed: p.belt_speed,
+            mass_per_length: mpl,
+            element_length: ds,
+            feed_height,
+            frozen: Vec::new(),
+            stuck_since: vec![f64::NAN; nodes],
+            anchors: vec![[0.0; 2]; nodes],
+            node_steps: 0,
+            max_active: nodes,
+            error: None,
+            last_good,
+            wall_seconds: clock.elapsed().as_secs_f64(),
+            sim,
+        }
     }
-    if error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
-        sim.rod.x.clone_from(&last_good);
+
+    /// The simulated (hanging and not yet frozen) part.
+    pub fn simulator(&self) -> &Simulator {
+        &self.sim
     }
-    let t_end = sim.t;
-    let frozen_nodes = frozen.len();
-    let mut positions: Vec<[f64; 3]> = frozen.iter().map(|(x, tf, _)| [x[0] + p.belt_speed * (t_end - tf), x[1], x[2]]).collect();
-    let mut landing_time: Vec<f64> = frozen.iter().map(|f| f.2).collect();
-    positions.extend_from_slice(&sim.rod.x);
-    landing_time.extend_from_slice(&sim.landing_time);
-    let (final_lift_node, final_lift_of_landed) = (frozen_nodes..positions.len())
-        .filter(|&i| landing_time[i].is_finite())
-        .map(|i| (i, positions[i][2]))
-        .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
-    FedFibre {
-        positions,
-        landing_time,
-        frozen_nodes,
-        final_lift_of_landed,
-        final_lift_node,
-        end_time: t_end,
-        element_length: ds,
-        steps: sim.steps,
-        rejected_steps: control.rejected,
-        min_time_step: control.min_dt,
-        node_steps,
-        max_active_nodes: max_active,
-        wall_seconds: clock.elapsed().as_secs_f64(),
-        error,
+    pub fn simulator_mut(&mut self) -> &mut Simulator {
+        &mut self.sim
+    }
+    /// Frozen nodes so far: position at freezing (lab frame), freezing time, landing time.
+    pub fn frozen(&self) -> &[([f64; 3], f64, f64)] {
+        &self.frozen
+    }
+    /// The error that stopped the fibre, if any.
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+    pub fn time(&self) -> f64 {
+        self.sim.t
+    }
+
+    /// Advance to `until` (s); does nothing once the fibre has failed.
+    pub fn advance_to(&mut self, until: f64) {
+        if self.error.is_some() {
+            return;
+        }
+        let clock = Instant::now();
+        let ds = self.element_length;
+        let belt = [self.belt_speed, 0.0, 0.0];
+        let creep_tolerance = self.settings.creep_tolerance * ds;
+        let tol = until * 1e-12;
+        let sim = &mut self.sim;
+        while sim.t < until - tol {
+            // feed: a new top node whenever the driven one has descended an element
+            let top = sim.rod.nodes() - 1;
+            if sim.rod.x[top][2] <= self.feed_height - ds {
+                let (x, v) = (sim.rod.x[top], sim.rod.v[top]);
+                sim.push_top([x[0], x[1], x[2] + ds], v, ds, self.mass_per_length);
+                self.stuck_since.push(f64::NAN);
+                self.anchors.push([0.0; 2]);
+                self.max_active = self.max_active.max(sim.rod.nodes());
+            }
+            if self.settings.freeze && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt) {
+                self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
+            }
+            self.node_steps += sim.rod.nodes() as u64;
+            if let Err(f) = self.control.advance(sim, until) {
+                self.error = Some(f);
+                break;
+            }
+            if sim.steps % 256 == 0 {
+                self.last_good.clone_from(&sim.rod.x);
+            }
+            // settling bookkeeping: a node on the belt is settled once it has crept less
+            // than creep_tolerance relative to the belt for settle_time
+            let t = sim.t;
+            for (i, (since, anchor)) in self.stuck_since.iter_mut().zip(self.anchors.iter_mut()).enumerate() {
+                let x = sim.rod.x[i];
+                let on_belt = sim.landing_time[i].is_finite() && x[2] <= self.settings.lift_tolerance;
+                let here = [x[0] - self.belt_speed * t, x[1]];
+                if !on_belt {
+                    *since = f64::NAN;
+                } else if since.is_nan() || (here[0] - anchor[0]).hypot(here[1] - anchor[1]) > creep_tolerance {
+                    *since = t;
+                    *anchor = here;
+                }
+            }
+        }
+        self.wall_seconds += clock.elapsed().as_secs_f64();
+    }
+
+    /// The fibre at the time reached: frozen nodes carried with the belt to it.
+    pub fn finish(mut self) -> FedFibre {
+        let sim = &mut self.sim;
+        if self.error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
+            sim.rod.x.clone_from(&self.last_good);
+        }
+        let t_end = sim.t;
+        let vb = self.belt_speed;
+        let frozen_nodes = self.frozen.len();
+        let mut positions: Vec<[f64; 3]> = self.frozen.iter().map(|(x, tf, _)| [x[0] + vb * (t_end - tf), x[1], x[2]]).collect();
+        let mut landing_time: Vec<f64> = self.frozen.iter().map(|f| f.2).collect();
+        positions.extend_from_slice(&sim.rod.x);
+        landing_time.extend_from_slice(&sim.landing_time);
+        let (final_lift_node, final_lift_of_landed) = (frozen_nodes..positions.len())
+            .filter(|&i| landing_time[i].is_finite())
+            .map(|i| (i, positions[i][2]))
+            .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+        FedFibre {
+            positions,
+            landing_time,
+            frozen_nodes,
+            final_lift_of_landed,
+            final_lift_node,
+            end_time: t_end,
+            element_length: self.element_length,
+            steps: sim.steps,
+            rejected_steps: self.control.rejected,
+            min_time_step: self.control.min_dt,
+            node_steps: self.node_steps,
+            max_active_nodes: self.max_active,
+            wall_seconds: self.wall_seconds,
+            error: self.error,
+        }
     }
 }
 

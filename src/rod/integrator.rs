@@ -36,6 +36,7 @@
 //!   retaken at Δt/4.
 
 use super::contact::BeltContact;
+use super::fibre_contact::FibreContact;
 use super::forces::{axial_energy_of, bending_energy_of, Term};
 use super::params::Integrator;
 use super::forces::sym_mul;
@@ -168,6 +169,8 @@ pub struct Simulator {
     /// Newton iterations and projection calls so far (cost diagnostics).
     pub projection_iterations: u64,
     pub projection_calls: u64,
+    /// Contact with other fibres (opt-in; see [`super::fibre_contact`]).
+    pub fibre_contact: Option<FibreContact>,
 }
 
 /// State needed to retake a rejected step.
@@ -184,6 +187,7 @@ pub struct Snapshot {
     max_penetration: f64,
     projection_residual: f64,
     steps: u64,
+    fibre_penetration: f64,
 }
 
 /// Adaptive step control of the projection schemes: Δt ≤ the stable step Δt_max,
@@ -261,6 +265,7 @@ impl Simulator {
         s.max_penetration = self.max_penetration;
         s.projection_residual = self.projection_residual;
         s.steps = self.steps;
+        s.fibre_penetration = self.fibre_contact.as_ref().map_or(0.0, |c| c.max_penetration);
     }
 
     pub fn restore(&mut self, s: &Snapshot) {
@@ -275,6 +280,15 @@ impl Simulator {
         self.max_penetration = s.max_penetration;
         self.projection_residual = s.projection_residual;
         self.steps = s.steps;
+        if let Some(c) = &mut self.fibre_contact {
+            c.max_penetration = s.fibre_penetration;
+        }
+    }
+
+    /// Nodes free to move: all but the clamped leading ones and a driven top.
+    pub fn free_nodes(&self) -> std::ops::Range<usize> {
+        let n = self.rod.nodes();
+        self.clamped.len()..if self.driven_top.is_some() { n - 1 } else { n }
     }
 
     /// Growth rate of the fastest compressive (Euler) buckling mode of the rod under
@@ -331,6 +345,9 @@ impl Simulator {
         self.max_lift.drain(..count);
         self.lift_time.drain(..count);
         self.segment_force.drain(..count);
+        if let Some(c) = &mut self.fibre_contact {
+            c.dropped += count;
+        }
         let t = self.t;
         self.clamped = (0..clamp).collect();
         self.clamp_velocity = velocity;
@@ -432,6 +449,13 @@ impl Simulator {
             self.work.contact += wn;
             self.work.friction += wf;
         }
+        if self.fibre_contact.is_some() {
+            let free = self.free_nodes();
+            if let Some(c) = &mut self.fibre_contact {
+                let winv = if need_w { Some(&mut self.ws.winv[..]) } else { None };
+                c.apply_impulses(&mut self.rod, winv, t, dt, free);
+            }
+        }
 
         // 4./5. positions
         match self.integrator {
@@ -451,26 +475,38 @@ impl Simulator {
                 // predicted positions; the projection's displacement is added to v below
                 self.ws.x_old.copy_from_slice(&self.rod.x);
                 self.project()?;
-                if self.contact.is_some() {
+                if self.contact.is_some() || self.fibre_contact.is_some() {
                     // nodes the projection pushed below the belt join the contact set
-                    // (in-plane freedom only) and the projection is repeated
-                    let end = if self.driven_top.is_some() { n - 1 } else { n };
+                    // (in-plane freedom only), fibres closer than d are pushed apart,
+                    // and the projection is repeated
+                    let free = self.free_nodes();
+                    let mut fibre_penetration = 0.0;
                     for _round in 0..8 {
                         let mut pushed = 0;
-                        for i in self.clamped.len()..end {
-                            if self.rod.x[i][2] < 0.0 {
-                                self.rod.x[i][2] = 0.0;
-                                if self.ws.contact[i] == NodeContact::Free {
-                                    self.ws.contact[i] = NodeContact::Slide;
-                                    self.ws.winv[i] = sym_inverse_xy(&self.ws.amat[i]).unwrap_or([0.0; 6]);
+                        if self.contact.is_some() {
+                            for i in free.clone() {
+                                if self.rod.x[i][2] < 0.0 {
+                                    self.rod.x[i][2] = 0.0;
+                                    if self.ws.contact[i] == NodeContact::Free {
+                                        self.ws.contact[i] = NodeContact::Slide;
+                                        self.ws.winv[i] = sym_inverse_xy(&self.ws.amat[i]).unwrap_or([0.0; 6]);
+                                    }
+                                    pushed += 1;
                                 }
-                                pushed += 1;
                             }
+                        }
+                        if let Some(c) = &mut self.fibre_contact {
+                            let (corrected, deepest) = c.push_apart(&mut self.rod, t + dt, free.clone());
+                            pushed += corrected;
+                            fibre_penetration = deepest;
                         }
                         if pushed == 0 {
                             break;
                         }
                         self.project()?;
+                    }
+                    if let Some(c) = &mut self.fibre_contact {
+                        c.max_penetration = c.max_penetration.max(fibre_penetration);
                     }
                 }
                 let idt = 1.0 / dt;

@@ -8,7 +8,8 @@
 //! plane, Coulomb friction), [`integrator`] (time steppers and their step control),
 //! [`params`] (the scene's parameter table), [`scene`] (the paper's single-fibre scene),
 //! [`feed`] (continuous feed: a fibre of any length fed through the laydown zone, the
-//! stuck part frozen), [`metrics`] (S and e of the laid fibre).
+//! stuck part frozen), [`fibre_contact`] and [`contact_world`] (opt-in contact between
+//! fibres: narrow and broad phase), [`metrics`] (S and e of the laid fibre).
 //!
 //! # Conventions
 //! SI units. x = machine direction (the belt moves along +x at `belt_speed`),
@@ -108,7 +109,9 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod contact;
+pub mod contact_world;
 pub mod feed;
+pub mod fibre_contact;
 pub mod forces;
 pub mod integrator;
 pub mod metrics;

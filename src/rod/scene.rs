@@ -136,6 +136,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         segment_force: vec![0.0; n - 1],
         projection_iterations: 0,
         projection_calls: 0,
+        fibre_contact: None,
         compliance: match p.integrator {
             Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => 1.0 / p.axial_stiffness(),
             _ => 0.0,

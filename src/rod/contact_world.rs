@@ -1,0 +1,480 @@
+//! Contact between many rods advanced together ([`ContactWorld`]): the broad phase,
+//! and the lock-step driver.
+//!
+//! Every `interval` Δt_c, [`ContactWorld::run_interval`] lets each body freeze what has
+//! settled, then gives each rod its [`FibreContact`] obstacles (the segments of the other
+//! rods, and every frozen laid segment, its own included) with each own segment's
+//! candidates, and advances all rods in lock step to the end of the interval: every
+//! step is the smallest any rod asks for, and before each step every rod's copies of
+//! the other rods' segments are refreshed from their current state (Jacobi: within a
+//! step a rod sees the others as they were at its start, moving on at their
+//! velocities; which of two fibres yields is in [`super::fibre_contact::yield_share`]). The rods step in parallel and only read what was refreshed, so the
+//! result does not depend on the thread count.
+//!
+//! Spatial hashing keeps the cost proportional to the local neighbour count: the
+//! simulated segments go into a 3-D grid rebuilt at each preparation, each spread over
+//! the cells of its bounding box grown by its reach, 2 |v| Δt_c + d/2 (twice the
+//! motion its velocity predicts over the interval); the frozen segments go once into a
+//! 2-D grid in belt coordinates (x − v_b t, y), where they never move. Two segments are
+//! candidates when their grown boxes overlap. The cross direction may be periodic
+//! (period P): cells wrap and an obstacle is the image of the segment nearest to the
+//! own segment.
+//!
+//! A rod's simulated part does not collide with itself (its segments are adjacent or
+//! bend smoothly over a few elements); it does collide with its own frozen stretch,
+//! except the two frozen segments next to the simulated part.
+
+use super::fibre_contact::{norm, sub, FibreContact, ObstacleSegment};
+use super::integrator::Simulator;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
+
+/// A frozen segment in belt coordinates.
+#[derive(Clone, Copy, Debug)]
+struct Frozen {
+    a: [f64; 3],
+    b: [f64; 3],
+    fibre: u32,
+    /// Index of the segment along its fibre's frozen chain.
+    index: u32,
+}
+
+/// A simulated segment at the preparation time.
+#[derive(Clone, Copy, Debug)]
+struct Active {
+    a: [f64; 3],
+    b: [f64; 3],
+    va: [f64; 3],
+    vb: [f64; 3],
+    fibre: u32,
+    /// Index of the segment in its rod (u32::MAX: the link to the frozen stretch).
+    segment: u32,
+    held: bool,
+    reach: f64,
+}
+
+/// Frozen segments and the settings shared by all rods of a web.
+pub struct ContactWorld {
+    /// d (m).
+    pub diameter: f64,
+    /// μ_ff; None: frictionless.
+    pub friction: Option<f64>,
+    /// v_b along +x (m/s).
+    pub belt_speed: f64,
+    /// Cross-direction period P (m); None: not periodic.
+    pub cd_period: Option<f64>,
+    /// Grid cell side h (m).
+    cell: f64,
+    /// CD cells per period (when periodic) and their side.
+    cd_cells: i64,
+    cd_cell: f64,
+    frozen: Vec<Frozen>,
+    frozen_grid: FxHashMap<(i64, i64), Vec<u32>>,
+    /// Highest frozen node above the belt (m).
+    frozen_top: f64,
+    /// Per fibre: frozen nodes so far and the last one (belt coordinates).
+    frozen_count: Vec<usize>,
+    last_frozen: Vec<Option<[f64; 3]>>,
+}
+
+/// A rod that takes part in contact, advanced by its own step control.
+pub trait ContactBody: Send + Sync {
+    fn simulator(&self) -> &Simulator;
+    fn simulator_mut(&mut self) -> &mut Simulator;
+    /// The step it would take next (s).
+    fn next_step(&self) -> f64;
+    /// Advance to `until` (one or more steps); does nothing once it has failed.
+    fn advance_to(&mut self, until: f64);
+    /// Whether it still runs (not failed).
+    fn running(&self) -> bool;
+    /// Freeze what has settled; append the nodes newly frozen, in fibre order, in belt
+    /// coordinates (x − v_b t_freeze, y, z).
+    fn freeze(&mut self, _frozen: &mut Vec<[f64; 3]>) {}
+}
+
+/// A rod with its step control and nothing else (falling fibres in tests and examples).
+pub struct FreeRod {
+    pub sim: Simulator,
+    pub control: super::integrator::StepControl,
+    pub error: Option<String>,
+}
+
+impl FreeRod {
+    pub fn new(sim: Simulator, mass_per_length: f64) -> Self {
+        let control = super::integrator::StepControl::new(sim.limits.chosen, mass_per_length);
+        FreeRod { sim, control, error: None }
+    }
+}
+
+impl ContactBody for FreeRod {
+    fn simulator(&self) -> &Simulator {
+        &self.sim
+    }
+    fn simulator_mut(&mut self) -> &mut Simulator {
+        &mut self.sim
+    }
+    fn next_step(&self) -> f64 {
+        self.control.dt
+    }
+    fn advance_to(&mut self, until: f64) {
+        while self.error.is_none() && self.sim.t < until - until.abs() * 1e-12 {
+            if let Err(e) = self.control.advance(&mut self.sim, until) {
+                self.error = Some(e);
+            }
+        }
+    }
+    fn running(&self) -> bool {
+        self.error.is_none()
+    }
+}
+
+/// Cost counters of the contact work.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactStats {
+    /// Preparations (intervals) and lock steps.
+    pub preparations: u64,
+    pub lock_steps: u64,
+    /// Σ over preparations of the simulated segments and of the candidate pairs.
+    pub active_segments: u64,
+    pub candidate_pairs: u64,
+    /// Wall time in the broad phase and the refreshes (s), not in the rods' steps.
+    pub wall_seconds: f64,
+}
+
+impl ContactWorld {
+    /// A world of `fibres` rods with no frozen segment yet. `cell` is the grid side
+    /// (about an element length).
+    pub fn new(fibres: usize, diameter: f64, friction: Option<f64>, belt_speed: f64, cd_period: Option<f64>, cell: f64) -> Self {
+        let (cd_cells, cd_cell) = match cd_period {
+            Some(p) => {
+                let n = (p / cell).floor().max(1.0);
+                (n as i64, p / n)
+            }
+            None => (0, cell),
+        };
+        ContactWorld {
+            diameter,
+            friction,
+            belt_speed,
+            cd_period,
+            cell,
+            cd_cells,
+            cd_cell,
+            frozen: Vec::new(),
+            frozen_grid: FxHashMap::default(),
+            frozen_top: f64::NEG_INFINITY,
+            frozen_count: vec![0; fibres],
+            last_frozen: vec![None; fibres],
+        }
+    }
+
+    /// Frozen segments so far.
+    pub fn frozen_segments(&self) -> usize {
+        self.frozen.len()
+    }
+
+    /// Nodes of `fibre` frozen so far (as told by [`Self::add_frozen`]).
+    pub fn frozen_nodes(&self, fibre: usize) -> usize {
+        self.frozen_count[fibre]
+    }
+
+    /// Append frozen nodes of `fibre`, in fibre order, in belt coordinates
+    /// (x − v_b t_freeze, y, z); they join the fibre's frozen chain.
+    pub fn add_frozen(&mut self, fibre: usize, nodes: &[[f64; 3]]) {
+        let r = 0.5 * self.diameter;
+        for &x in nodes {
+            self.frozen_top = self.frozen_top.max(x[2]);
+            if let Some(a) = self.last_frozen[fibre] {
+                let id = self.frozen.len() as u32;
+                let index = self.frozen_count[fibre] as u32 - 1;
+                self.frozen.push(Frozen { a, b: x, fibre: fibre as u32, index });
+                let (lo, hi) = bbox(a, x, r);
+                let keys: Vec<(i64, i64)> = self.cells_2d(lo, hi).collect();
+                for key in keys {
+                    self.frozen_grid.entry(key).or_default().push(id);
+                }
+            }
+            self.last_frozen[fibre] = Some(x);
+            self.frozen_count[fibre] += 1;
+        }
+    }
+
+    /// One interval [t, t_next] of lock-step stepping with contact (see the module docs).
+    pub fn run_interval<B: ContactBody>(&mut self, bodies: &mut [B], t: f64, t_next: f64, stats: &mut ContactStats) {
+        let clock = std::time::Instant::now();
+        let mut frozen = Vec::new();
+        for (f, body) in bodies.iter_mut().enumerate() {
+            frozen.clear();
+            body.freeze(&mut frozen);
+            self.add_frozen(f, &frozen);
+        }
+        let (segments, pairs) = self.prepare(t, t_next - t, bodies);
+        stats.preparations += 1;
+        stats.active_segments += segments as u64;
+        stats.candidate_pairs += pairs as u64;
+        let mut in_bodies = 0.0;
+        let mut now = t;
+        while now < t_next - t_next.abs() * 1e-12 {
+            let dt = bodies.iter().filter(|b| b.running()).map(|b| b.next_step()).fold(f64::INFINITY, f64::min);
+            if !dt.is_finite() {
+                break;
+            }
+            let until = if now + dt >= t_next - t_next.abs() * 1e-12 { t_next } else { now + dt };
+            let stepping = std::time::Instant::now();
+            bodies.par_iter_mut().for_each(|b| b.advance_to(until));
+            in_bodies += stepping.elapsed().as_secs_f64();
+            now = until;
+            stats.lock_steps += 1;
+            if now < t_next {
+                self.refresh(bodies, now);
+            }
+        }
+        stats.wall_seconds += clock.elapsed().as_secs_f64() - in_bodies;
+    }
+
+    /// Copy each rod's simulated obstacles afresh from the other rods' state at `t`.
+    pub fn refresh<B: ContactBody>(&self, bodies: &mut [B], t: f64) {
+        let fresh: Vec<Option<Vec<ObstacleSegment>>> = bodies
+            .par_iter()
+            .map(|body| {
+                let contact = body.simulator().fibre_contact.as_ref()?;
+                Some(
+                    contact
+                        .obstacles
+                        .iter()
+                        .map(|o| match o.source {
+                            Some((g, k)) => {
+                                let sim = bodies[g as usize].simulator();
+                                let k = k as usize;
+                                let (x, v) = (&sim.rod.x, &sim.rod.v);
+                                let shift = |p: [f64; 3]| [p[0], p[1] + o.cd_shift, p[2]];
+                                ObstacleSegment { a: shift(x[k]), b: shift(x[k + 1]), va: v[k], vb: v[k + 1], t_ref: t, ..*o }
+                            }
+                            None => *o,
+                        })
+                        .collect(),
+                )
+            })
+            .collect();
+        bodies.par_iter_mut().zip(fresh).for_each(|(body, fresh)| {
+            if let (Some(c), Some(fresh)) = (body.simulator_mut().fibre_contact.as_mut(), fresh) {
+                c.obstacles = fresh;
+            }
+        });
+    }
+
+    /// Give every running rod its obstacles and candidates for the interval
+    /// [t, t + interval]. Returns (simulated segments, candidate pairs).
+    pub fn prepare<B: ContactBody>(&self, t: f64, interval: f64, bodies: &mut [B]) -> (usize, usize) {
+        let vb = self.belt_speed;
+        let belt = [vb, 0.0, 0.0];
+        let half_d = 0.5 * self.diameter;
+        // simulated segments, and each rod's first segment index among them
+        let mut active: Vec<Active> = Vec::new();
+        let mut first: Vec<usize> = Vec::with_capacity(bodies.len() + 1);
+        for (f, body) in bodies.iter().enumerate() {
+            first.push(active.len());
+            if !body.running() {
+                continue;
+            }
+            let sim = body.simulator();
+            let free = sim.free_nodes();
+            let (x, v) = (&sim.rod.x, &sim.rod.v);
+            if let Some(l) = self.last_frozen[f] {
+                // the link from the last frozen node to the first (held) simulated one
+                let a = [l[0] + vb * t, l[1], l[2]];
+                active.push(Active { a, b: x[0], va: belt, vb: v[0], fibre: f as u32, segment: u32::MAX, held: true, reach: 0.0 });
+            }
+            for k in 0..x.len() - 1 {
+                let speed = norm(v[k]).max(norm(v[k + 1]));
+                let held = !free.contains(&k) && !free.contains(&(k + 1));
+                active.push(Active { a: x[k], b: x[k + 1], va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, reach: 2.0 * speed * interval });
+            }
+        }
+        first.push(active.len());
+        let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
+        for (id, s) in active.iter().enumerate() {
+            let (lo, hi) = bbox(s.a, s.b, s.reach + half_d);
+            for key in self.cells_3d(lo, hi) {
+                grid.entry(key).or_default().push(id as u32);
+            }
+        }
+        let frozen_top = self.frozen_top + self.diameter;
+        let pairs: usize = bodies
+            .par_iter_mut()
+            .enumerate()
+            .map(|(f, body)| {
+                if !body.running() {
+                    return 0;
+                }
+                let sim = body.simulator_mut();
+                let mut contact = sim.fibre_contact.take().unwrap_or_else(|| FibreContact::new(self.diameter, self.friction));
+                contact.diameter = self.diameter;
+                contact.friction = self.friction;
+                contact.clear();
+                let own_link = usize::from(self.last_frozen[f].is_some());
+                let own_frozen = self.frozen_count[f];
+                // (row, obstacle key): key < active.len() a simulated segment, else frozen
+                let mut found: Vec<(u32, u32)> = Vec::new();
+                let mut seen: Vec<u32> = Vec::new();
+                for k in first[f] + own_link..first[f + 1] {
+                    let row = (k - first[f] - own_link) as u32;
+                    let s = &active[k];
+                    let (lo, hi) = bbox(s.a, s.b, s.reach + half_d);
+                    seen.clear();
+                    for key in self.cells_3d(lo, hi) {
+                        if let Some(ids) = grid.get(&key) {
+                            for &o in ids {
+                                let other = &active[o as usize];
+                                if other.fibre as usize != f && self.overlap(lo, hi, other.a, other.b, other.reach + half_d) {
+                                    seen.push(o);
+                                }
+                            }
+                        }
+                    }
+                    if lo[2] <= frozen_top {
+                        // in belt coordinates the frozen segments stand still
+                        let rel = norm(sub(s.va, belt)).max(norm(sub(s.vb, belt)));
+                        let g = 2.0 * rel * interval + half_d;
+                        let (mut flo, mut fhi) = bbox(s.a, s.b, g);
+                        flo[0] -= vb * t;
+                        fhi[0] -= vb * t;
+                        for key in self.cells_2d(flo, fhi) {
+                            if let Some(ids) = self.frozen_grid.get(&key) {
+                                for &o in ids {
+                                    let z = &self.frozen[o as usize];
+                                    let adjacent = z.fibre as usize == f && z.index as usize + 3 >= own_frozen;
+                                    if !adjacent && self.overlap(flo, fhi, z.a, z.b, half_d) {
+                                        seen.push(active.len() as u32 + o);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    seen.sort_unstable();
+                    seen.dedup();
+                    found.extend(seen.iter().map(|&o| (row, o)));
+                }
+                // local obstacles: the distinct keys, in key order
+                let mut keys: Vec<u32> = found.iter().map(|p| p.1).collect();
+                keys.sort_unstable();
+                keys.dedup();
+                for &key in &keys {
+                    let o = if (key as usize) < active.len() {
+                        let o = &active[key as usize];
+                        let source = (o.segment != u32::MAX).then_some((o.fibre, o.segment));
+                        ObstacleSegment { a: o.a, b: o.b, va: o.va, vb: o.vb, t_ref: t, simulated: !o.held, source, cd_shift: 0.0 }
+                    } else {
+                        let z = &self.frozen[key as usize - active.len()];
+                        let lab = |p: [f64; 3]| [p[0] + vb * t, p[1], p[2]];
+                        ObstacleSegment { a: lab(z.a), b: lab(z.b), va: belt, vb: belt, t_ref: t, simulated: false, source: None, cd_shift: 0.0 }
+                    };
+                    contact.obstacles.push(o);
+                }
+                let rows = first[f + 1] - first[f] - own_link;
+                let mut row_of = found.iter().peekable();
+                for r in 0..rows as u32 {
+                    while let Some(&&(row, key)) = row_of.peek() {
+                        if row != r {
+                            break;
+                        }
+                        let local = keys.binary_search(&key).expect("key collected") as u32;
+                        contact.candidates.push(local);
+                        row_of.next();
+                    }
+                    contact.rows.push(contact.candidates.len() as u32);
+                }
+                // periodic CD: each obstacle is the image nearest its first user
+                if let Some(p) = self.cd_period {
+                    let mut shifted = vec![false; contact.obstacles.len()];
+                    for r in 0..rows {
+                        let (from, to) = (contact.rows[r] as usize, contact.rows[r + 1] as usize);
+                        let y = 0.5 * (sim.rod.x[r][1] + sim.rod.x[r + 1][1]);
+                        for c in from..to {
+                            let o = contact.candidates[c] as usize;
+                            if !shifted[o] {
+                                shifted[o] = true;
+                                let ob = &mut contact.obstacles[o];
+                                let shift = p * ((y - 0.5 * (ob.a[1] + ob.b[1])) / p).round();
+                                ob.a[1] += shift;
+                                ob.b[1] += shift;
+                                ob.cd_shift = shift;
+                            }
+                        }
+                    }
+                }
+                let n = contact.candidates.len();
+                sim.fibre_contact = Some(contact);
+                n
+            })
+            .sum();
+        (active.len(), pairs)
+    }
+
+    fn cd_index(&self, y: f64) -> i64 {
+        (y / self.cd_cell).floor() as i64
+    }
+
+    fn wrap(&self, iy: i64) -> i64 {
+        if self.cd_cells > 0 {
+            iy.rem_euclid(self.cd_cells)
+        } else {
+            iy
+        }
+    }
+
+    /// CD cell indices covering [lo, hi] (each once, wrapped when periodic).
+    fn cd_range(&self, lo: f64, hi: f64) -> Vec<i64> {
+        let (a, b) = (self.cd_index(lo), self.cd_index(hi));
+        if self.cd_cells > 0 && b - a + 1 >= self.cd_cells {
+            return (0..self.cd_cells).collect();
+        }
+        (a..=b).map(|i| self.wrap(i)).collect()
+    }
+
+    fn cells_3d(&self, lo: [f64; 3], hi: [f64; 3]) -> impl Iterator<Item = (i64, i64, i64)> + '_ {
+        let h = self.cell;
+        let (x0, x1) = ((lo[0] / h).floor() as i64, (hi[0] / h).floor() as i64);
+        let (z0, z1) = ((lo[2] / h).floor() as i64, (hi[2] / h).floor() as i64);
+        let ys = self.cd_range(lo[1], hi[1]);
+        (x0..=x1).flat_map(move |ix| {
+            let ys = ys.clone();
+            ys.into_iter().flat_map(move |iy| (z0..=z1).map(move |iz| (ix, iy, iz)))
+        })
+    }
+
+    fn cells_2d(&self, lo: [f64; 3], hi: [f64; 3]) -> impl Iterator<Item = (i64, i64)> + '_ {
+        let h = self.cell;
+        let (x0, x1) = ((lo[0] / h).floor() as i64, (hi[0] / h).floor() as i64);
+        let ys = self.cd_range(lo[1], hi[1]);
+        (x0..=x1).flat_map(move |ix| ys.clone().into_iter().map(move |iy| (ix, iy)))
+    }
+
+    /// Whether the box [lo, hi] overlaps the box of segment a-b grown by `grow` (CD
+    /// periodic: its nearest image).
+    fn overlap(&self, lo: [f64; 3], hi: [f64; 3], a: [f64; 3], b: [f64; 3], grow: f64) -> bool {
+        let (slo, shi) = bbox(a, b, grow);
+        for k in 0..3 {
+            let (mut a, mut b) = (slo[k], shi[k]);
+            if k == 1 {
+                if let Some(p) = self.cd_period {
+                    // the image of the other box nearest to this one
+                    let shift = p * ((0.5 * (lo[1] + hi[1]) - 0.5 * (a + b)) / p).round();
+                    a += shift;
+                    b += shift;
+                }
+            }
+            if b < lo[k] || a > hi[k] {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+fn bbox(a: [f64; 3], b: [f64; 3], grow: f64) -> ([f64; 3], [f64; 3]) {
+    (
+        [a[0].min(b[0]) - grow, a[1].min(b[1]) - grow, a[2].min(b[2]) - grow],
+        [a[0].max(b[0]) + grow, a[1].max(b[1]) + grow, a[2].max(b[2]) + grow],
+    )
+}

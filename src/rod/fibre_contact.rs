@@ -1,0 +1,333 @@
+//! Fibre-fibre contact: the centrelines of two fibres (or of a fibre and its own laid
+//! stretch) stay at least one diameter d apart, with Coulomb friction μ_ff between them.
+//! Opt-in: a [`Simulator`](super::Simulator) without a [`FibreContact`] pays nothing.
+//!
+//! A rod sees the other fibres as **obstacle segments** prepared at a reference time
+//! t_ref (by [`ContactWorld`] for a web): their end points and velocities then, moved
+//! on linearly (x_q(t) = x_q + v_q (t − t_ref)). A laid, frozen segment moves with the
+//! belt, which is exact; a segment of another simulated fibre is extrapolated over
+//! the preparation interval. Each own segment carries its list of candidate obstacles
+//! (those whose swept bounding boxes can meet its own within the interval).
+//!
+//! Within each step, for an own segment P(s) = (1 − s) x_i + s x_j and an obstacle
+//! Q(u), with (s, u) the closest points, n = (P − Q)/|P − Q| and g = |P − Q| the
+//! centreline distance:
+//! - **velocity pass** (after the belt impulses): if the relative normal velocity
+//!   v_n = (v_P − v_Q)·n would bring g below d by the end of the step, the point velocity
+//!   gets the impulse that makes v_n = (d − g)/Δt (g ≥ d) or 0 (g < d): perfectly
+//!   inelastic like the belt. Coulomb friction: a relative tangential velocity w_t with
+//!   |w_t| ≤ μ_ff Δv_n is removed (stick), otherwise reduced by μ_ff Δv_n. The change of
+//!   the point velocity Δv_P is shared by the two nodes in proportion to β_k w_k
+//!   (β = (1 − s, s), w the inverse masses, held nodes 0), so that Σ β_k Δv_k = Δv_P;
+//! - **position pass** (after the length projection, alternating with it and with the
+//!   belt's, like the belt): a pair closer than (1 − `SLOP`) d is pushed apart to d.
+//!
+//! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
+//! correction. Of two simulated fibres the upper one takes it all: the lower one lies on
+//! the belt or on the web, which hold it (with half each, a fibre pressed onto the belt
+//! cannot give way, the other keeps only half of its correction, and the penetration
+//! left drives spurious velocities); side by side (heights within 0.1 d) each takes ½
+//! (equal masses per length). Tunnelling needs a relative normal motion of more than d in one step while
+//! the pair is not yet a candidate; the candidate margins are taken twice the motion
+//! measured at preparation.
+
+use super::state::Rod;
+
+/// Relative penetration tolerated without a position correction (a resting contact
+/// then does not jitter); the position pass restores d.
+pub const SLOP: f64 = 0.01;
+
+/// A segment of another fibre: end points and velocities at time `t_ref`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObstacleSegment {
+    pub a: [f64; 3],
+    pub b: [f64; 3],
+    pub va: [f64; 3],
+    pub vb: [f64; 3],
+    pub t_ref: f64,
+    /// Whether it belongs to another simulated fibre, which responds to contact too
+    /// (see [`yield_share`]); false: frozen or held, this rod takes every correction.
+    pub simulated: bool,
+    /// The simulated segment it copies, (rod, segment), refreshed before every step;
+    /// None: frozen (moves with the belt, never refreshed).
+    pub source: Option<(u32, u32)>,
+    /// Cross-direction shift of the periodic image used (m).
+    pub cd_shift: f64,
+}
+
+impl ObstacleSegment {
+    /// End points at time `t`.
+    fn at(&self, t: f64) -> ([f64; 3], [f64; 3]) {
+        let tau = t - self.t_ref;
+        (add_scaled(self.a, self.va, tau), add_scaled(self.b, self.vb, tau))
+    }
+}
+
+/// The contact state of one rod: its obstacles and each own segment's candidates.
+#[derive(Clone, Debug, Default)]
+pub struct FibreContact {
+    /// d, the fibre diameter (m): least distance between two centrelines.
+    pub diameter: f64,
+    /// μ_ff, Coulomb friction between fibres; None: frictionless.
+    pub friction: Option<f64>,
+    pub obstacles: Vec<ObstacleSegment>,
+    /// Candidates of own segment row r: `candidates[rows[r] .. rows[r + 1]]`.
+    pub rows: Vec<u32>,
+    pub candidates: Vec<u32>,
+    /// Share of each candidate contact this rod takes in the current step.
+    shares: Vec<f64>,
+    /// Nodes dropped from the front of the rod since the rows were prepared: own
+    /// segment k is row k + `dropped`. Segments added at the top have no row.
+    pub dropped: usize,
+    /// Deepest penetration d − g left after a step's position pass (m).
+    pub max_penetration: f64,
+    /// Contacts that received a velocity impulse, and position corrections.
+    pub impulses: u64,
+    pub corrections: u64,
+}
+
+/// The range of own nodes free to move (clamped leading nodes and a driven top excluded).
+pub type FreeNodes = std::ops::Range<usize>;
+
+impl FibreContact {
+    /// No obstacles, for `diameter` and `friction`.
+    pub fn new(diameter: f64, friction: Option<f64>) -> Self {
+        FibreContact { diameter, friction, rows: vec![0], ..FibreContact::default() }
+    }
+
+    /// Forget obstacles and candidates (before new ones are prepared for the rod's
+    /// current segments).
+    pub fn clear(&mut self) {
+        self.obstacles.clear();
+        self.rows.clear();
+        self.rows.push(0);
+        self.candidates.clear();
+        self.dropped = 0;
+    }
+
+    /// Candidate indices of own segment k (empty for a segment added since preparation).
+    fn row(&self, k: usize) -> std::ops::Range<usize> {
+        let row = k + self.dropped;
+        if row + 1 < self.rows.len() {
+            self.rows[row] as usize..self.rows[row + 1] as usize
+        } else {
+            0..0
+        }
+    }
+
+    /// Velocity pass at the start of a step at time `t` (see the module docs). It also
+    /// settles, from the start-of-step positions (the obstacles were refreshed then, so
+    /// both rods of a pair see the same two segments), which rod yields in each pair
+    /// ([`yield_share`]); the position pass at the end of the step keeps that decision.
+    /// With `winv` (the projection schemes' effective inverse masses), the node nearer
+    /// each contact point loses its freedom along the contact normal in this step's
+    /// length projection, as a node on the belt loses its vertical one: otherwise the
+    /// projection pulls a node held up by a crossing fibre back into it.
+    pub fn apply_impulses(&mut self, rod: &mut Rod, mut winv: Option<&mut [[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) {
+        let d = self.diameter;
+        let mut impulses = 0;
+        self.shares.clear();
+        self.shares.resize(self.candidates.len(), 0.0);
+        for k in 0..rod.rest.len() {
+            let (i, j) = (k, k + 1);
+            let (wi, wj) = (inverse_mass(rod, i, &free), inverse_mass(rod, j, &free));
+            for c in self.row(k) {
+                let ob = &self.obstacles[self.candidates[c] as usize];
+                let (q0, q1) = ob.at(t);
+                let (s, u, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
+                let share = yield_share(ob, gap[2], d);
+                self.shares[c] = share;
+                let g = norm(gap);
+                if share == 0.0 || (wi == 0.0 && wj == 0.0) || !(g > 0.0) {
+                    continue;
+                }
+                let n = scale(gap, 1.0 / g);
+                let vrel = sub(lerp(rod.v[i], rod.v[j], s), lerp(ob.va, ob.vb, u));
+                let vn = dot(vrel, n);
+                let target = if g >= d { (d - g) / dt } else { 0.0 };
+                if vn >= target {
+                    continue;
+                }
+                let delta = target - vn;
+                let mut dvp = scale(n, share * delta);
+                if let Some(mu) = self.friction {
+                    let wt = sub(vrel, scale(n, vn));
+                    let wtn = norm(wt);
+                    if wtn > 0.0 {
+                        let removed = if wtn <= mu * delta { 1.0 } else { mu * delta / wtn };
+                        dvp = add_scaled(dvp, wt, -share * removed);
+                    }
+                }
+                let w = (1.0 - s) * (1.0 - s) * wi + s * s * wj;
+                rod.v[i] = add_scaled(rod.v[i], dvp, (1.0 - s) * wi / w);
+                rod.v[j] = add_scaled(rod.v[j], dvp, s * wj / w);
+                if let Some(winv) = winv.as_deref_mut() {
+                    let near = if s < 0.5 { i } else { j };
+                    winv[near] = without_direction(&winv[near], n);
+                }
+                impulses += 1;
+            }
+        }
+        self.impulses += impulses;
+    }
+
+    /// Position pass at the end of a step (time `t`): pushes pairs closer than
+    /// (1 − SLOP) d apart to d, each by the share the velocity pass settled. Returns the
+    /// corrections made and the deepest penetration d − g found before correcting (m).
+    pub fn push_apart(&mut self, rod: &mut Rod, t: f64, free: FreeNodes) -> (usize, f64) {
+        let d = self.diameter;
+        let mut count = 0;
+        let mut deepest = 0.0f64;
+        for k in 0..rod.rest.len() {
+            let (i, j) = (k, k + 1);
+            let (wi, wj) = (inverse_mass(rod, i, &free), inverse_mass(rod, j, &free));
+            for c in self.row(k) {
+                let ob = &self.obstacles[self.candidates[c] as usize];
+                let (q0, q1) = ob.at(t);
+                let (s, _, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
+                let g = norm(gap);
+                if !(g < d) {
+                    continue;
+                }
+                deepest = deepest.max(d - g);
+                let share = self.shares.get(c).copied().unwrap_or(1.0);
+                if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 || (wi == 0.0 && wj == 0.0) {
+                    continue;
+                }
+                let dx = scale(gap, share * (d - g) / g);
+                let w = (1.0 - s) * (1.0 - s) * wi + s * s * wj;
+                rod.x[i] = add_scaled(rod.x[i], dx, (1.0 - s) * wi / w);
+                rod.x[j] = add_scaled(rod.x[j], dx, s * wj / w);
+                count += 1;
+            }
+        }
+        self.corrections += count as u64;
+        (count, deepest)
+    }
+
+    /// Deepest penetration d − g of the rod's current positions at time `t` (m, 0 if none).
+    pub fn penetration(&self, rod: &Rod, t: f64) -> f64 {
+        let mut deepest = 0.0f64;
+        for k in 0..rod.rest.len() {
+            for c in self.row(k) {
+                let (q0, q1) = self.obstacles[self.candidates[c] as usize].at(t);
+                deepest = deepest.max(self.diameter - norm(closest_points(rod.x[k], rod.x[k + 1], q0, q1).2));
+            }
+        }
+        deepest
+    }
+}
+
+/// Height difference, in diameters, below which two simulated fibres in contact are
+/// side by side and share the correction.
+pub const SIDE_BY_SIDE: f64 = 0.1;
+
+/// The share of a contact's correction this rod takes, `dz` = z_P − z_Q the height of
+/// its contact point above the obstacle's: all of it against a frozen or held segment;
+/// against another simulated fibre, the upper one yields (all of it: the lower one lies
+/// on the belt or the web, which hold it), and side by side (|dz| < 0.1 d) each takes ½.
+/// Both rods evaluate the same rule, so a contact is corrected once.
+pub fn yield_share(ob: &ObstacleSegment, dz: f64, d: f64) -> f64 {
+    if !ob.simulated || dz > SIDE_BY_SIDE * d {
+        1.0
+    } else if dz < -SIDE_BY_SIDE * d {
+        0.0
+    } else {
+        0.5
+    }
+}
+
+/// W − (W n)(W n)ᵀ/(nᵀ W n): the symmetric inverse mass W [xx, yy, zz, xy, xz, yz] with
+/// no freedom along the unit vector n (unchanged if it has none already).
+fn without_direction(w: &[f64; 6], n: [f64; 3]) -> [f64; 6] {
+    let wn = super::forces::sym_mul(w, &n);
+    let nwn = dot(n, wn);
+    if !(nwn > 1e-12 * (w[0] + w[1] + w[2])) {
+        return *w;
+    }
+    let r = 1.0 / nwn;
+    [
+        w[0] - wn[0] * wn[0] * r,
+        w[1] - wn[1] * wn[1] * r,
+        w[2] - wn[2] * wn[2] * r,
+        w[3] - wn[0] * wn[1] * r,
+        w[4] - wn[0] * wn[2] * r,
+        w[5] - wn[1] * wn[2] * r,
+    ]
+}
+
+fn inverse_mass(rod: &Rod, i: usize, free: &FreeNodes) -> f64 {
+    if free.contains(&i) {
+        1.0 / rod.mass[i]
+    } else {
+        0.0
+    }
+}
+
+/// Closest points of segments p0-p1 and q0-q1: (s, u, P(s) − Q(u)) with
+/// P(s) = p0 + s (p1 − p0), Q(u) = q0 + u (q1 − q0), s, u ∈ [0, 1] (Ericson,
+/// Real-Time Collision Detection §5.1.9; parallel segments give one of the closest pairs).
+pub fn closest_points(p0: [f64; 3], p1: [f64; 3], q0: [f64; 3], q1: [f64; 3]) -> (f64, f64, [f64; 3]) {
+    let d1 = sub(p1, p0);
+    let d2 = sub(q1, q0);
+    let r = sub(p0, q0);
+    let a = dot(d1, d1);
+    let e = dot(d2, d2);
+    let f = dot(d2, r);
+    let tiny = 1e-300;
+    let (s, u) = if a <= tiny && e <= tiny {
+        (0.0, 0.0)
+    } else if a <= tiny {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = dot(d1, r);
+        if e <= tiny {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = dot(d1, d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > 1e-14 * a * e { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let mut u = (b * s + f) / e;
+            if u < 0.0 {
+                u = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if u > 1.0 {
+                u = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, u)
+        }
+    };
+    let p = add_scaled(p0, d1, s);
+    let q = add_scaled(q0, d2, u);
+    (s, u, sub(p, q))
+}
+
+#[inline]
+pub(super) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+#[inline]
+pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+#[inline]
+pub(super) fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+#[inline]
+pub(super) fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+#[inline]
+pub(super) fn add_scaled(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
+}
+#[inline]
+pub(super) fn lerp(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]), a[2] + s * (b[2] - a[2])]
+}
+
+#[cfg(test)]
+#[path = "fibre_contact_tests.rs"]
+mod tests;

@@ -1,0 +1,157 @@
+//! Checks of fibre-fibre contact: the closest points of two segments against cases
+//! solved by hand, and fibres dropped across each other (simulated or frozen) that must
+//! never come closer than d (minus a stated tolerance) and never pass through.
+//! `cargo test --release --lib rod::fibre_contact -- --nocapture` prints the measured gaps.
+
+use super::*;
+use crate::rod::contact_world::{ContactStats, ContactWorld, FreeRod};
+use crate::rod::integrator::Simulator;
+use crate::rod::params::LaydownParams;
+use crate::rod::scene::{build, CustomStart};
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() < 1e-12
+}
+
+#[test]
+fn closest_points_of_crossing_parallel_and_end_cases() {
+    // crossing at right angles, 2 apart in z: midpoints
+    let (s, u, c) = closest_points([-1.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, -1.0, 0.0], [0.0, 3.0, 0.0]);
+    assert!(close(s, 0.5) && close(u, 0.25) && close(c[0], 0.0) && close(c[1], 0.0) && close(c[2], 2.0));
+    // end point to interior: p1 = (1,0,0) nearest to q's interior
+    let (s, u, c) = closest_points([-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, -1.0, 0.0], [2.0, 1.0, 0.0]);
+    assert!(close(s, 1.0) && close(u, 0.5) && close(norm(c), 1.0));
+    // parallel, overlapping: distance 0.5
+    let (_, _, c) = closest_points([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [1.5, 0.5, 0.0]);
+    assert!(close(norm(c), 0.5));
+    // end to end
+    let (s, u, c) = closest_points([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 1.0, 0.0]);
+    assert!(close(s, 1.0) && close(u, 0.0) && close(norm(c), 1.0));
+    // a point (degenerate segment)
+    let (_, u, c) = closest_points([0.5, 1.0, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
+    assert!(close(u, 0.5) && close(norm(c), 1.0));
+}
+
+/// A straight horizontal fibre of `elements` elements of 1 mm through `centre` along
+/// `axis`, moving at `velocity`; no driven or held node.
+fn straight(p: &LaydownParams, centre: [f64; 3], axis: [f64; 3], elements: usize, velocity: [f64; 3]) -> Simulator {
+    let ds = 1e-3;
+    let half = 0.5 * elements as f64 * ds;
+    let positions: Vec<[f64; 3]> = (0..=elements)
+        .map(|i| {
+            let s = i as f64 * ds - half;
+            [centre[0] + s * axis[0], centre[1] + s * axis[1], centre[2] + s * axis[2]]
+        })
+        .collect();
+    let start = CustomStart { velocities: vec![velocity; elements + 1], positions, driven_top: false, clamped: 0, rest_length: Some(ds) };
+    build(p, start)
+}
+
+/// Smallest centreline distance between the segments of two rods.
+fn least_distance(a: &Simulator, b: &Simulator) -> f64 {
+    let mut least = f64::INFINITY;
+    for k in 0..a.rod.rest.len() {
+        for l in 0..b.rod.rest.len() {
+            let (_, _, c) = closest_points(a.rod.x[k], a.rod.x[k + 1], b.rod.x[l], b.rod.x[l + 1]);
+            least = least.min(norm(c));
+        }
+    }
+    least
+}
+
+/// Height of rod `b` above rod `a` where they cross (nearest pair), and the distance.
+fn crossing(a: &Simulator, b: &Simulator) -> (f64, f64) {
+    let mut best = (f64::INFINITY, 0.0);
+    for k in 0..a.rod.rest.len() {
+        for l in 0..b.rod.rest.len() {
+            let (_, _, c) = closest_points(b.rod.x[l], b.rod.x[l + 1], a.rod.x[k], a.rod.x[k + 1]);
+            if norm(c) < best.0 {
+                best = (norm(c), c[2]);
+            }
+        }
+    }
+    (best.1, best.0)
+}
+
+fn scene() -> LaydownParams {
+    let mut p = LaydownParams::with_only_effects(&["elasticity", "gravity", "drag", "contact", "friction", "damping"]);
+    p.belt_speed = 0.0;
+    p
+}
+
+/// Drop fibre B (along y) at `speed` onto fibre A (along x) lying on the belt, both
+/// simulated; returns (least distance over all intervals, B's height above A at the
+/// crossing at the end, the distance there, impulses applied).
+fn drop_across(speed: f64) -> (f64, f64, f64, u64) {
+    let p = scene();
+    let d = p.diameter;
+    let mpl = p.mass_per_length();
+    let a = straight(&p, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 20, [0.0; 3]);
+    let b = straight(&p, [0.0, 0.0, 3e-3], [0.0, 1.0, 0.0], 20, [0.0, 0.0, -speed]);
+    let mut rods = [FreeRod::new(a, mpl), FreeRod::new(b, mpl)];
+    let mut world = ContactWorld::new(2, d, Some(0.3), 0.0, None, 1e-3);
+    let mut stats = ContactStats::default();
+    let interval = 1e-4;
+    let mut least = f64::INFINITY;
+    for n in 0..200 {
+        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
+        for (i, r) in rods.iter().enumerate() {
+            let c = r.sim.fibre_contact.as_ref().unwrap();
+            assert!(r.error.is_none(), "rod {i}: {:?}, {} impulses, {} corrections, {} obstacles, z10 {:.3e}", r.error, c.impulses, c.corrections, c.obstacles.len(), r.sim.rod.x[10][2]);
+        }
+        least = least.min(least_distance(&rods[0].sim, &rods[1].sim));
+        if std::env::var("DBG").is_ok() && n % 5 == 0 {
+            let (a, b) = (&rods[0].sim, &rods[1].sim);
+            println!("t {:.1e} A10 {:?} A0 {:?} B10 {:?} B0 {:?} vA10 {:?}", b.t, a.rod.x[10].map(|v| (v * 1e6).round()), a.rod.x[0].map(|v| (v * 1e6).round()), b.rod.x[10].map(|v| (v * 1e6).round()), b.rod.x[0].map(|v| (v * 1e6).round()), a.rod.v[10].map(|v| (v * 1e3).round()));
+        }
+    }
+    let (height, gap) = crossing(&rods[0].sim, &rods[1].sim);
+    let impulses = rods[1].sim.fibre_contact.as_ref().unwrap().impulses;
+    (least, height, gap, impulses)
+}
+
+#[test]
+fn fibres_dropped_across_each_other_stay_one_diameter_apart() {
+    let d = scene().diameter;
+    // a slow drop, and faster ones that move about 2 and 9 d per step
+    for speed in [0.5, 4.0, 10.0] {
+        let (least, height, gap, impulses) = drop_across(speed);
+        println!("drop at {speed} m/s: least distance {:.4} d, B above A by {:.4} d at the end (gap {:.4} d), {impulses} impulses", least / d, height / d, gap / d);
+        assert!(impulses > 0, "the fibres never met");
+        assert!(least >= 0.95 * d, "closer than 0.95 d: {least:.3e} m");
+        // B rests on A: above it, in contact (not passed through, not bounced away)
+        assert!(height > 0.95 * d && gap < 1.05 * d, "B is {height:.3e} m above A at a gap {gap:.3e} m");
+    }
+}
+
+#[test]
+fn fibre_lands_on_a_frozen_fibre_and_rests_on_it() {
+    let p = scene();
+    let d = p.diameter;
+    // frozen fibre A along x on the belt (fibre 1 of the world), B dropped across it
+    let mut world = ContactWorld::new(2, d, Some(0.3), 0.0, None, 1e-3);
+    let frozen: Vec<[f64; 3]> = (0..=20).map(|i| [(i as f64 - 10.0) * 1e-3, 0.0, 0.0]).collect();
+    world.add_frozen(1, &frozen);
+    let b = straight(&p, [0.0, 0.0, 2e-3], [0.0, 1.0, 0.0], 20, [0.0, 0.0, -2.0]);
+    let mut rods = [FreeRod::new(b, p.mass_per_length())];
+    // rod B is body (fibre) 0 of the world; the frozen fibre A is fibre 1
+    let mut stats = ContactStats::default();
+    let interval = 1e-4;
+    let mut least = f64::INFINITY;
+    for n in 0..300 {
+        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
+        assert!(rods[0].error.is_none(), "{:?}", rods[0].error);
+        for w in frozen.windows(2) {
+            for l in 0..20 {
+                least = least.min(norm(closest_points(rods[0].sim.rod.x[l], rods[0].sim.rod.x[l + 1], w[0], w[1]).2));
+            }
+        }
+    }
+    let b = &rods[0].sim;
+    // the node over the crossing rests at z ≈ d, its neighbours slope down to the belt
+    let mid = b.rod.x[10];
+    println!("on a frozen fibre: least distance {:.4} d, middle node at z = {:.4} d", least / d, mid[2] / d);
+    assert!(least >= 0.95 * d);
+    assert!((mid[2] - d).abs() < 0.05 * d, "middle node at z = {:.3e} m, d = {d:.3e} m", mid[2]);
+    assert!(b.rod.x[0][2] < 0.05 * d && b.rod.x[20][2] < 0.05 * d, "ends on the belt");
+}

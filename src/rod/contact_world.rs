@@ -24,7 +24,7 @@
 //! bend smoothly over a few elements); it does collide with its own frozen stretch,
 //! except the two frozen segments next to the simulated part.
 
-use super::fibre_contact::{norm, sub, FibreContact, ObstacleSegment};
+use super::fibre_contact::{FibreContact, ObstacleSegment};
 use super::integrator::Simulator;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -50,7 +50,8 @@ struct Active {
     /// Index of the segment in its rod (u32::MAX: the link to the frozen stretch).
     segment: u32,
     held: bool,
-    reach: f64,
+    /// Reach per axis, 2 |v − w| Δt_c (w the reference velocity).
+    reach: [f64; 3],
 }
 
 /// Frozen segments and the settings shared by all rods of a web.
@@ -63,6 +64,9 @@ pub struct ContactWorld {
     pub belt_speed: f64,
     /// Cross-direction period P (m); None: not periodic.
     pub cd_period: Option<f64>,
+    /// CD offset of each rod's own frame in the world (m): rod f's y is y_world − offset
+    /// (each fibre of a web is simulated under its own feed point). Zero by default.
+    pub cd_offsets: Vec<f64>,
     /// Grid cell side h (m).
     cell: f64,
     /// CD cells per period (when periodic) and their side.
@@ -165,6 +169,7 @@ impl ContactWorld {
             frozen_top: f64::NEG_INFINITY,
             frozen_count: vec![0; fibres],
             last_frozen: vec![None; fibres],
+            cd_offsets: vec![0.0; fibres],
         }
     }
 
@@ -178,17 +183,19 @@ impl ContactWorld {
         self.frozen_count[fibre]
     }
 
-    /// Append frozen nodes of `fibre`, in fibre order, in belt coordinates
-    /// (x − v_b t_freeze, y, z); they join the fibre's frozen chain.
+    /// Append frozen nodes of `fibre`, in fibre order, in belt coordinates of the rod's
+    /// frame (x − v_b t_freeze, y, z); they join the fibre's frozen chain.
     pub fn add_frozen(&mut self, fibre: usize, nodes: &[[f64; 3]]) {
         let r = 0.5 * self.diameter;
+        let offset = self.cd_offsets[fibre];
         for &x in nodes {
+            let x = [x[0], x[1] + offset, x[2]];
             self.frozen_top = self.frozen_top.max(x[2]);
             if let Some(a) = self.last_frozen[fibre] {
                 let id = self.frozen.len() as u32;
                 let index = self.frozen_count[fibre] as u32 - 1;
                 self.frozen.push(Frozen { a, b: x, fibre: fibre as u32, index });
-                let (lo, hi) = bbox(a, x, r);
+                let (lo, hi) = bbox(a, x, [r; 3]);
                 let keys: Vec<(i64, i64)> = self.cells_2d(lo, hi).collect();
                 for key in keys {
                     self.frozen_grid.entry(key).or_default().push(id);
@@ -280,21 +287,25 @@ impl ContactWorld {
             let sim = body.simulator();
             let free = sim.free_nodes();
             let (x, v) = (&sim.rod.x, &sim.rod.v);
+            let offset = self.cd_offsets[f];
+            let world = |p: [f64; 3]| [p[0], p[1] + offset, p[2]];
+            let w = [0.0; 3]; // reach measured in the lab frame
             if let Some(l) = self.last_frozen[f] {
                 // the link from the last frozen node to the first (held) simulated one
                 let a = [l[0] + vb * t, l[1], l[2]];
-                active.push(Active { a, b: x[0], va: belt, vb: v[0], fibre: f as u32, segment: u32::MAX, held: true, reach: 0.0 });
+                let reach = reach(belt, belt, w, interval);
+                active.push(Active { a, b: world(x[0]), va: belt, vb: v[0], fibre: f as u32, segment: u32::MAX, held: true, reach });
             }
             for k in 0..x.len() - 1 {
-                let speed = norm(v[k]).max(norm(v[k + 1]));
                 let held = !free.contains(&k) && !free.contains(&(k + 1));
-                active.push(Active { a: x[k], b: x[k + 1], va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, reach: 2.0 * speed * interval });
+                let reach = reach(v[k], v[k + 1], w, interval);
+                active.push(Active { a: world(x[k]), b: world(x[k + 1]), va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, reach });
             }
         }
         first.push(active.len());
         let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
         for (id, s) in active.iter().enumerate() {
-            let (lo, hi) = bbox(s.a, s.b, s.reach + half_d);
+            let (lo, hi) = bbox(s.a, s.b, add(s.reach, half_d));
             for key in self.cells_3d(lo, hi) {
                 grid.entry(key).or_default().push(id as u32);
             }
@@ -320,13 +331,13 @@ impl ContactWorld {
                 for k in first[f] + own_link..first[f + 1] {
                     let row = (k - first[f] - own_link) as u32;
                     let s = &active[k];
-                    let (lo, hi) = bbox(s.a, s.b, s.reach + half_d);
+                    let (lo, hi) = bbox(s.a, s.b, add(s.reach, half_d));
                     seen.clear();
                     for key in self.cells_3d(lo, hi) {
                         if let Some(ids) = grid.get(&key) {
                             for &o in ids {
                                 let other = &active[o as usize];
-                                if other.fibre as usize != f && self.overlap(lo, hi, other.a, other.b, other.reach + half_d) {
+                                if other.fibre as usize != f && self.overlap(lo, hi, other.a, other.b, add(other.reach, half_d)) {
                                     seen.push(o);
                                 }
                             }
@@ -334,9 +345,7 @@ impl ContactWorld {
                     }
                     if lo[2] <= frozen_top {
                         // in belt coordinates the frozen segments stand still
-                        let rel = norm(sub(s.va, belt)).max(norm(sub(s.vb, belt)));
-                        let g = 2.0 * rel * interval + half_d;
-                        let (mut flo, mut fhi) = bbox(s.a, s.b, g);
+                        let (mut flo, mut fhi) = bbox(s.a, s.b, add(reach(s.va, s.vb, belt, interval), half_d));
                         flo[0] -= vb * t;
                         fhi[0] -= vb * t;
                         for key in self.cells_2d(flo, fhi) {
@@ -344,7 +353,7 @@ impl ContactWorld {
                                 for &o in ids {
                                     let z = &self.frozen[o as usize];
                                     let adjacent = z.fibre as usize == f && z.index as usize + 3 >= own_frozen;
-                                    if !adjacent && self.overlap(flo, fhi, z.a, z.b, half_d) {
+                                    if !adjacent && self.overlap(flo, fhi, z.a, z.b, [half_d; 3]) {
                                         seen.push(active.len() as u32 + o);
                                     }
                                 }
@@ -359,14 +368,19 @@ impl ContactWorld {
                 let mut keys: Vec<u32> = found.iter().map(|p| p.1).collect();
                 keys.sort_unstable();
                 keys.dedup();
+                // obstacles in the rod's own frame; cd_shift carries a simulated
+                // source's frame into it (its offset, then the periodic image below)
+                let own = self.cd_offsets[f];
                 for &key in &keys {
                     let o = if (key as usize) < active.len() {
                         let o = &active[key as usize];
                         let source = (o.segment != u32::MAX).then_some((o.fibre, o.segment));
-                        ObstacleSegment { a: o.a, b: o.b, va: o.va, vb: o.vb, t_ref: t, simulated: !o.held, source, cd_shift: 0.0 }
+                        let local = |p: [f64; 3]| [p[0], p[1] - own, p[2]];
+                        let cd_shift = self.cd_offsets[o.fibre as usize] - own;
+                        ObstacleSegment { a: local(o.a), b: local(o.b), va: o.va, vb: o.vb, t_ref: t, simulated: !o.held, source, cd_shift }
                     } else {
                         let z = &self.frozen[key as usize - active.len()];
-                        let lab = |p: [f64; 3]| [p[0] + vb * t, p[1], p[2]];
+                        let lab = |p: [f64; 3]| [p[0] + vb * t, p[1] - own, p[2]];
                         ObstacleSegment { a: lab(z.a), b: lab(z.b), va: belt, vb: belt, t_ref: t, simulated: false, source: None, cd_shift: 0.0 }
                     };
                     contact.obstacles.push(o);
@@ -398,7 +412,7 @@ impl ContactWorld {
                                 let shift = p * ((y - 0.5 * (ob.a[1] + ob.b[1])) / p).round();
                                 ob.a[1] += shift;
                                 ob.b[1] += shift;
-                                ob.cd_shift = shift;
+                                ob.cd_shift += shift;
                             }
                         }
                     }
@@ -452,7 +466,7 @@ impl ContactWorld {
 
     /// Whether the box [lo, hi] overlaps the box of segment a-b grown by `grow` (CD
     /// periodic: its nearest image).
-    fn overlap(&self, lo: [f64; 3], hi: [f64; 3], a: [f64; 3], b: [f64; 3], grow: f64) -> bool {
+    fn overlap(&self, lo: [f64; 3], hi: [f64; 3], a: [f64; 3], b: [f64; 3], grow: [f64; 3]) -> bool {
         let (slo, shi) = bbox(a, b, grow);
         for k in 0..3 {
             let (mut a, mut b) = (slo[k], shi[k]);
@@ -472,9 +486,21 @@ impl ContactWorld {
     }
 }
 
-fn bbox(a: [f64; 3], b: [f64; 3], grow: f64) -> ([f64; 3], [f64; 3]) {
+/// Bounding box of segment a-b grown by `grow` per axis.
+fn bbox(a: [f64; 3], b: [f64; 3], grow: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     (
-        [a[0].min(b[0]) - grow, a[1].min(b[1]) - grow, a[2].min(b[2]) - grow],
-        [a[0].max(b[0]) + grow, a[1].max(b[1]) + grow, a[2].max(b[2]) + grow],
+        [a[0].min(b[0]) - grow[0], a[1].min(b[1]) - grow[1], a[2].min(b[2]) - grow[2]],
+        [a[0].max(b[0]) + grow[0], a[1].max(b[1]) + grow[1], a[2].max(b[2]) + grow[2]],
     )
+}
+
+/// Per-axis reach of a segment whose ends move at va, vb, relative to w, over Δt_c:
+/// twice the predicted motion.
+fn reach(va: [f64; 3], vb: [f64; 3], w: [f64; 3], interval: f64) -> [f64; 3] {
+    let r = |k: usize| 2.0 * interval * (va[k] - w[k]).abs().max((vb[k] - w[k]).abs());
+    [r(0), r(1), r(2)]
+}
+
+fn add(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] + s, a[1] + s, a[2] + s]
 }

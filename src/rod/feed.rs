@@ -30,6 +30,7 @@
 //! println!("{} laid nodes, {} frozen, error {:?}", fibre.laid_nodes(), fibre.frozen_nodes, fibre.error);
 //! ```
 
+use super::contact_world::ContactBody;
 use super::integrator::{Simulator, StepControl};
 use super::params::LaydownParams;
 use super::scene::{build, CustomStart};
@@ -55,11 +56,17 @@ pub struct FeedSettings {
     /// A node on the belt for this long is frozen even if it still creeps (s): slow
     /// creep of the fibre's start-up end would otherwise keep the whole laid fibre active.
     pub age_limit: f64,
+    /// Soft start T_r (s): the oscillation amplitude grows smoothly from 0 to u0 over
+    /// T_r (see [`super::forces::Oscillation::ramp_time`]). With 0, the stiff spring of
+    /// eq 7 throws the top nodes from y = 0 to u0 sin φ at ~10 m/s in the first 0.1 ms:
+    /// harmless for one fibre, but with fibre contact it throws neighbouring columns
+    /// through one another.
+    pub oscillation_ramp: f64,
 }
 
 impl Default for FeedSettings {
     fn default() -> Self {
-        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2 }
+        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0 }
     }
 }
 
@@ -131,6 +138,10 @@ pub struct Feeder {
     error: Option<String>,
     last_good: Vec<[f64; 3]>,
     wall_seconds: f64,
+    /// Freeze only when asked ([`ContactBody::freeze`]), not after every step: with
+    /// fibre contact, the node indices other fibres refer to must not change between
+    /// two preparations.
+    pub defer_freezing: bool,
 }
 
 impl Feeder {
@@ -160,6 +171,7 @@ impl Feeder {
         for term in sim.terms.iter_mut() {
             if let super::forces::Term::Oscillation(o) = term {
                 o.phase = phase;
+                o.ramp_time = settings.oscillation_ramp;
             }
         }
         let mpl = p.mass_per_length();
@@ -181,6 +193,7 @@ impl Feeder {
             error: None,
             last_good,
             wall_seconds: clock.elapsed().as_secs_f64(),
+            defer_freezing: false,
             sim,
         }
     }
@@ -225,7 +238,7 @@ impl Feeder {
                 self.anchors.push([0.0; 2]);
                 self.max_active = self.max_active.max(sim.rod.nodes());
             }
-            if self.settings.freeze && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt) {
+            if self.settings.freeze && !self.defer_freezing && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt) {
                 self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
             }
             self.node_steps += sim.rod.nodes() as u64;
@@ -287,6 +300,36 @@ impl Feeder {
             wall_seconds: self.wall_seconds,
             error: self.error,
         }
+    }
+}
+
+impl ContactBody for Feeder {
+    fn simulator(&self) -> &Simulator {
+        &self.sim
+    }
+    fn simulator_mut(&mut self) -> &mut Simulator {
+        &mut self.sim
+    }
+    fn next_step(&self) -> f64 {
+        self.control.dt
+    }
+    fn advance_to(&mut self, until: f64) {
+        Feeder::advance_to(self, until)
+    }
+    fn running(&self) -> bool {
+        self.error.is_none()
+    }
+    fn freeze(&mut self, frozen: &mut Vec<[f64; 3]>) {
+        if !self.settings.freeze || self.error.is_some() {
+            return;
+        }
+        let before = self.frozen.len();
+        let belt = [self.belt_speed, 0.0, 0.0];
+        if freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt) {
+            self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
+        }
+        let vb = self.belt_speed;
+        frozen.extend(self.frozen[before..].iter().map(|(x, t, _)| [x[0] - vb * t, x[1], x[2]]));
     }
 }
 

@@ -20,7 +20,8 @@
 //!   the point velocity Δv_P is shared by the two nodes in proportion to β_k w_k
 //!   (β = (1 − s, s), w the inverse masses, held nodes 0), so that Σ β_k Δv_k = Δv_P;
 //! - **position pass** (after the length projection, alternating with it and with the
-//!   belt's, like the belt): a pair closer than (1 − `SLOP`) d is pushed apart to d.
+//!   belt's, like the belt): a pair closer than (1 − `SLOP`) d is pushed apart towards
+//!   d, by at most [`MAX_SEPARATION_SPEED`]·Δt per step.
 //!
 //! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
 //! correction. Of two simulated fibres the upper one takes it all: the lower one lies on
@@ -36,6 +37,16 @@ use super::state::Rod;
 /// Relative penetration tolerated without a position correction (a resting contact
 /// then does not jitter); the position pass restores d.
 pub const SLOP: f64 = 0.01;
+
+/// Fastest the position pass separates a pair (m/s): a correction δ in a step Δt becomes
+/// a velocity δ/Δt, and in the µs steps of an impact a correction of a diameter would
+/// throw the node at tens of m/s. A deeper penetration (fibres that overlap when contact
+/// begins, or after an extrapolation error) is undone over several steps.
+pub const MAX_SEPARATION_SPEED: f64 = 1.0;
+
+/// Most rounds of belt push, fibre push and length projection in one step; each fibre
+/// push moves a pair by at most [`MAX_SEPARATION_SPEED`]·Δt/`POSITION_ROUNDS`.
+pub const POSITION_ROUNDS: usize = 8;
 
 /// A segment of another fibre: end points and velocities at time `t_ref`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -138,14 +149,18 @@ impl FibreContact {
                 let share = yield_share(ob, gap[2], d);
                 self.shares[c] = share;
                 let g = norm(gap);
-                if share == 0.0 || (wi == 0.0 && wj == 0.0) || !(g > 0.0) {
+                if share == 0.0 || !movable(s, wi, wj) || !(g > 0.0) {
                     continue;
                 }
                 let n = scale(gap, 1.0 / g);
                 let vrel = sub(lerp(rod.v[i], rod.v[j], s), lerp(ob.va, ob.vb, u));
                 let vn = dot(vrel, n);
-                let target = if g >= d { (d - g) / dt } else { 0.0 };
-                if vn >= target {
+                // approach: only up to contact at the end of the step; in contact or
+                // overlapping: no approach, and separation no faster than the position
+                // pass's (which would otherwise add up, step after step, while an
+                // overlap persists)
+                let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
+                if vn >= target && !(g < d && vn > target) {
                     continue;
                 }
                 let delta = target - vn;
@@ -171,11 +186,13 @@ impl FibreContact {
         self.impulses += impulses;
     }
 
-    /// Position pass at the end of a step (time `t`): pushes pairs closer than
-    /// (1 − SLOP) d apart to d, each by the share the velocity pass settled. Returns the
+    /// Position pass at the end of a step (time `t`, step `dt`): pushes pairs closer
+    /// than (1 − SLOP) d apart towards d, each by the share the velocity pass settled and
+    /// by at most [`MAX_SEPARATION_SPEED`]·Δt. Returns the
     /// corrections made and the deepest penetration d − g found before correcting (m).
-    pub fn push_apart(&mut self, rod: &mut Rod, t: f64, free: FreeNodes) -> (usize, f64) {
+    pub fn push_apart(&mut self, rod: &mut Rod, t: f64, dt: f64, free: FreeNodes) -> (usize, f64) {
         let d = self.diameter;
+        let max_push = MAX_SEPARATION_SPEED * dt / POSITION_ROUNDS as f64;
         let mut count = 0;
         let mut deepest = 0.0f64;
         for k in 0..rod.rest.len() {
@@ -191,10 +208,10 @@ impl FibreContact {
                 }
                 deepest = deepest.max(d - g);
                 let share = self.shares.get(c).copied().unwrap_or(1.0);
-                if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 || (wi == 0.0 && wj == 0.0) {
+                if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 || !movable(s, wi, wj) {
                     continue;
                 }
-                let dx = scale(gap, share * (d - g) / g);
+                let dx = scale(gap, share * (d - g).min(max_push) / g);
                 let w = (1.0 - s) * (1.0 - s) * wi + s * s * wj;
                 rod.x[i] = add_scaled(rod.x[i], dx, (1.0 - s) * wi / w);
                 rod.x[j] = add_scaled(rod.x[j], dx, s * wj / w);
@@ -254,6 +271,14 @@ fn without_direction(w: &[f64; 6], n: [f64; 3]) -> [f64; 6] {
         w[4] - wn[0] * wn[2] * r,
         w[5] - wn[1] * wn[2] * r,
     ]
+}
+
+/// Whether the point P(s) of a segment with end inverse masses wi, wj can be moved:
+/// its effective inverse mass (1 − s)² wi + s² wj is at least a quarter of the larger
+/// end's. Near a held end (w = 0) the free end would need a velocity change 1/s times
+/// the point's; such a contact is left to the held node (on the belt or frozen).
+fn movable(s: f64, wi: f64, wj: f64) -> bool {
+    (1.0 - s) * (1.0 - s) * wi + s * s * wj >= 0.25 * wi.max(wj) && wi.max(wj) > 0.0
 }
 
 fn inverse_mass(rod: &Rod, i: usize, free: &FreeNodes) -> f64 {

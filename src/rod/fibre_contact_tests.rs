@@ -100,10 +100,6 @@ fn drop_across(speed: f64) -> (f64, f64, f64, u64) {
             assert!(r.error.is_none(), "rod {i}: {:?}, {} impulses, {} corrections, {} obstacles, z10 {:.3e}", r.error, c.impulses, c.corrections, c.obstacles.len(), r.sim.rod.x[10][2]);
         }
         least = least.min(least_distance(&rods[0].sim, &rods[1].sim));
-        if std::env::var("DBG").is_ok() && n % 5 == 0 {
-            let (a, b) = (&rods[0].sim, &rods[1].sim);
-            println!("t {:.1e} A10 {:?} A0 {:?} B10 {:?} B0 {:?} vA10 {:?}", b.t, a.rod.x[10].map(|v| (v * 1e6).round()), a.rod.x[0].map(|v| (v * 1e6).round()), b.rod.x[10].map(|v| (v * 1e6).round()), b.rod.x[0].map(|v| (v * 1e6).round()), a.rod.v[10].map(|v| (v * 1e3).round()));
-        }
     }
     let (height, gap) = crossing(&rods[0].sim, &rods[1].sim);
     let impulses = rods[1].sim.fibre_contact.as_ref().unwrap().impulses;

@@ -99,6 +99,24 @@ pub struct Oscillation {
     pub stiffness: f64,
     pub damping: f64,
     pub zone_top: f64,
+    /// Soft start T_r (s): the amplitude grows as u0 (1 − cos(π t/T_r))/2 until T_r
+    /// (0: full amplitude from t = 0, the paper's scene).
+    pub ramp_time: f64,
+}
+
+impl Oscillation {
+    /// Position u and velocity du/dt of the dummy point's y at time t.
+    fn dummy_point(&self, t: f64) -> (f64, f64) {
+        let (s, c) = (self.angular_frequency * t + self.phase).sin_cos();
+        let (u, du) = (self.amplitude * s, self.amplitude * self.angular_frequency * c);
+        if t >= self.ramp_time {
+            return (u, du);
+        }
+        let k = std::f64::consts::PI / self.ramp_time;
+        let (rs, rc) = (k * t).sin_cos();
+        let (r, dr) = (0.5 * (1.0 - rc), 0.5 * k * rs);
+        (r * u, r * du + dr * u)
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -147,10 +165,7 @@ impl Term {
             }
             Term::Drag(d) => drag_implicit(d, rod, ws, dt),
             Term::Oscillation(o) => {
-                let tn = t + dt;
-                let (s, c) = (o.angular_frequency * tn + o.phase).sin_cos();
-                let u = o.amplitude * s;
-                let du = o.amplitude * o.angular_frequency * c;
+                let (u, du) = o.dummy_point(t + dt);
                 let h = dt * o.damping + dt * dt * o.stiffness;
                 for i in 0..rod.x.len() {
                     if rod.x[i][2] > o.zone_top {
@@ -185,9 +200,7 @@ impl Term {
                 p
             }
             Term::Oscillation(o) => {
-                let (s, c) = (o.angular_frequency * t + o.phase).sin_cos();
-                let u = o.amplitude * s;
-                let du = o.amplitude * o.angular_frequency * c;
+                let (u, du) = o.dummy_point(t);
                 let mut p = 0.0;
                 for (x, v) in rod.x.iter().zip(&rod.v) {
                     if x[2] > o.zone_top {
@@ -407,5 +420,22 @@ mod tests {
         }
         assert_eq!(pow_pos(0.0, 0.39), 0.0);
         assert_eq!(law.normal(0.0), 0.0);
+    }
+
+    /// The soft start: the dummy point starts at rest at y = 0, its velocity is the
+    /// derivative of its position (central difference), and it joins u0 sin(ωt + φ)
+    /// without a jump at T_r.
+    #[test]
+    fn oscillation_ramp_starts_at_rest_and_joins_smoothly() {
+        let o = Oscillation { amplitude: 0.01, angular_frequency: 62.8, phase: 1.0, stiffness: 1.0, damping: 1e-3, zone_top: 0.05, ramp_time: 0.1 };
+        assert_eq!(o.dummy_point(0.0), (0.0, 0.0));
+        for t in [0.01, 0.05, 0.0999, 0.1001, 0.3] {
+            let h = 1e-7;
+            let fd = (o.dummy_point(t + h).0 - o.dummy_point(t - h).0) / (2.0 * h);
+            assert!((fd - o.dummy_point(t).1).abs() < 1e-6, "t = {t}: du {} vs {fd}", o.dummy_point(t).1);
+        }
+        let full = Oscillation { ramp_time: 0.0, ..o.clone() };
+        assert_eq!(o.dummy_point(0.1), full.dummy_point(0.1));
+        assert!((o.dummy_point(0.1 - 1e-9).0 - full.dummy_point(0.1).0).abs() < 1e-9);
     }
 }

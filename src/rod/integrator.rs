@@ -481,7 +481,7 @@ impl Simulator {
                     // and the projection is repeated
                     let free = self.free_nodes();
                     let mut fibre_penetration = 0.0;
-                    for _round in 0..8 {
+                    for _round in 0..super::fibre_contact::POSITION_ROUNDS {
                         let mut pushed = 0;
                         if self.contact.is_some() {
                             for i in free.clone() {
@@ -496,7 +496,7 @@ impl Simulator {
                             }
                         }
                         if let Some(c) = &mut self.fibre_contact {
-                            let (corrected, deepest) = c.push_apart(&mut self.rod, t + dt, free.clone());
+                            let (corrected, deepest) = c.push_apart(&mut self.rod, t + dt, dt, free.clone());
                             pushed += corrected;
                             fibre_penetration = deepest;
                         }

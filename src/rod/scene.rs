@@ -81,6 +81,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
             stiffness: p.oscillation_stiffness,
             damping: p.oscillation_damping,
             zone_top: p.laydown_height,
+            ramp_time: 0.0,
         }));
     }
     if e.damping && p.rayleigh_damping > 0.0 {

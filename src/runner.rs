@@ -460,11 +460,10 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             fp_inputs.extend(files.iter().map(|(p, h)| (format!("file:{p}"), h.clone())));
             fingerprint(decl, stage.cache_version(), seed, &fp_inputs)
         });
-        let cached = fp
-            .as_ref()
-            .and_then(|fp| complete.iter().rev().find(|v| v.attr_str("fingerprint") == Some(fp.as_str())).copied());
-
+        // The current version when it matches (the mark stays), else the newest that does.
         let current = current_of(&name, &complete, marks);
+        let matches = |v: &VersionInfo| fp.as_deref().is_some_and(|fp| v.attr_str("fingerprint") == Some(fp));
+        let cached = current.filter(|v| matches(v)).or_else(|| complete.iter().rev().find(|v| matches(v)).copied());
         let stale_input = decl.inputs.iter().find(|i| stale.contains_key(*i) || would_run.contains(*i));
         if !selected.contains(&name) {
             // A stage outside the selection keeps the version matching its inputs, else its

@@ -183,3 +183,16 @@ fn a_run_that_fails_later_still_marks_what_it_matched() {
     assert_eq!(a.current("first").unwrap(), Some(1));
     assert!(a.versions("scans").unwrap().is_empty());
 }
+
+#[test]
+fn a_matching_current_version_keeps_its_mark() {
+    let tmp = tempfile::tempdir().unwrap();
+    write_pipeline(tmp.path(), "p.yaml", PIPE);
+    ok(tmp.path(), &["run", "p.yaml"]);
+    // v2 has the same fingerprint as v1; v1 is current.
+    ok(tmp.path(), &["run", "p.yaml", "--force", "first"]);
+    let archive = tmp.path().join("study.h5");
+    Archive::open_write(&archive).unwrap().mark_current("t", &std::collections::BTreeMap::from([("first".to_string(), 1)]), "h").unwrap();
+    let (o, _) = ok(tmp.path(), &["run", "p.yaml"]);
+    assert!(o.contains("first: up to date (v1)\n"), "{o}");
+}

@@ -73,6 +73,14 @@ pub enum Command {
     },
     /// Parse and check a pipeline without computing anything.
     Validate { pipeline: PathBuf },
+    /// Print a pipeline's stage graph: one stage per line in the order they run, with
+    /// kind, size and inputs; or Graphviz DOT (`laydown dag P --dot | dot -Tsvg > dag.svg`).
+    Dag {
+        pipeline: PathBuf,
+        /// Graphviz DOT instead of text.
+        #[arg(long)]
+        dot: bool,
+    },
     /// List stages and versions of an archive (status, params hash, wall time); `*`
     /// marks each stage's current version, the one the pipeline's last run matched or wrote.
     Ls { archive: PathBuf },
@@ -185,6 +193,16 @@ pub fn main_with(cli: Cli) -> i32 {
             Ok(p) => {
                 let n: usize = p.stages.iter().map(|s| s.points().0.len() * s.replicates).sum();
                 println!("{}: ok ({} stages, {} units of work)", path.display(), p.stages.len(), n);
+                0
+            }
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
+        Command::Dag { pipeline: path, dot } => match pipeline::load(&path) {
+            Ok(p) => {
+                print!("{}", if dot { pipeline::dag::dot(&p) } else { pipeline::dag::text(&p) });
                 0
             }
             Err(d) => {

@@ -397,12 +397,12 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
     if opts.dry_run || marks.pending.is_empty() {
         return result;
     }
-    let moved: Vec<String> = marks.pending.iter().map(|(s, n)| format!("{s} v{n}")).collect();
+    let named: Vec<String> = marks.pending.iter().map(|(s, n)| format!("{s} v{n}")).collect();
     let flushed = archive
         .mark_current(
             &format!("laydown archive of pipeline {}", pipeline.name),
             &marks.pending,
-            &format!("{} laydown run {}: current {}", provenance::utc_now(), pipeline.file.display(), moved.join(", ")),
+            &format!("{} laydown run {}: current {}", provenance::utc_now(), pipeline.file.display(), named.join(", ")),
         )
         .map_err(RunError::Runtime);
     match (result, flushed) {
@@ -410,7 +410,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         (Ok(_), Err(e)) => Err(e),
         (Err(e), Ok(())) => Err(e),
         (Err(e), Err(f)) => {
-            eprintln!("warning: the current versions of {} could not be marked: {f}", moved.join(", "));
+            eprintln!("warning: the current versions of {} could not be marked: {f}", named.join(", "));
             Err(e)
         }
     }

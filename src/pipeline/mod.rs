@@ -14,6 +14,7 @@
 //! ```
 //! Every problem is reported with file, line, column, key path and what is allowed;
 //! checking collects all problems rather than stopping at the first.
+pub mod dag;
 pub mod yaml;
 
 use crate::executor::{ExecutorConfig, ExecutorKind};

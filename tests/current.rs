@@ -147,7 +147,9 @@ fn an_archive_without_marks_reads_its_newest_versions_and_loses_latest_on_the_ne
             g.delete_attr("current").unwrap();
             g.link_soft(&format!("/{stage}/v{n}"), "latest").unwrap();
         }
+        f.close().unwrap();
     }
+    fresh_inode(&archive);
     let a = Archive::open_read(&archive).unwrap();
     assert_eq!(a.current("first").map_err(|e| format!("{e:#}")), Ok(None));
     assert_eq!(a.version("first", None).unwrap().number, 2, "no mark: the newest");
@@ -193,6 +195,7 @@ fn a_matching_current_version_keeps_its_mark() {
     ok(tmp.path(), &["run", "p.yaml", "--force", "first"]);
     let archive = tmp.path().join("study.h5");
     Archive::open_write(&archive).unwrap().mark_current("t", &std::collections::BTreeMap::from([("first".to_string(), 1)]), "h").unwrap();
+    fresh_inode(&archive);
     let (o, _) = ok(tmp.path(), &["run", "p.yaml"]);
     assert!(o.contains("first: up to date (v1)\n"), "{o}");
 }

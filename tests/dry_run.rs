@@ -85,7 +85,10 @@ fn a_dry_run_says_why_each_stage_would_run_and_writes_nothing() {
             g.delete_attr(k).unwrap();
             laydown::archive::hdf::write_str_attr(&g, k, v).unwrap();
         }
+        drop(g);
+        f.close().unwrap();
     }
+    fresh_inode(&d.join("out/study.h5"));
     let before = snapshot(d);
     let (o, _) = ok(d, &["run", "p.yaml", "--dry-run"]);
     assert!(o.contains("ideal: would run: code of spectra changed\n"), "{o}");

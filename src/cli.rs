@@ -379,7 +379,7 @@ fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
     let status = match current {
         Some(n) if n == v.number => "current".to_string(),
         Some(n) => format!("not current: the pipeline's last run used v{n}"),
-        None => "no current version marked: the newest".to_string(),
+        None => "no version is marked current (an archive of an older laydown)".to_string(),
     };
     println!("{} ({}; {status})", v.group_path(), v.file.display());
     println!("provenance:");

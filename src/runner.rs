@@ -99,6 +99,9 @@ fn fingerprint_with_code(decl: &StageDecl, cache_version: u32, code: &str, seed:
     h.finalize().to_hex()[..32].to_string()
 }
 
+/// The reason when nothing that [`reason`] compares differs.
+const NO_MATCH: &str = "no complete version with this fingerprint";
+
 /// Human reason why `decl` differs from the previous version `prev`.
 fn reason(
     decl: &StageDecl,
@@ -175,7 +178,7 @@ fn reason(
         why.push(format!("input files: {}{more}", changed.join(", ")));
     }
     if why.is_empty() {
-        why.push("no complete version with this fingerprint".into());
+        why.push(NO_MATCH.into());
     }
     why.join(", ")
 }
@@ -391,8 +394,8 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
     };
     let archive = if opts.dry_run { Archive::open_if_exists(&pipeline.archive) } else { Archive::open_write(&pipeline.archive) }
         .map_err(RunError::Runtime)?;
-    println!("archive: {}{}", archive.path.display(), if opts.dry_run { " (dry run: nothing is computed or written)" } else { "" });
     let mut marks = Marks { stored: archive.current_marks().map_err(RunError::Runtime)?, pending: BTreeMap::new() };
+    println!("archive: {}{}", archive.path.display(), if opts.dry_run { " (dry run: nothing is computed or written)" } else { "" });
     let result = run_stages(pipeline, opts, &archive, &selected, &mut marks);
     if opts.dry_run || marks.pending.is_empty() {
         return result;
@@ -506,44 +509,21 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             stale.insert(name.clone(), format!("input {i} is out of date"));
         }
         if opts.dry_run {
-            // Upstream stages that would run: this one's inputs (and fingerprint) are unknown.
-            let upstream: Vec<&String> = decl.inputs.iter().filter(|i| would_run.contains(*i)).collect();
-            let why = if !upstream.is_empty() {
-                let own = match current {
-                    Some(v) => reason(decl, stage.cache_version(), seed, &[], &files, Some(v)),
-                    None => "new stage".to_string(),
-                };
-                let names: Vec<&str> = upstream.iter().map(|s| s.as_str()).collect();
-                let up = format!("input {} would run first", names.join(", "));
-                if forced {
-                    format!("forced ({force_flag}), {up}")
-                } else if own == "no complete version with this fingerprint" {
-                    format!("{up} (unless its results come out unchanged)")
-                } else {
-                    format!("{own}, {up}")
+            let upstream: Vec<&str> = decl.inputs.iter().filter(|i| would_run.contains(*i)).map(String::as_str).collect();
+            let ctx = Decision { decl, cache_version: stage.cache_version(), seed, files: &files, current, cached, forced: forced.then_some(force_flag) };
+            match ctx.dry_run(inputs.as_deref(), &upstream) {
+                Planned::UpToDate(v) => {
+                    println!("{name}: up to date (v{})", v.number);
+                    chosen.insert(name.clone(), v.clone());
+                    reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
                 }
-            } else if let (Some(v), false) = (cached, forced) {
-                match v.verify() {
-                    Integrity::Damaged(problems) => format!("stored v{} is damaged ({})", v.number, problems.join("; ")),
-                    Integrity::Ok | Integrity::Unverifiable => {
-                        println!("{name}: up to date (v{})", v.number);
-                        chosen.insert(name.clone(), v.clone());
-                        reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
-                        continue;
-                    }
+                Planned::Runs(why) => {
+                    println!("{name}: would run: {why}");
+                    would_run.insert(name.clone());
+                    reports.push(StageReport { stage: name.clone(), version: 0, ran_because: Some(why), wall_seconds: 0.0 });
                 }
-            } else if forced && cached.is_some() {
-                format!("forced ({force_flag})")
-            } else if let Some(inputs) = &inputs {
-                let numbers: Vec<(String, u32)> = inputs.iter().map(|v| (v.stage.clone(), v.number)).collect();
-                reason(decl, stage.cache_version(), seed, &numbers, &files, current)
-            } else {
-                let missing = decl.inputs.iter().find(|i| !chosen.contains_key(*i)).cloned().unwrap_or_default();
-                format!("cannot run: input `{missing}` has no complete version")
-            };
-            println!("{name}: would run: {why}");
-            would_run.insert(name.clone());
-            reports.push(StageReport { stage: name.clone(), version: 0, ran_because: Some(why), wall_seconds: 0.0 });
+                Planned::CannotRun(why) => println!("{name}: cannot run: {why}"),
+            }
             continue;
         }
         let (Some(inputs), Some(fp)) = (inputs, fp) else {
@@ -699,6 +679,63 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });
     }
     Ok(reports)
+}
+
+/// What a dry run finds for a selected stage.
+enum Planned<'a> {
+    UpToDate(&'a VersionInfo),
+    /// Why it would run.
+    Runs(String),
+    /// Why it could not (an input has no version).
+    CannotRun(String),
+}
+
+/// What decides whether a selected stage runs, and says why.
+struct Decision<'a> {
+    decl: &'a StageDecl,
+    cache_version: u32,
+    seed: u64,
+    files: &'a [(String, String)],
+    /// The stage's current version (the newest in archives without marks).
+    current: Option<&'a VersionInfo>,
+    /// A complete version with the stage's fingerprint, if its inputs are known.
+    cached: Option<&'a VersionInfo>,
+    /// `--force` or `--from` when that flag forces the stage.
+    forced: Option<&'static str>,
+}
+
+impl<'a> Decision<'a> {
+    fn reason(&self, inputs: &[(String, u32)]) -> String {
+        reason(self.decl, self.cache_version, self.seed, inputs, self.files, self.current)
+    }
+
+    /// A dry run's decision, given the input versions (`None`: one has no version) and the
+    /// inputs that would run first (their new content, hence this stage's fingerprint, unknown).
+    fn dry_run(&self, inputs: Option<&[VersionInfo]>, upstream: &[&str]) -> Planned<'a> {
+        if !upstream.is_empty() {
+            let up = format!("input {} would run first", upstream.join(", "));
+            let own = match self.current {
+                Some(_) => self.reason(&[]),
+                None => "new stage".to_string(),
+            };
+            return Planned::Runs(match self.forced {
+                Some(flag) => format!("forced ({flag}), {up}"),
+                None if own == NO_MATCH => format!("{up} (unless its results come out unchanged)"),
+                None => format!("{own}, {up}"),
+            });
+        }
+        match (self.cached, self.forced) {
+            (Some(v), None) => match v.verify() {
+                Integrity::Damaged(problems) => Planned::Runs(format!("stored v{} is damaged ({})", v.number, problems.join("; "))),
+                Integrity::Ok | Integrity::Unverifiable => Planned::UpToDate(v),
+            },
+            (Some(_), Some(flag)) => Planned::Runs(format!("forced ({flag})")),
+            (None, _) => match inputs {
+                Some(inputs) => Planned::Runs(self.reason(&inputs.iter().map(|v| (v.stage.clone(), v.number)).collect::<Vec<_>>())),
+                None => Planned::CannotRun("an input has no complete version; run it first (without --only)".into()),
+            },
+        }
+    }
 }
 
 /// `spectra uses fibre v1, which is out of date (params.diameter changed ...); ...`

@@ -38,7 +38,9 @@ fn a_dry_run_of_a_new_pipeline_says_new_and_creates_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     write_pipeline(tmp.path(), "p.yaml", PIPE);
     let (o, _) = ok(tmp.path(), &["run", "p.yaml", "--dry-run"]);
-    assert!(o.lines().next().unwrap().ends_with("out/study.h5 (dry run: nothing is computed or written)"), "{o}");
+    // The absolute path the archive would have (its directory does not exist yet).
+    let archive = tmp.path().canonicalize().unwrap().join("out/study.h5");
+    assert_eq!(o.lines().next().unwrap(), format!("archive: {} (dry run: nothing is computed or written)", archive.display()), "{o}");
     assert!(o.contains("fibre: would run: new stage\n"), "{o}");
     assert!(o.contains("spectra: would run: new stage, input fibre would run first\n"), "{o}");
     assert!(o.contains("ideal: would run: new stage\n"), "{o}");

@@ -182,7 +182,7 @@ impl Archive {
         if path.is_dir() {
             bail!("archive {} is a directory; give the path of an HDF5 file, e.g. {}", path.display(), path.join("study.h5").display());
         }
-        let path = resolve(path).unwrap_or_else(|_| path.to_path_buf());
+        let path = resolve(path).unwrap_or_else(|_| resolve_existing_part(path));
         Ok(Archive { path, _lock: None })
     }
 
@@ -581,6 +581,29 @@ pub fn resolve(path: &Path) -> Result<PathBuf> {
         }
     }
     bail!("archive path {} is a loop of symlinks; make it point to an HDF5 file", path.display())
+}
+
+/// A path whose directory may not exist yet, for display: its longest existing ancestor
+/// resolved ([`fs::canonicalize`]), the rest appended (`..` there taken lexically: nothing
+/// in it exists, so no symlink can be involved).
+fn resolve_existing_part(path: &Path) -> PathBuf {
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut base = absolute.as_path();
+    let mut rest = vec![];
+    while !base.exists() {
+        match (base.parent(), base.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                base = parent;
+            }
+            _ => return absolute,
+        }
+    }
+    let mut out = fs::canonicalize(base).unwrap_or_else(|_| base.to_path_buf());
+    for part in rest.iter().rev() {
+        out.push(part);
+    }
+    out
 }
 
 /// `<archive><suffix>` beside the archive.

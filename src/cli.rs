@@ -141,7 +141,7 @@ pub fn main_with(cli: Cli) -> i32 {
                     eprintln!("error: --archive: `{}` is a directory; give the path of an HDF5 file, e.g. {}", a.display(), a.join("study.h5").display());
                     return 2;
                 }
-                p.archive = std::path::absolute(&a).unwrap_or(a);
+                p.archive = crate::archive::absolute(&a);
             }
             if let Some(e) = executor {
                 p.executor.kind = crate::executor::ExecutorKind::parse(&e).expect("checked by clap");

@@ -29,6 +29,15 @@ fn the_same_pipeline_from_two_working_directories_uses_one_archive() {
     assert!(o.contains("s: up to date (v1)"), "{o}");
     assert!(!elsewhere.join("results").exists(), "no second archive beside the working directory");
 
+    // A pipeline in a subfolder naming the same archive with `..` shares it; the path
+    // printed is the real one, without `..`.
+    std::fs::create_dir_all(study.join("sub")).unwrap();
+    write_pipeline(&study.join("sub"), "p.yaml", &PIPE.replace("results/study.h5", "../results/study.h5"));
+    let out = run_in(&elsewhere, &["run", "../../study/sub/p.yaml"]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    assert!(o.starts_with(&format!("archive: {}\n", archive.display())) && o.contains("s: up to date (v1)"), "{o}");
+
     // validate checks `archive:` where run will write it: a directory there is refused.
     write_pipeline(&study, "q.yaml", &PIPE.replace("results/study.h5", "results"));
     let out = run_in(&elsewhere, &["validate", "../../study/q.yaml"]);

@@ -606,6 +606,20 @@ fn resolve_existing_part(path: &Path) -> PathBuf {
     out
 }
 
+/// An archive path as the pipeline names it, made absolute: its directory resolved
+/// (symlinks, `.` and `..`; a part that does not exist yet taken lexically) and its file
+/// name kept, so a symlinked archive stays the symlink (figures go beside it, as
+/// `laydown plot` puts them). Used for `archive:` and `--archive`.
+pub fn absolute(path: &Path) -> PathBuf {
+    match (path.parent(), path.file_name()) {
+        (Some(dir), Some(name)) => {
+            let dir = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
+            resolve_existing_part(dir).join(name)
+        }
+        _ => std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf()),
+    }
+}
+
 /// `<archive><suffix>` beside the archive.
 fn sibling(path: &Path, suffix: &str) -> PathBuf {
     let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();

@@ -310,7 +310,7 @@ impl Checker {
         // Relative to the pipeline file (as image files are), whatever the working directory.
         let archive = match get("archive") {
             Some(n) => self.string(n, "archive").and_then(|a| {
-                let path = std::path::absolute(self.dir.join(&a)).unwrap_or_else(|_| self.dir.join(&a));
+                let path = crate::archive::absolute(&self.dir.join(&a));
                 if a.trim().is_empty() {
                     self.err(n.pos, "archive", "the archive path is empty");
                     None

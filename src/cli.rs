@@ -29,7 +29,8 @@ pub enum Command {
     Run {
         /// The pipeline YAML file.
         pipeline: PathBuf,
-        /// Run only this stage, on the existing versions of its inputs.
+        /// Run only this stage, on the current versions of its inputs (with a warning
+        /// naming any that is out of date).
         #[arg(long, value_name = "STAGE", conflicts_with = "from")]
         only: Option<String>,
         /// Recompute this stage and run every stage downstream of it.

@@ -11,6 +11,11 @@
 //! A version is used only once its datasets match the hashes stored with it
 //! ([`VersionInfo::verify`]): a damaged up-to-date version is computed again (and the
 //! reason says so), a damaged input of a stage that must run is an error.
+//!
+//! Each run marks, per stage, the version it matched or wrote as current ([`Marks`],
+//! `Archive::current`); stages outside an `--only`/`--from` selection use their current
+//! version and say why it is out of date when it is. A dry run makes the same decisions
+//! without computing or writing ([`Decision::dry_run`]).
 use crate::archive::data::{Attr, Output, Values};
 use crate::archive::{provenance, Archive, Integrity, VersionInfo};
 use crate::params::ParamValue;
@@ -23,7 +28,7 @@ use std::time::Instant;
 
 #[derive(Debug, Default, Clone)]
 pub struct RunOptions {
-    /// Run only this stage, on the existing versions of its inputs.
+    /// Run only this stage, on the current versions of its inputs.
     pub only: Option<String>,
     /// Recompute this stage (as with `force`) and run everything downstream of it.
     pub from: Option<String>,

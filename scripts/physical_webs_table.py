@@ -18,6 +18,9 @@ FIGURES = "pipelines/studies/figures"
 
 
 def current(f, stage):
+    """The stage's current version (layout 2), else the newest (`latest`, layout 1)."""
+    if "current" in f[stage].attrs:
+        return f[stage][f[stage].attrs["current"]]
     return f[stage]["latest"]
 
 

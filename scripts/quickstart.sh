@@ -14,4 +14,4 @@ echo "figures:"
 echo
 echo "archive: $(pwd)/results/quickstart.h5"
 echo "inspect: ./target/release/laydown show results/quickstart.h5 ideal"
-echo "python:  xarray.open_dataset('results/quickstart.h5', group='/ideal/latest', engine='h5netcdf')"
+echo "python:  t = xarray.open_datatree('results/quickstart.h5', engine='h5netcdf'); t['ideal'][t['ideal'].attrs['current']]"

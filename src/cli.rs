@@ -29,16 +29,20 @@ pub enum Command {
     Run {
         /// The pipeline YAML file.
         pipeline: PathBuf,
-        /// Run only this stage, on the existing versions of its inputs.
+        /// Run only this stage, on the current versions of its inputs (with a warning
+        /// naming any that is out of date).
         #[arg(long, value_name = "STAGE", conflicts_with = "from")]
         only: Option<String>,
-        /// Run this stage and every stage downstream of it.
+        /// Recompute this stage and run every stage downstream of it.
         #[arg(long, value_name = "STAGE")]
         from: Option<String>,
+        /// Say for each stage what would run and why; compute and write nothing.
+        #[arg(long)]
+        dry_run: bool,
         /// Ignore the cache for this stage (repeatable).
         #[arg(long, value_name = "STAGE")]
         force: Vec<String>,
-        /// Write to this archive instead of the pipeline's `archive:`.
+        /// Write to this archive instead of the pipeline's `archive:` (relative to the working directory).
         #[arg(long, value_name = "PATH")]
         archive: Option<PathBuf>,
         /// Where stages run: `local` (this process, all cores; the default) or `slurm`
@@ -70,12 +74,21 @@ pub enum Command {
     },
     /// Parse and check a pipeline without computing anything.
     Validate { pipeline: PathBuf },
-    /// List stages and versions of an archive (status, params hash, wall time).
+    /// Print a pipeline's stage graph: one stage per line in the order they run, with
+    /// kind, size and inputs; or Graphviz DOT (`laydown dag P --dot | dot -Tsvg > dag.svg`).
+    Dag {
+        pipeline: PathBuf,
+        /// Graphviz DOT instead of text.
+        #[arg(long)]
+        dot: bool,
+    },
+    /// List stages and versions of an archive (status, params hash, wall time); `*`
+    /// marks each stage's current version, the one the pipeline's last run matched or wrote.
     Ls { archive: PathBuf },
     /// Check every version of an archive against the hashes stored when it was
     /// committed (reading every value); names each damaged group and dataset. Exit 1 on damage.
     Verify { archive: PathBuf },
-    /// Show a stage version's provenance and datasets (`STAGE` is the latest version).
+    /// Show a stage version's provenance and datasets (`STAGE` is its current version).
     Show {
         archive: PathBuf,
         /// `STAGE` or `STAGE@vN`.
@@ -103,7 +116,7 @@ pub enum Command {
     /// Draw a stage version's figures (PNG or SVG) and print their paths.
     Plot {
         archive: PathBuf,
-        /// `STAGE` or `STAGE@vN`; several may be given. Default: every stage's latest version.
+        /// `STAGE` or `STAGE@vN`; several may be given. Default: every stage's current version.
         stages: Vec<String>,
         /// Directory for the figures (default: `<archive stem>_figures/<stage>/vN/` beside the archive).
         #[arg(long, value_name = "DIR")]
@@ -116,7 +129,7 @@ pub enum Command {
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
     match cli.command {
-        Command::Run { pipeline: path, only, from, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg } => {
+        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg } => {
             let mut p = match pipeline::load(&path) {
                 Ok(p) => p,
                 Err(d) => {
@@ -129,7 +142,7 @@ pub fn main_with(cli: Cli) -> i32 {
                     eprintln!("error: --archive: `{}` is a directory; give the path of an HDF5 file, e.g. {}", a.display(), a.join("study.h5").display());
                     return 2;
                 }
-                p.archive = a;
+                p.archive = crate::archive::absolute(&a);
             }
             if let Some(e) = executor {
                 p.executor.kind = crate::executor::ExecutorKind::parse(&e).expect("checked by clap");
@@ -146,11 +159,11 @@ pub fn main_with(cli: Cli) -> i32 {
             if !sbatch_arg.is_empty() {
                 p.executor.sbatch_args = sbatch_arg;
             }
-            let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal(), executor: None };
+            let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal(), executor: None, dry_run };
             match runner::run(&p, &opts) {
                 Ok(reports) => {
                     // The results of every image stage that ran, on stdout (as `laydown table`).
-                    for r in reports.iter().filter(|r| r.ran_because.is_some()) {
+                    for r in reports.iter().filter(|r| r.ran_because.is_some() && !dry_run) {
                         if p.stage(&r.stage).is_some_and(|s| s.kind == "image") {
                             let stage_ref = format!("{}@v{}", r.stage, r.version);
                             match crate::table::read_table(&p.archive, &stage_ref, false) {
@@ -162,7 +175,6 @@ pub fn main_with(cli: Cli) -> i32 {
                             }
                         }
                     }
-                    println!("archive: {}", p.archive.display());
                     0
                 }
                 Err(e) => {
@@ -182,6 +194,16 @@ pub fn main_with(cli: Cli) -> i32 {
             Ok(p) => {
                 let n: usize = p.stages.iter().map(|s| s.points().0.len() * s.replicates).sum();
                 println!("{}: ok ({} stages, {} units of work)", path.display(), p.stages.len(), n);
+                0
+            }
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
+        Command::Dag { pipeline: path, dot } => match pipeline::load(&path) {
+            Ok(p) => {
+                print!("{}", if dot { pipeline::dag::dot(&p) } else { pipeline::dag::text(&p) });
                 0
             }
             Err(d) => {
@@ -229,13 +251,15 @@ pub fn exit_code(e: &anyhow::Error) -> i32 {
 /// Lists everything before printing, so a failure prints nothing to stdout.
 fn ls(path: &std::path::Path) -> Result<()> {
     let archive = Archive::open_read(path)?;
-    let mut lines = vec![format!("{:<16} {:>4} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)")];
+    let marks = archive.current_marks()?;
+    let mut lines = vec![format!("{:<16} {:>5} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)")];
     for stage in archive.stages()? {
         for v in archive.versions(&stage)? {
+            let mark = if marks.get(&stage) == Some(&v.number) { "*" } else { " " };
             lines.push(format!(
-                "{:<16} {:>4} {:<10} {:<10} {:<17} {:>10.2}  {}",
+                "{:<16} {:>5} {:<10} {:<10} {:<17} {:>10.2}  {}",
                 stage,
-                format!("v{}", v.number),
+                format!("v{}{mark}", v.number),
                 v.attr_str("stage_kind").unwrap_or("?"),
                 v.attr_str("status").unwrap_or("?"),
                 v.attr_str("params_hash").unwrap_or("?"),
@@ -243,6 +267,9 @@ fn ls(path: &std::path::Path) -> Result<()> {
                 v.attr_str("end_utc").unwrap_or("?"),
             ));
         }
+    }
+    if !marks.is_empty() {
+        lines.push("* current: the version the pipeline's last run matched or wrote".into());
     }
     println!("{}", lines.join("\n"));
     Ok(())
@@ -316,6 +343,7 @@ fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
     let v = archive.version(&stage, number)?;
     // A damaged version is reported, not shown as if it were healthy.
     v.check()?;
+    let current = archive.current(&stage)?;
     let file = v.open()?;
     let mut datasets = vec![];
     for name in file.member_names()? {
@@ -345,11 +373,16 @@ fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
             .iter()
             .map(|(n, shape, u, l)| serde_json::json!({"name": n, "shape": shape, "units": u, "long_name": l}))
             .collect();
-        let doc = serde_json::json!({"stage": stage, "version": v.number, "group": v.group_path(), "provenance": prov, "datasets": ds});
+        let doc = serde_json::json!({"stage": stage, "version": v.number, "current": current == Some(v.number), "group": v.group_path(), "provenance": prov, "datasets": ds});
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());
     }
-    println!("{} ({})", v.group_path(), v.file.display());
+    let status = match current {
+        Some(n) if n == v.number => "current".to_string(),
+        Some(n) => format!("not current: the pipeline's last run used v{n}"),
+        None => "no version is marked current (an archive of an older laydown)".to_string(),
+    };
+    println!("{} ({}; {status})", v.group_path(), v.file.display());
     println!("provenance:");
     for (k, a) in &v.attrs {
         let text = match a {

@@ -11,6 +11,11 @@
 //! A version is used only once its datasets match the hashes stored with it
 //! ([`VersionInfo::verify`]): a damaged up-to-date version is computed again (and the
 //! reason says so), a damaged input of a stage that must run is an error.
+//!
+//! Each run marks, per stage, the version it matched or wrote as current ([`Marks`],
+//! `Archive::current`); stages outside an `--only`/`--from` selection use their current
+//! version and say why it is out of date when it is. A dry run makes the same decisions
+//! without computing or writing ([`Decision::dry_run`]).
 use crate::archive::data::{Attr, Output, Values};
 use crate::archive::{provenance, Archive, Integrity, VersionInfo};
 use crate::params::ParamValue;
@@ -23,15 +28,17 @@ use std::time::Instant;
 
 #[derive(Debug, Default, Clone)]
 pub struct RunOptions {
-    /// Run only this stage, on the existing versions of its inputs.
+    /// Run only this stage, on the current versions of its inputs.
     pub only: Option<String>,
-    /// Run this stage and everything downstream of it.
+    /// Recompute this stage (as with `force`) and run everything downstream of it.
     pub from: Option<String>,
     /// Ignore the cache for these stages.
     pub force: Vec<String>,
     pub progress: bool,
     /// Where stages run; `None`: the pipeline file's `executor:` (local by default).
     pub executor: Option<crate::executor::ExecutorConfig>,
+    /// Say what would run and why; compute and write nothing.
+    pub dry_run: bool,
 }
 
 /// Why a run failed: bad input (exit 2) or a runtime failure (exit 1).
@@ -64,8 +71,9 @@ fn classify(e: anyhow::Error) -> RunError {
 #[derive(Debug, Clone)]
 pub struct StageReport {
     pub stage: String,
+    /// The version used or written (0: a dry run's stage that would run).
     pub version: u32,
-    /// `None` when up to date, otherwise why it ran.
+    /// `None` when up to date, otherwise why it ran (or would run).
     pub ran_because: Option<String>,
     pub wall_seconds: f64,
 }
@@ -95,6 +103,9 @@ fn fingerprint_with_code(decl: &StageDecl, cache_version: u32, code: &str, seed:
     }
     h.finalize().to_hex()[..32].to_string()
 }
+
+/// The reason when nothing that [`reason`] compares differs.
+const NO_MATCH: &str = "no complete version with this fingerprint";
 
 /// Human reason why `decl` differs from the previous version `prev`.
 fn reason(
@@ -172,7 +183,7 @@ fn reason(
         why.push(format!("input files: {}{more}", changed.join(", ")));
     }
     if why.is_empty() {
-        why.push("no complete version with this fingerprint".into());
+        why.push(NO_MATCH.into());
     }
     why.join(", ")
 }
@@ -317,7 +328,59 @@ pub fn stage_context(pipeline: &Pipeline, decl: &StageDecl, inputs: &[VersionInf
     }
 }
 
-/// Run the pipeline; prints one line per stage to stdout.
+/// The `current` marks of the archive (`Archive::current`) as this run moves them: a
+/// stage's mark moves to the version the run matched or wrote. Marks of stages that
+/// were matched wait in `pending` and are committed with the next version written, or
+/// at the end of the run ([`run`]), so every mark is written crash-safely in a commit.
+struct Marks {
+    stored: BTreeMap<String, u32>,
+    pending: BTreeMap<String, u32>,
+}
+
+impl Marks {
+    fn get(&self, stage: &str) -> Option<u32> {
+        self.pending.get(stage).or(self.stored.get(stage)).copied()
+    }
+
+    /// Mark `number` current; returns the previously current version if it was another.
+    fn set(&mut self, stage: &str, number: u32) -> Option<Option<u32>> {
+        let before = self.get(stage);
+        if self.stored.get(stage) == Some(&number) {
+            self.pending.remove(stage);
+        } else {
+            self.pending.insert(stage.to_string(), number);
+        }
+        (before != Some(number)).then_some(before)
+    }
+
+    /// The pending marks were committed.
+    fn committed(&mut self) {
+        self.stored.extend(std::mem::take(&mut self.pending));
+    }
+}
+
+/// `, now current (was v2)` when matching a version moved the stage's mark (`, now
+/// current` in an archive without marks).
+fn moved(stage: &str, number: u32, marks: &mut Marks) -> String {
+    match marks.set(stage, number) {
+        Some(Some(before)) => format!(", now current (was v{before})"),
+        Some(None) => ", now current".to_string(),
+        None => String::new(),
+    }
+}
+
+/// The stage's current version among `complete` (the newest in archives without marks).
+fn current_of<'a>(stage: &str, complete: &[&'a VersionInfo], marks: &Marks) -> Option<&'a VersionInfo> {
+    match marks.get(stage) {
+        Some(n) => complete.iter().find(|v| v.number == n).copied(),
+        None => complete.last().copied(),
+    }
+}
+
+/// Run the pipeline; prints the absolute archive path, then one line per stage, to
+/// stdout. With `opts.dry_run`, says what would run and why, and computes and writes
+/// nothing. Marks every stage's current version (see [`Marks`]), also when a later
+/// stage fails.
 pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, RunError> {
     for name in opts.only.iter().chain(opts.from.iter()).chain(opts.force.iter()) {
         if pipeline.stage(name).is_none() {
@@ -334,8 +397,41 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         (None, Some(from)) => pipeline.downstream(from),
         (None, None) => pipeline.topological_order(),
     };
-    let archive = Archive::open_write(&pipeline.archive).map_err(RunError::Runtime)?;
+    let archive = if opts.dry_run { Archive::open_if_exists(&pipeline.archive) } else { Archive::open_write(&pipeline.archive) }
+        .map_err(RunError::Runtime)?;
+    let mut marks = Marks { stored: archive.current_marks().map_err(RunError::Runtime)?, pending: BTreeMap::new() };
+    println!("archive: {}{}", archive.path.display(), if opts.dry_run { " (dry run: nothing is computed or written)" } else { "" });
+    let result = run_stages(pipeline, opts, &archive, &selected, &mut marks);
+    if opts.dry_run || marks.pending.is_empty() {
+        return result;
+    }
+    let named: Vec<String> = marks.pending.iter().map(|(s, n)| format!("{s} v{n}")).collect();
+    let flushed = archive
+        .mark_current(
+            &format!("laydown archive of pipeline {}", pipeline.name),
+            &marks.pending,
+            &format!("{} laydown run {}: current {}", provenance::utc_now(), pipeline.file.display(), named.join(", ")),
+        )
+        .map_err(RunError::Runtime);
+    match (result, flushed) {
+        (Ok(r), Ok(())) => Ok(r),
+        (Ok(_), Err(e)) => Err(e),
+        (Err(e), Ok(())) => Err(e),
+        (Err(e), Err(f)) => {
+            eprintln!("warning: the current versions of {} could not be marked: {f}", named.join(", "));
+            Err(e)
+        }
+    }
+}
+
+/// [`run`]'s stages, in topological order, on an open archive.
+fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selected: &[String], marks: &mut Marks) -> Result<Vec<StageReport>, RunError> {
     let mut chosen: BTreeMap<String, VersionInfo> = BTreeMap::new();
+    // Why the version chosen for a stage is out of date (a stage outside the selection,
+    // or one run on such a version).
+    let mut stale: BTreeMap<String, String> = BTreeMap::new();
+    // Dry run: the stages that would run (their results, hence their content, are unknown).
+    let mut would_run: std::collections::BTreeSet<String> = Default::default();
     // Versions checked against their stored hashes (or written) in this run.
     let mut verified: std::collections::BTreeSet<String> = Default::default();
     let mut reports = vec![];
@@ -372,18 +468,66 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
             fp_inputs.extend(files.iter().map(|(p, h)| (format!("file:{p}"), h.clone())));
             fingerprint(decl, stage.cache_version(), seed, &fp_inputs)
         });
-        let cached = fp
-            .as_ref()
-            .and_then(|fp| complete.iter().rev().find(|v| v.attr_str("fingerprint") == Some(fp.as_str())).copied());
-
+        // The current version when it matches (the mark stays), else the newest that does.
+        let current = current_of(&name, &complete, marks);
+        let matches = |v: &VersionInfo| fp.as_deref().is_some_and(|fp| v.attr_str("fingerprint") == Some(fp));
+        let cached = current.filter(|v| matches(v)).or_else(|| complete.iter().rev().find(|v| matches(v)).copied());
+        let stale_input = decl.inputs.iter().find(|i| stale.contains_key(*i) || would_run.contains(*i));
         if !selected.contains(&name) {
-            // A stage outside the selection keeps the version matching its inputs, else its latest.
-            match cached.or(complete.last().copied()) {
-                Some(v) => {
-                    println!("{name}: not selected, using v{}", v.number);
-                    chosen.insert(name.clone(), v.clone());
+            // A stage outside the selection keeps the version matching its inputs, else its
+            // current one, and says why that one is out of date.
+            let (used, why_stale) = match (cached, current) {
+                (Some(v), _) => (v, stale_input.map(|i| format!("input {i} is out of date"))),
+                (None, Some(v)) => {
+                    let why = match (&inputs, stale_input) {
+                        (_, Some(i)) if would_run.contains(i) => format!("input {i} would run"),
+                        (Some(inputs), _) => {
+                            let numbers: Vec<(String, u32)> = inputs.iter().map(|v| (v.stage.clone(), v.number)).collect();
+                            reason(decl, stage.cache_version(), seed, &numbers, &files, Some(v))
+                        }
+                        (None, _) => "an input has no version".to_string(),
+                    };
+                    (v, Some(why))
                 }
-                None => println!("{name}: not selected, no version yet"),
+                (None, None) => {
+                    println!("{name}: not selected, no version yet");
+                    continue;
+                }
+            };
+            let mark = if cached.is_some() && !opts.dry_run { moved(&name, used.number, marks) } else { String::new() };
+            match why_stale {
+                Some(why) => {
+                    println!("{name}: not selected, using v{} (out of date: {why}){mark}", used.number);
+                    stale.insert(name.clone(), why);
+                }
+                None => println!("{name}: not selected, using v{}{mark}", used.number),
+            }
+            chosen.insert(name.clone(), used.clone());
+            continue;
+        }
+        let forced = opts.force.contains(&name) || opts.from.as_ref() == Some(&name);
+        let force_flag = if opts.force.contains(&name) { "--force" } else { "--from" };
+        // A stale upstream is used, but never silently.
+        let stale_inputs: Vec<&String> = decl.inputs.iter().filter(|i| stale.contains_key(*i)).collect();
+        for i in stale_inputs {
+            eprintln!("warning: {}", stale_warning(pipeline, &name, &chosen[i], &stale[i]));
+            stale.insert(name.clone(), format!("input {i} is out of date"));
+        }
+        if opts.dry_run {
+            let upstream: Vec<&str> = decl.inputs.iter().filter(|i| would_run.contains(*i)).map(String::as_str).collect();
+            let ctx = Decision { decl, cache_version: stage.cache_version(), seed, files: &files, current, cached, forced: forced.then_some(force_flag) };
+            match ctx.dry_run(inputs.as_deref(), &upstream) {
+                Planned::UpToDate(v) => {
+                    println!("{name}: up to date (v{})", v.number);
+                    chosen.insert(name.clone(), v.clone());
+                    reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
+                }
+                Planned::Runs(why) => {
+                    println!("{name}: would run: {why}");
+                    would_run.insert(name.clone());
+                    reports.push(StageReport { stage: name.clone(), version: 0, ran_because: Some(why), wall_seconds: 0.0 });
+                }
+                Planned::CannotRun(why) => println!("{name}: cannot run: {why}"),
             }
             continue;
         }
@@ -394,7 +538,6 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
                 pipeline.archive.display()
             )));
         };
-        let forced = opts.force.contains(&name);
         // An up-to-date version is used only once its stored hashes check out.
         let mut damaged = None;
         if let (Some(v), false) = (cached, forced) {
@@ -404,7 +547,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
                     damaged = Some(format!("stored v{} is damaged ({}); computing it again", v.number, problems.join("; ")));
                 }
                 Integrity::Ok | Integrity::Unverifiable => {
-                    println!("{name}: up to date (v{})", v.number);
+                    println!("{name}: up to date (v{}){}", v.number, moved(&name, v.number, marks));
                     verified.insert(v.group_path());
                     chosen.insert(name.clone(), v.clone());
                     reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
@@ -435,9 +578,9 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         let why = if let Some(d) = damaged {
             d
         } else if forced && cached.is_some() {
-            "forced (--force)".to_string()
+            format!("forced ({force_flag})")
         } else {
-            reason(decl, stage.cache_version(), seed, &input_versions, &files, complete.last().copied())
+            reason(decl, stage.cache_version(), seed, &input_versions, &files, current)
         };
         println!("{name}: runs: {why}");
 
@@ -518,11 +661,12 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         attrs.extend(executor_attrs);
 
         let number = archive
-            .commit_version(
+            .commit_version_marking(
                 &format!("laydown archive of pipeline {}", pipeline.name),
                 &name,
                 &out,
                 &attrs,
+                &marks.pending,
                 &format!(
                     "{} laydown run {}: {name} ({why})",
                     provenance::utc_now(),
@@ -530,6 +674,8 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
                 ),
             )
             .map_err(RunError::Runtime)?;
+        marks.pending.insert(name.clone(), number);
+        marks.committed();
         let v = archive.version(&name, Some(number)).map_err(RunError::Runtime)?;
         crate::executor::committed(&executor, &job);
         println!("{name}: wrote v{number} in {wall:.2} s");
@@ -538,6 +684,73 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
         reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });
     }
     Ok(reports)
+}
+
+/// What a dry run finds for a selected stage.
+enum Planned<'a> {
+    UpToDate(&'a VersionInfo),
+    /// Why it would run.
+    Runs(String),
+    /// Why it could not (an input has no version).
+    CannotRun(String),
+}
+
+/// What decides whether a selected stage runs, and says why.
+struct Decision<'a> {
+    decl: &'a StageDecl,
+    cache_version: u32,
+    seed: u64,
+    files: &'a [(String, String)],
+    /// The stage's current version (the newest in archives without marks).
+    current: Option<&'a VersionInfo>,
+    /// A complete version with the stage's fingerprint, if its inputs are known.
+    cached: Option<&'a VersionInfo>,
+    /// `--force` or `--from` when that flag forces the stage.
+    forced: Option<&'static str>,
+}
+
+impl<'a> Decision<'a> {
+    fn reason(&self, inputs: &[(String, u32)]) -> String {
+        reason(self.decl, self.cache_version, self.seed, inputs, self.files, self.current)
+    }
+
+    /// A dry run's decision, given the input versions (`None`: one has no version) and the
+    /// inputs that would run first (their new content, hence this stage's fingerprint, unknown).
+    fn dry_run(&self, inputs: Option<&[VersionInfo]>, upstream: &[&str]) -> Planned<'a> {
+        if !upstream.is_empty() {
+            let up = format!("input {} would run first", upstream.join(", "));
+            let own = match self.current {
+                Some(_) => self.reason(&[]),
+                None => "new stage".to_string(),
+            };
+            return Planned::Runs(match self.forced {
+                Some(flag) => format!("forced ({flag}), {up}"),
+                None if own == NO_MATCH => format!("{up} (unless its results come out unchanged)"),
+                None => format!("{own}, {up}"),
+            });
+        }
+        match (self.cached, self.forced) {
+            (Some(v), None) => match v.verify() {
+                Integrity::Damaged(problems) => Planned::Runs(format!("stored v{} is damaged ({})", v.number, problems.join("; "))),
+                Integrity::Ok | Integrity::Unverifiable => Planned::UpToDate(v),
+            },
+            (Some(_), Some(flag)) => Planned::Runs(format!("forced ({flag})")),
+            (None, _) => match inputs {
+                Some(inputs) => Planned::Runs(self.reason(&inputs.iter().map(|v| (v.stage.clone(), v.number)).collect::<Vec<_>>())),
+                None => Planned::CannotRun("an input has no complete version; run it first (without --only)".into()),
+            },
+        }
+    }
+}
+
+/// `spectra uses fibre v1, which is out of date (params.diameter changed ...); ...`
+fn stale_warning(pipeline: &Pipeline, stage: &str, input: &VersionInfo, why: &str) -> String {
+    format!(
+        "{stage} uses {} v{}, which is out of date ({why}); `laydown run {}` brings both up to date",
+        input.stage,
+        input.number,
+        pipeline.file.display(),
+    )
 }
 
 #[cfg(test)]

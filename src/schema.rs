@@ -111,7 +111,7 @@ pub fn pipeline_schema() -> Value {
         "required": ["pipeline", "archive", "stages"],
         "properties": {
             "pipeline": {"type": "string", "description": "Pipeline name"},
-            "archive": {"type": "string", "minLength": 1, "pattern": "\\S", "description": "Path of the HDF5 archive (relative to the working directory)"},
+            "archive": {"type": "string", "minLength": 1, "pattern": "\\S", "description": "Path of the HDF5 archive (relative to the pipeline file's directory)"},
             "seed": {"type": "integer", "minimum": 0, "maximum": i64::MAX, "description": "Base seed of every random stream; default 0"},
             "description": {"type": "string"},
             "executor": {

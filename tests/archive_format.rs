@@ -1,4 +1,4 @@
-//! The archive's on-disk format: versions committed atomically, `latest`, history,
+//! The archive's on-disk format: versions committed atomically, `current`, history,
 //! dimension scales, attributes readable back, the run lock.
 use laydown::archive::data::{Attr, Output};
 use laydown::archive::{hdf, Archive};
@@ -23,7 +23,7 @@ pub fn complete() -> BTreeMap<String, Attr> {
 }
 
 #[test]
-fn versions_latest_history_and_attributes_round_trip() {
+fn versions_current_history_and_attributes_round_trip() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("study.h5");
     let archive = Archive::open_write(&path).unwrap();
@@ -38,9 +38,12 @@ fn versions_latest_history_and_attributes_round_trip() {
     let f = hdf5::File::open(&path).unwrap();
     let root = hdf::read_attrs(&f).unwrap();
     assert_eq!(root.get("history"), Some(&Attr::Str("line one\nline two".into())));
-    assert_eq!(root.get("layout_version"), Some(&Attr::I64(1)));
-    let latest = f.group("fibre/latest").unwrap();
-    assert_eq!(hdf::read_attrs(&latest).unwrap().get("version"), Some(&Attr::I64(2)));
+    assert_eq!(root.get("layout_version"), Some(&Attr::I64(2)));
+    // A committed version is current; no soft link duplicates it.
+    let stage = f.group("fibre").unwrap();
+    assert_eq!(hdf::read_attrs(&stage).unwrap().get("current"), Some(&Attr::Str("v2".into())));
+    assert!(!stage.link_exists("latest"));
+    assert_eq!(archive.current("fibre").unwrap(), Some(2));
     let pos = hdf::read_f64(&f.group("fibre/v1").unwrap(), "positions").unwrap();
     assert_eq!(pos.shape(), &[5, 3]);
     assert_eq!(pos[[4, 2]], 14.0);
@@ -115,5 +118,28 @@ fn a_failed_commit_removes_the_partial_copy_and_keeps_the_archive() {
     assert!(err.starts_with(&format!("archive {}: committing failed, the archive is unchanged: ", archive.path.display())), "{err}");
     assert!(err.contains("dimension `node`") && !err.contains('\n'), "{err}");
     assert!(!dir.path().join("study.h5.partial").exists(), ".partial left behind");
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+}
+
+#[test]
+fn current_marks_move_only_inside_commits() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("study.h5");
+    let archive = Archive::open_write(&path).unwrap();
+    for _ in 0..2 {
+        archive.commit_version("t", "fibre", &sample_output(), &complete(), "h").unwrap();
+    }
+    archive.commit_version("t", "web", &sample_output(), &complete(), "h").unwrap();
+    archive.mark_current("t", &BTreeMap::from([("fibre".to_string(), 1)]), "back to v1").unwrap();
+    assert_eq!(archive.current("fibre").unwrap(), Some(1));
+    assert_eq!(archive.version("fibre", None).unwrap().number, 1);
+    // A mark travels with the next version written, in the same commit.
+    let marks = BTreeMap::from([("fibre".to_string(), 2)]);
+    archive.commit_version_marking("t", "web", &sample_output(), &complete(), &marks, "h").unwrap();
+    assert_eq!(archive.current_marks().unwrap(), BTreeMap::from([("fibre".to_string(), 2), ("web".to_string(), 2)]));
+    // A version that does not exist is never marked.
+    let before = std::fs::read(&path).unwrap();
+    let err = archive.mark_current("t", &BTreeMap::from([("fibre".to_string(), 9)]), "h").unwrap_err().to_string();
+    assert!(err.ends_with("cannot mark /fibre/v9 current: there is no such version"), "{err}");
     assert_eq!(std::fs::read(&path).unwrap(), before);
 }

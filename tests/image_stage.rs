@@ -519,7 +519,8 @@ fn cli_pixel_size_from_the_file_with_its_source_and_parameters_override_it() {
     assert_eq!(read_strings(&archive, "scans", "group"), ["a", "b", "c", "d", "e"]);
     let o = text(&out).0;
     let cv = read(&archive, "scans", "cv_corr_mean");
-    assert!(o.contains("scans@v1 (laydown table out/study.h5 scans@v1):\ncondition,condition_samples,"), "{o}");
+    // The archive is named by its absolute path (`archive:` is relative to the pipeline file).
+    assert!(o.contains(&format!("scans@v1 (laydown table {} scans@v1):\ncondition,condition_samples,", d.canonicalize().unwrap().join("out/study.h5").display())), "{o}");
     assert!(o.lines().any(|l| l.starts_with("c,1,") && l.contains(&format!(",{:?},", cv[2]))), "{o}");
     let warning: Vec<&str> = e.lines().filter(|l| l.contains("warning")).collect();
     assert!(warning.len() == 1 && warning[0].contains("e.png") && !warning[0].contains("a.png"), "{e}");

@@ -181,7 +181,8 @@ fn every_stage_kind_tabulates_its_per_point_and_per_replicate_results() {
     for r in &t.rows {
         expected += &format!("\n{}", r.join(","));
     }
-    assert!(out.contains("scans@v1 (laydown table t.h5 scans@v1):") && out.contains(&expected), "{out}");
+    let archive = d.canonicalize().unwrap().join("t.h5");
+    assert!(out.contains(&format!("scans@v1 (laydown table {} scans@v1):", archive.display())) && out.contains(&expected), "{out}");
     assert!(out.contains("notch@v1 (laydown table"), "{out}");
     assert!(!out.contains("fibre@v1 (laydown table"), "only image stages: {out}");
 }

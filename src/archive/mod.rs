@@ -1,6 +1,8 @@
 //! The study archive: one self-contained HDF5 file per study whose groups
-//! `/<stage>/v<N>` hold every run of every stage with its provenance, plus a soft link
-//! `/<stage>/latest`, root attributes (`Conventions`, `history`, `layout_version`).
+//! `/<stage>/v<N>` hold every run of every stage with its provenance, the attribute
+//! `current` on each `/<stage>` naming the version the pipeline's last run matched or
+//! wrote ([`Archive::current`]), and root attributes (`Conventions`, `history`,
+//! `layout_version`).
 //!
 //! # Crash safety
 //! HDF5 1.10 has no journaling and a process killed mid-write can corrupt the file it
@@ -34,7 +36,11 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 /// Version of the archive layout described in schemas/archive_layout.md.
-pub const LAYOUT_VERSION: i64 = 1;
+/// 2: `/<stage>` carries `current`; the `latest` soft links of layout 1 are gone.
+pub const LAYOUT_VERSION: i64 = 2;
+
+/// The attribute of `/<stage>` naming its current version (`v3`).
+pub const CURRENT_ATTR: &str = "current";
 
 /// Where the figures of `stage` version `number` go: `<archive stem>_figures/<stage>/v<number>/`
 /// beside the archive (used by stages that draw while they run and by `laydown plot`).
@@ -170,6 +176,16 @@ impl Archive {
         Ok(Archive { path: path.to_path_buf(), _lock: None })
     }
 
+    /// Open for reading what is there, if anything (a dry run): a missing archive reads
+    /// as empty; nothing is created, locked or removed.
+    pub fn open_if_exists(path: &Path) -> Result<Self> {
+        if path.is_dir() {
+            bail!("archive {} is a directory; give the path of an HDF5 file, e.g. {}", path.display(), path.join("study.h5").display());
+        }
+        let path = resolve(path).unwrap_or_else(|_| resolve_existing_part(path));
+        Ok(Archive { path, _lock: None })
+    }
+
     /// Open for writing: takes the run lock (failing fast if another run holds it) and
     /// removes a temporary copy left by a killed run. Creates nothing else.
     ///
@@ -238,12 +254,17 @@ impl Archive {
         Ok(out)
     }
 
+    /// Version `number` of a stage, or with `None` its current one ([`Self::current`]).
     pub fn version(&self, stage: &str, number: Option<u32>) -> Result<VersionInfo> {
         let versions = self.versions(stage)?;
         if versions.is_empty() {
             let stages = self.stages()?;
             return Err(BadInput(format!("stage `{stage}` has no versions in {}; stages present: {}", self.path.display(), stages.join(", "))).into());
         }
+        let number = match number {
+            Some(n) => Some(n),
+            None => self.current(stage)?,
+        };
         let found = match number {
             Some(n) => versions.iter().find(|v| v.number == n).cloned(),
             None => versions.last().cloned(),
@@ -254,8 +275,34 @@ impl Archive {
         })
     }
 
-    /// Commit a new version of `stage` (and a `history` line); returns its number.
-    /// Atomic: see the module docs.
+    /// The current version of a stage: the one the pipeline's last run matched or wrote
+    /// (attribute `current` of `/<stage>`). `None` when the stage has no versions or none
+    /// is marked (archives of layout 1, before marks existed).
+    pub fn current(&self, stage: &str) -> Result<Option<u32>> {
+        Ok(self.current_marks()?.get(stage).copied())
+    }
+
+    /// Every stage's current version ([`Self::current`]), by stage name.
+    pub fn current_marks(&self) -> Result<BTreeMap<String, u32>> {
+        let mut marks = BTreeMap::new();
+        if !self.path.exists() {
+            return Ok(marks);
+        }
+        let file = open_hdf5(&self.path)?;
+        for group in file.groups()? {
+            let stage = group.name().trim_start_matches('/').to_string();
+            let Some(Attr::Str(mark)) = hdf::read_attrs(&group)?.remove(CURRENT_ATTR) else { continue };
+            // A mark naming no complete group (never written so) is ignored, not trusted.
+            let number = mark.strip_prefix('v').and_then(|n| n.parse::<u32>().ok());
+            if let Some(n) = number.filter(|n| group.link_exists(&format!("v{n}"))) {
+                marks.insert(stage, n);
+            }
+        }
+        Ok(marks)
+    }
+
+    /// Commit a new version of `stage` (and a `history` line), marked current; returns
+    /// its number. Atomic: see the module docs.
     pub fn commit_version(
         &self,
         title: &str,
@@ -264,7 +311,23 @@ impl Archive {
         attrs: &BTreeMap<String, Attr>,
         history_line: &str,
     ) -> Result<u32> {
+        self.commit_version_marking(title, stage, out, attrs, &BTreeMap::new(), history_line)
+    }
+
+    /// [`Self::commit_version`], also marking the versions in `marks` (stage -> number)
+    /// current in the same atomic commit.
+    pub fn commit_version_marking(
+        &self,
+        title: &str,
+        stage: &str,
+        out: &Output,
+        attrs: &BTreeMap<String, Attr>,
+        marks: &BTreeMap<String, u32>,
+        history_line: &str,
+    ) -> Result<u32> {
         let number = self.versions(stage)?.last().map(|v| v.number + 1).unwrap_or(1);
+        let mut marks = marks.clone();
+        marks.insert(stage.to_string(), number);
         self.transaction(title, history_line, out.byte_size(), |file| {
             let sgroup = match file.group(stage) {
                 Ok(g) => g,
@@ -277,13 +340,20 @@ impl Archive {
             for (k, a) in &all {
                 hdf::write_attr(&group, k, a)?;
             }
-            if sgroup.link_exists("latest") {
-                sgroup.unlink("latest")?;
-            }
-            sgroup.link_soft(&format!("/{stage}/v{number}"), "latest")?;
-            Ok(())
+            write_marks(file, &marks)
         })?;
         Ok(number)
+    }
+
+    /// Mark versions current (stage -> number) without adding any, in one atomic commit
+    /// with a `history` line. Every stage named must have that version.
+    pub fn mark_current(&self, title: &str, marks: &BTreeMap<String, u32>, history_line: &str) -> Result<()> {
+        for (stage, &n) in marks {
+            if !self.versions(stage)?.iter().any(|v| v.number == n) {
+                bail!("archive {}: cannot mark /{stage}/v{n} current: there is no such version", self.path.display());
+            }
+        }
+        self.transaction(title, history_line, 0, |file| write_marks(file, marks))
     }
 
     /// Copy the archive (or start a new one), apply `f`, update the root attributes,
@@ -344,6 +414,25 @@ impl Archive {
         let first = first.lines().next().unwrap_or("").trim().to_string();
         anyhow!("archive {}: committing failed, the archive is unchanged: {first}", self.path.display())
     }
+}
+
+/// Write the `current` marks into an archive being committed, and drop the `latest` soft
+/// links of layout 1 (they named the newest version, not the current one, and appear as
+/// duplicate groups in `xarray.open_datatree`).
+fn write_marks(file: &hdf5::File, marks: &BTreeMap<String, u32>) -> Result<()> {
+    for (stage, n) in marks {
+        let group = file.group(stage).with_context(|| format!("marking /{stage}/v{n} current"))?;
+        if group.attr(CURRENT_ATTR).is_ok() {
+            group.delete_attr(CURRENT_ATTR)?;
+        }
+        hdf::write_attr(&group, CURRENT_ATTR, &Attr::Str(format!("v{n}")))?;
+    }
+    for group in file.groups()? {
+        if group.link_exists("latest") {
+            group.unlink("latest")?;
+        }
+    }
+    Ok(())
 }
 
 /// The `.partial` file a commit is writing, for [`remove_partial_and_die`]; null when none.
@@ -492,6 +581,43 @@ pub fn resolve(path: &Path) -> Result<PathBuf> {
         }
     }
     bail!("archive path {} is a loop of symlinks; make it point to an HDF5 file", path.display())
+}
+
+/// A path whose directory may not exist yet, for display: its longest existing ancestor
+/// resolved ([`fs::canonicalize`]), the rest appended (`..` there taken lexically: nothing
+/// in it exists, so no symlink can be involved).
+fn resolve_existing_part(path: &Path) -> PathBuf {
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut base = absolute.as_path();
+    let mut rest = vec![];
+    while !base.exists() {
+        match (base.parent(), base.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                base = parent;
+            }
+            _ => return absolute,
+        }
+    }
+    let mut out = fs::canonicalize(base).unwrap_or_else(|_| base.to_path_buf());
+    for part in rest.iter().rev() {
+        out.push(part);
+    }
+    out
+}
+
+/// An archive path as the pipeline names it, made absolute: its directory resolved
+/// (symlinks, `.` and `..`; a part that does not exist yet taken lexically) and its file
+/// name kept, so a symlinked archive stays the symlink (figures go beside it, as
+/// `laydown plot` puts them). Used for `archive:` and `--archive`.
+pub fn absolute(path: &Path) -> PathBuf {
+    match (path.parent(), path.file_name()) {
+        (Some(dir), Some(name)) => {
+            let dir = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
+            resolve_existing_part(dir).join(name)
+        }
+        _ => std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf()),
+    }
 }
 
 /// `<archive><suffix>` beside the archive.

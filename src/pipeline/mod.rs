@@ -14,6 +14,7 @@
 //! ```
 //! Every problem is reported with file, line, column, key path and what is allowed;
 //! checking collects all problems rather than stopping at the first.
+pub mod dag;
 pub mod yaml;
 
 use crate::executor::{ExecutorConfig, ExecutorKind};
@@ -143,6 +144,7 @@ impl StageDecl {
 pub struct Pipeline {
     pub file: PathBuf,
     pub name: String,
+    /// Absolute: `archive:` is relative to the pipeline file's directory.
     pub archive: PathBuf,
     pub seed: u64,
     pub description: String,
@@ -305,16 +307,18 @@ impl Checker {
                 None
             }
         };
+        // Relative to the pipeline file (as image files are), whatever the working directory.
         let archive = match get("archive") {
             Some(n) => self.string(n, "archive").and_then(|a| {
+                let path = crate::archive::absolute(&self.dir.join(&a));
                 if a.trim().is_empty() {
                     self.err(n.pos, "archive", "the archive path is empty");
                     None
-                } else if Path::new(&a).is_dir() {
+                } else if path.is_dir() {
                     self.err(n.pos, "archive", format!("`{a}` is a directory; allowed: the path of an HDF5 file, e.g. {}", Path::new(&a).join("study.h5").display()));
                     None
                 } else {
-                    Some(PathBuf::from(a))
+                    Some(path)
                 }
             }),
             None => {

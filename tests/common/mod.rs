@@ -29,3 +29,13 @@ pub fn write_pipeline(dir: &Path, name: &str, yaml: &str) -> PathBuf {
     std::fs::write(&p, yaml).unwrap();
     p
 }
+
+/// Give a file a fresh inode (copy, then rename over it). After this test process has
+/// written an HDF5 file itself, a `laydown` child spawned meanwhile by another test thread
+/// may have inherited HDF5's descriptor (opened without close-on-exec) and with it the
+/// file's lock; the copy carries no lock.
+pub fn fresh_inode(path: &Path) {
+    let tmp = path.with_extension("fresh");
+    std::fs::copy(path, &tmp).unwrap();
+    std::fs::rename(&tmp, path).unwrap();
+}

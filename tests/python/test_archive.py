@@ -18,10 +18,16 @@ def version_groups(f):
                 yield f"/{stage}/{name}", obj
 
 
+def current_group(archive, stage):
+    """The group of a stage's current version, named by the `current` attribute of /<stage>."""
+    with h5py.File(archive, "r") as f:
+        return f"/{stage}/{f[stage].attrs['current']}"
+
+
 def test_root_attributes_follow_cf(quickstart_archive):
     with h5py.File(quickstart_archive, "r") as f:
         assert f.attrs["Conventions"] == "CF-1.8"
-        assert f.attrs["layout_version"] == 1
+        assert f.attrs["layout_version"] == 2
         assert len(f.attrs["history"].splitlines()) >= 1
 
 
@@ -42,17 +48,17 @@ def test_every_version_has_full_provenance_and_units(quickstart_archive):
 def test_xarray_sees_named_dimensions(quickstart_archive):
     with h5py.File(quickstart_archive, "r") as f:
         paths = [p for p, _ in version_groups(f)]
-    for path in paths + ["/ideal/latest", "/fibre/latest"]:
+    for path in paths:
         ds = xr.open_dataset(quickstart_archive, group=path, engine="h5netcdf")
         assert not any(d.startswith("phony_dim") for d in ds.sizes), (path, dict(ds.sizes))
         # Sweep-stacked stages have a `point` dimension; the image stage stacks samples.
         assert "point" in ds.sizes or "sample" in ds.sizes, (path, dict(ds.sizes))
         ds.close()
-    ideal = xr.open_dataset(quickstart_archive, group="/ideal/latest", engine="h5netcdf")
+    ideal = xr.open_dataset(quickstart_archive, group=current_group(quickstart_archive, "ideal"), engine="h5netcdf")
     assert ideal["energy_spectrum"].dims == ("point", "fibre", "bin")
     assert "arc_length" in ideal["curvature"].coords and "angular_frequency" in ideal["energy_spectrum"].coords
     np.testing.assert_allclose(ideal["arc_length"].values[0, 1], ideal["sample_spacing"].values[0])
-    fibre = xr.open_dataset(quickstart_archive, group="/fibre/latest", engine="h5netcdf")
+    fibre = xr.open_dataset(quickstart_archive, group=current_group(quickstart_archive, "fibre"), engine="h5netcdf")
     assert fibre["positions"].dims == ("point", "replicate", "node", "xyz")
     assert list(fibre["xyz"].values) == ["x", "y", "z"]
     assert fibre["positions"].attrs["units"] == "m"
@@ -60,8 +66,27 @@ def test_xarray_sees_named_dimensions(quickstart_archive):
     assert {"fibre", "spectra", "ideal"} <= set(tree.children)
 
 
+def test_current_is_an_attribute_and_no_group_appears_twice(quickstart_archive):
+    """Each stage names its current version; open_datatree sees every version group once."""
+    tree = xr.open_datatree(quickstart_archive, engine="h5netcdf")
+    with h5py.File(quickstart_archive, "r") as f:
+        stages = list(f)
+        for stage in stages:
+            node = tree[stage]
+            versions = sorted(node.children)
+            # Only v<N> groups: no `latest` (or `current`) link duplicating one of them.
+            assert all(v.startswith("v") and v[1:].isdigit() for v in versions), (stage, versions)
+            assert versions == sorted(k for k in f[stage].keys()), stage
+            current = node.attrs["current"]
+            assert current == f[stage].attrs["current"] and current in versions, (stage, current)
+            # A freshly run pipeline's current versions are the ones it wrote.
+            assert current == max(versions, key=lambda v: int(v[1:])), stage
+    ds = tree["ideal"][tree["ideal"].attrs["current"]].to_dataset()
+    assert "energy_spectrum" in ds
+
+
 def test_bending_energy_recomputed_with_numpy(quickstart_archive):
-    ds = xr.open_dataset(quickstart_archive, group="/ideal/latest", engine="h5netcdf")
+    ds = xr.open_dataset(quickstart_archive, group=current_group(quickstart_archive, "ideal"), engine="h5netcdf")
     kappa = ds["curvature"].values[0]            # (fibre, sample)
     ds_ = ds["sample_spacing"].values[0]
     length = ds["segment_length"].values[0]
@@ -78,7 +103,7 @@ def test_bending_energy_recomputed_with_numpy(quickstart_archive):
 
 def test_laydown_statistics_recomputed_with_numpy(quickstart_archive):
     """Radius of gyration (eq 5) of each stored laid fibre and the per-point mean over valid replicates."""
-    ds = xr.open_dataset(quickstart_archive, group="/fibre/latest", engine="h5netcdf")
+    ds = xr.open_dataset(quickstart_archive, group=current_group(quickstart_archive, "fibre"), engine="h5netcdf")
     laid = ds["laid_positions"].values[0]          # (replicate, laid_node, xyz)
     valid = ds["valid"].values[0].astype(bool)
     for r in range(laid.shape[0]):

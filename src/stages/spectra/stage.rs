@@ -1,10 +1,16 @@
 //! `kind: spectra` — the pipeline stage around the spectra numerics: curvature spectra
 //! of laid fibres (input: a laydown stage, one fibre per valid replicate; or a laid_web
 //! stage, every valid fibre of every replicate) or idealised square-wave spectra (no input).
+//!
+//! **Memory** ([`Stage::estimate_memory`]): every spectrum's samples are kept until the
+//! output is written ([`BYTES_PER_SAMPLE`]), with the input's laid nodes read whole
+//! ([`INPUT_BYTES_PER_NODE`]); N is `points_per_segment`, or at most the fibre length
+//! over `sample_spacing`.
 use super::{analyse_fibres, CurvatureSpectrum, SpectraParams, SquareWaveParams, SPECTRA_PARAMS, SQUARE_WAVE_PARAMS};
 use crate::archive::data::Output;
+use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
-use crate::stages::{BadInput, InputRule, RunContext, Stage};
+use crate::stages::{BadInput, Declared, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
 use ndarray::{Array1, Array2, Array3, Axis};
 use num_complex::Complex64;
@@ -12,6 +18,38 @@ use num_complex::Complex64;
 pub struct SpectraStage;
 
 const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
+
+/// Bytes per sample of one spectrum: K_r, κ and θ of its row and a random realisation
+/// (48 B), then the output's K_r real and imaginary, S_r, κ and θ (40 B), rounded up.
+const BYTES_PER_SAMPLE: f64 = 96.0;
+/// Bytes per laid node of the input: the stored positions and landing time read
+/// whole, and the fibre copied out of them.
+const INPUT_BYTES_PER_NODE: f64 = 64.0;
+
+/// The spectra of a declared spectra stage, per output point: (spectra, N samples each).
+pub fn declared_spectra(stage: &Declared) -> Vec<(f64, f64)> {
+    let p = &stage.points[0];
+    let given = p.usize("points_per_segment") as f64;
+    let laid = match stage.inputs.first() {
+        Some(input) if input.kind == "laid_web" => crate::stages::laid_web::stage::declared_fibres(input),
+        Some(input) => crate::stages::laydown::declared_fibres(input),
+        None => {
+            return stage
+                .points
+                .iter()
+                .map(|p| {
+                    let n = match (p.text("preset"), p.usize("points_per_segment")) {
+                        ("none", n) if n > 0 => n,
+                        _ => 1000,
+                    };
+                    (stage.replicates as f64, n as f64)
+                })
+                .collect()
+        }
+    };
+    let spacing = p.f64("sample_spacing");
+    laid.iter().map(|f| (f.count, if given > 0.0 { given } else { (f.length / spacing).floor() + 1.0 })).collect()
+}
 
 /// One spectrum with what produced it.
 struct Row {
@@ -61,6 +99,25 @@ impl Stage for SpectraStage {
             }
         }
         Ok(())
+    }
+
+    fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
+        let spectra = declared_spectra(stage);
+        let samples: f64 = spectra.iter().map(|(n, s)| n * s).sum();
+        let (count, longest) = (spectra.iter().map(|s| s.0).sum::<f64>(), spectra.iter().map(|s| s.1).fold(0.0, f64::max));
+        let (input, params): (f64, &[&str]) = match stage.inputs.first() {
+            Some(i) => {
+                let laid = match i.kind.as_str() {
+                    "laid_web" => crate::stages::laid_web::stage::declared_fibres(i),
+                    _ => crate::stages::laydown::declared_fibres(i),
+                };
+                (laid.iter().map(|f| f.count * f.nodes * INPUT_BYTES_PER_NODE).sum(), &["sample_spacing", "points_per_segment"])
+            }
+            None if stage.points.iter().all(|p| p.text("preset") != "none") => (0.0, &["replicates"]),
+            None => (0.0, &["points_per_segment", "replicates"]),
+        };
+        let what = format!("{count} spectra of up to N = {longest} samples, {BYTES_PER_SAMPLE} B each");
+        Some(Estimate::new(samples * BYTES_PER_SAMPLE + input, what, &stage.name, params))
     }
 
     fn run(&self, ctx: &RunContext) -> Result<Output> {

@@ -1,0 +1,90 @@
+//! Memory estimates: a stage whose estimated peak exceeds the available memory (or
+//! `--max-memory`) is refused by `validate` and `run` with exit 2 before anything is
+//! computed; the refusals of the cases are in tests/bad_pipelines/ (32-34).
+mod common;
+use common::*;
+use std::fs;
+
+const SMALL: &str = "pipeline: small\narchive: study.h5\nstages:\n  - {name: s, kind: spectra, params: {preset: spectrum1}}\n";
+
+/// A web inside its documented range whose grid would need 60 GiB: the web, upstream,
+/// is not computed and the archive does not gain it.
+#[test]
+fn a_grid_of_a_too_wide_web_is_refused_before_the_web_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let good = write_pipeline(tmp.path(), "good.yaml", SMALL);
+    assert_eq!(run_in(tmp.path(), &["run", good.to_str().unwrap()]).status.code(), Some(0));
+    let archive = tmp.path().join("study.h5");
+    let before = fs::read(&archive).unwrap();
+    let bad = write_pipeline(
+        tmp.path(),
+        "wide.yaml",
+        "pipeline: wide\narchive: study.h5\nstages:\n  - {name: web, kind: web, params: {preset: spectrum1, fibres_across: 4000000000}}\n  - {name: grid, kind: grid, input: web}\n",
+    );
+    for cmd in ["validate", "run"] {
+        let out = run_in(tmp.path(), &[cmd, bad.to_str().unwrap(), "--max-memory", "16GiB"]);
+        let (stdout, err) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
+        assert!(err.contains("stages[0].params.fibres_across: stage `grid` (grid) needs more than the 16.0 GiB allowed by --max-memory: about 59.6 GiB"), "{cmd}: {err}");
+        assert!(stdout.is_empty(), "{cmd} printed {stdout}");
+    }
+    assert_eq!(fs::read(&archive).unwrap(), before, "the archive changed");
+    let (ls, _) = text(&run_in(tmp.path(), &["ls", "study.h5"]));
+    assert!(!ls.contains("web"), "the web was committed:\n{ls}");
+    assert!(!tmp.path().join("study.h5.partial").exists());
+}
+
+/// Without --max-memory the limit is the machine's available memory; 320 TiB exceeds
+/// any machine.
+#[test]
+fn the_default_limit_is_the_available_memory() {
+    let dir = repo_root().join("tests/bad_pipelines");
+    let out = run_in(&dir, &["validate", "33_memory_web_preset_long_fibres.yaml"]);
+    let (_, err) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    for part in ["available (MemAvailable; --max-memory overrides)", "about 320.1 TiB", "lower segments_per_fibre, points_per_segment"] {
+        assert!(err.contains(part), "`{part}` missing in: {err}");
+    }
+}
+
+#[test]
+fn max_memory_refuses_a_small_pipeline_and_allows_it_when_large_enough() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = write_pipeline(tmp.path(), "p.yaml", SMALL);
+    for cmd in ["validate", "run"] {
+        let out = run_in(tmp.path(), &[cmd, p.to_str().unwrap(), "--max-memory", "1KiB"]);
+        let (stdout, err) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
+        assert!(err.contains("p.yaml:4:6: stages[0].replicates: stage `s` (spectra) needs more than the 1.0 KiB allowed by --max-memory: about 93.8 KiB at its peak"), "{cmd}: {err}");
+        assert!(err.contains("lower replicates"), "{cmd}: {err}");
+        assert!(stdout.is_empty(), "{cmd} printed {stdout}");
+    }
+    assert!(!tmp.path().join("study.h5").exists(), "a refused run wrote the archive");
+    let out = run_in(tmp.path(), &["validate", p.to_str().unwrap(), "--max-memory", "1GiB"]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+}
+
+#[test]
+fn a_malformed_max_memory_is_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = write_pipeline(tmp.path(), "p.yaml", SMALL);
+    for size in ["lots", "2 parsecs", "0"] {
+        let out = run_in(tmp.path(), &["validate", p.to_str().unwrap(), "--max-memory", size]);
+        let (stdout, err) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{size}: {err}");
+        assert!(err.contains("--max-memory") && err.contains(size), "{size}: {err}");
+        assert!(stdout.is_empty());
+    }
+}
+
+/// Every stage kind that holds large buffers estimates them: with a limit of one byte
+/// each stage of the quickstart (laydown, spectra, web, grid, image, laid_web) is refused.
+#[test]
+fn every_stage_kind_estimates_its_memory() {
+    let out = run_in(&repo_root(), &["validate", "pipelines/quickstart.yaml", "--max-memory", "1"]);
+    let (_, err) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    for kind in ["laydown", "spectra", "web", "grid", "image", "laid_web"] {
+        assert!(err.contains(&format!("({kind}) needs more than the 1.0 B allowed by --max-memory")), "no estimate for {kind}:\n{err}");
+    }
+}

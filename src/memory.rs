@@ -112,7 +112,7 @@ pub fn format_size(bytes: f64) -> String {
 }
 
 /// Memory that could not be had (a runtime failure, exit 1).
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("cannot allocate {} for {what}: out of memory (lower the stage's size, or free memory)", format_size(*.bytes as f64))]
 pub struct AllocError {
     pub bytes: usize,

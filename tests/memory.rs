@@ -88,3 +88,51 @@ fn every_stage_kind_estimates_its_memory() {
         assert!(err.contains(&format!("({kind}) needs more than the 1.0 B allowed by --max-memory")), "no estimate for {kind}:\n{err}");
     }
 }
+
+/// `laydown` with its address space limited to `bytes`: an allocation beyond it fails
+/// as it would on a machine without that memory.
+fn run_with_address_space(dir: &std::path::Path, bytes: u64, args: &[&str]) -> std::process::Output {
+    use std::os::unix::process::CommandExt;
+    let mut cmd = laydown();
+    cmd.current_dir(dir).args(args);
+    // SAFETY: setrlimit is async-signal-safe; nothing else runs between fork and exec.
+    unsafe {
+        cmd.pre_exec(move || {
+            let limit = libc::rlimit { rlim_cur: bytes, rlim_max: bytes };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    cmd.output().expect("laydown runs")
+}
+
+/// Past the estimate (a generous --max-memory), a buffer that cannot be allocated is a
+/// runtime error (exit 1) naming it, not an abort (exit 134), and nothing is committed.
+#[test]
+fn an_allocation_that_fails_is_an_error_not_an_abort() {
+    let tmp = tempfile::tempdir().unwrap();
+    let image = write_pipeline(
+        tmp.path(),
+        "image.yaml",
+        "pipeline: big\narchive: image.h5\nstages:\n  - {name: scans, kind: image, params: {synthetic.kind: noise, synthetic.count: 1, synthetic.rows: 20000, synthetic.cols: 20000}}\n",
+    );
+    let out = run_with_address_space(tmp.path(), 4 << 30, &["run", image.to_str().unwrap(), "--max-memory", "1000TiB"]);
+    let (_, err) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("stage `scans` failed") && err.contains("cannot allocate 6.0 GiB for a synthetic noise image's spectrum"), "{err}");
+    assert!(!tmp.path().join("image.h5").exists() || !text(&run_in(tmp.path(), &["ls", "image.h5"])).0.contains("scans"));
+
+    let wide = write_pipeline(
+        tmp.path(),
+        "wide.yaml",
+        "pipeline: wide\narchive: wide.h5\nstages:\n  - {name: web, kind: web, params: {preset: spectrum1, fibres_across: 4000000000}}\n  - {name: grid, kind: grid, input: web, params: {edge_margin_spreads: 0}}\n",
+    );
+    let out = run_with_address_space(tmp.path(), 4 << 30, &["run", wide.to_str().unwrap(), "--max-memory", "1000TiB"]);
+    let (_, err) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("stage `grid` failed") && err.contains("cannot allocate 59.6 GiB for the fibres' displacements"), "{err}");
+    let (ls, _) = text(&run_in(tmp.path(), &["ls", "wide.h5"]));
+    assert!(ls.contains("web") && !ls.contains("grid "), "{ls}");
+}

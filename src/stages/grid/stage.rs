@@ -36,7 +36,7 @@ use crate::params::{ParamSet, ParamSpec};
 use crate::stages::web::{declared_webs, stored_bytes, web_from_input, Web, SCRATCH_BYTES_PER_NODE};
 use crate::stages::{concurrent, BadInput, Declared, InputRule, RunContext, Stage, Units};
 use anyhow::{anyhow, bail, Result};
-use ndarray::{Array1, Array2, Array3, ArrayD, Axis, IxDyn};
+use ndarray::{Array1, Array2, ArrayD, Axis, IxDyn};
 use std::time::Instant;
 
 pub struct GridStage;
@@ -156,12 +156,20 @@ fn grid_rows(ctx: &RunContext, points: &Points, source: &Source, range: std::ops
         let (i, r) = (u / reps, u % reps);
         let (w, g) = &points[i];
         let t = Instant::now();
-        let res = source.realisation(*w, g, r, ctx.replicates).map_err(|e| BadInput(format!("point {i} (web point {w}), realisation {r}: {e}")))?;
+        let res = source.realisation(*w, g, r, ctx.replicates).map_err(|e| {
+            let at = format!("point {i} (web point {w}), realisation {r}");
+            // memory that could not be had is a runtime failure; anything else is the input's
+            match e.downcast::<super::GridError>() {
+                Ok(super::GridError::Alloc(a)) => anyhow::Error::new(a).context(at),
+                Ok(e) => BadInput(format!("{at}: {e}")).into(),
+                Err(e) => BadInput(format!("{at}: {e}")).into(),
+            }
+        })?;
         results.push((i, r, res, t.elapsed().as_secs_f64()));
         bar.inc(1);
     }
     bar.finish_and_clear();
-    Ok(unit_rows(&results, ctx.points[0].bool("store_density")))
+    unit_rows(&results, ctx.points[0].bool("store_density"))
 }
 
 /// The stage output from the rows of every unit ([`Stage::reduce`]), with the
@@ -305,7 +313,7 @@ type Row = (usize, usize, GridResult, f64);
 
 /// The per-realisation rows of `results`: everything of a realisation that the stage
 /// output holds.
-fn unit_rows(results: &[Row], store_density: bool) -> Output {
+fn unit_rows(results: &[Row], store_density: bool) -> Result<Output> {
     let unit = crate::stages::UNIT_DIM;
     let n = results.len();
     let col = |f: &dyn Fn(&GridResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
@@ -317,7 +325,7 @@ fn unit_rows(results: &[Row], store_density: bool) -> Output {
     out.i64("unit_replicate", &[unit], Array1::from_iter(results.iter().map(|r| r.1 as i64)), "1", "realisation of the row");
     if store_density && n > 0 {
         let cells = results[0].2.density.shape().to_vec();
-        let mut density = Array3::zeros((n, cells[0], cells[1]));
+        let mut density = crate::memory::try_array((n, cells[0], cells[1]), 0.0, "the density maps")?;
         for (u, r) in results.iter().enumerate() {
             density.index_axis_mut(Axis(0), u).assign(&(&r.2.density * 1e3));
         }
@@ -338,7 +346,7 @@ fn unit_rows(results: &[Row], store_density: bool) -> Output {
     out.f64("cv_zone", &[unit, "zone_size"], zone(&|z| z.cv), "1", "");
     out.f64("random_line_cv", &[unit, "zone_size"], zone(&|z| z.random_line_cv), "1", "");
     out.f64("formation_number", &[unit, "zone_size"], zone(&|z| z.formation_number), "1", "");
-    out
+    Ok(out)
 }
 
 /// The stage output from the rows of every (point, realisation) ([`unit_rows`], whole or

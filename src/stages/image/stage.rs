@@ -655,8 +655,8 @@ fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
 fn synthetic_image(p: &ParamSet, seed: u64, pixel: f64, bonded: &RenderParams, plain: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<(Array2<f64>, f64)> {
     let (rows, cols, mean) = (p.usize("synthetic.rows"), p.usize("synthetic.cols"), p.f64("synthetic.mean"));
     let grey = match p.text("synthetic.kind") {
-        "constant" => Array2::from_elem((rows, cols), mean),
-        _ => super::render::smoothed_noise(rows, cols, p.f64("synthetic.correlation"), mean, p.f64("synthetic.cv"), seed),
+        "constant" => crate::memory::try_array((rows, cols), mean, "a synthetic image")?,
+        _ => super::render::try_smoothed_noise(rows, cols, p.f64("synthetic.correlation"), mean, p.f64("synthetic.cv"), seed)?,
     };
     let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("synthetic image: {e}")));
     let web = super::render::overlay(grey.clone(), pixel, plain, None).map_err(bad)?.grey;

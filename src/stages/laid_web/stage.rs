@@ -22,7 +22,7 @@ use crate::stages::laydown::LaydownStage;
 use crate::stages::rows::{self as get, place};
 use crate::stages::{concurrent, Declared, DeclaredFibres, InputRule, RunContext, Stage, Units, UNIT_DIM};
 use anyhow::{bail, Result};
-use ndarray::{Array1, Array2, Array3, ArrayD};
+use ndarray::{Array1, Array2, ArrayD};
 
 pub struct LaidWebStage;
 
@@ -147,7 +147,7 @@ impl Stage for LaidWebStage {
         // every unit's fibre axis is the widest point's, so rows computed apart (Slurm
         // tasks) stack without padding
         let fibres = params.iter().map(|p| p.fibres_across).max().unwrap_or(0);
-        Ok(unit_rows(&webs, fibres))
+        unit_rows(&webs, fibres)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let params: Vec<LaidWebParams> = ctx.points.iter().map(|p| laid_web_params(p).expect("checked")).collect();
@@ -181,11 +181,11 @@ const REASON_SEPARATOR: char = '\u{1f}';
 /// The per-web rows of `webs` ((point, replicate, web) in any order): the laid-node axis
 /// is NaN-padded to the longest web, the fibre axis is `nf` wide (padded with −1, 0, NaN,
 /// invalid). A web's fibre reasons are one text joined by [`REASON_SEPARATOR`].
-fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Output {
+fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     let n = webs.len();
     let nodes = webs.iter().map(|w| w.2.fibres.iter().map(|f| f.fed.laid_nodes()).sum::<usize>()).max().unwrap_or(0);
-    let mut laid = Array3::from_elem((n, nodes, 3), f64::NAN);
-    let mut landing = Array2::from_elem((n, nodes), f64::NAN);
+    let mut laid = crate::memory::try_array((n, nodes, 3), f64::NAN, "the webs' laid nodes")?;
+    let mut landing = crate::memory::try_array((n, nodes), f64::NAN, "the webs' landing times")?;
     let mut start = Array2::from_elem((n, nf), -1i64);
     let mut count = Array2::from_elem((n, nf), 0i64);
     let mut valid = Array2::from_elem((n, nf), false);
@@ -230,7 +230,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Output {
     out.f64("interior_md_min", &[UNIT_DIM], web_col(&|w| w.interior_md[0]), "m", "");
     out.f64("interior_md_max", &[UNIT_DIM], web_col(&|w| w.interior_md[1]), "m", "");
     out.f64("spread", &[UNIT_DIM], web_col(&|w| w.spread), "m", "");
-    out
+    Ok(out)
 }
 
 /// The stage output from the per-web rows of every (point, replicate).

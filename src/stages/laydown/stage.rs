@@ -200,7 +200,7 @@ impl Stage for LaydownStage {
             bar.finish_and_clear();
             out
         };
-        Ok(unit_rows(&scenes, &rows))
+        unit_rows(&scenes, &rows)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
@@ -276,15 +276,16 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 /// everything of a replicate that the stage output holds, with the laid polylines
 /// computed here. Node, laid-node and record axes are padded with NaN to the longest
 /// replicate (the laid axis to the node count, as the output's is).
-fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]) -> Output {
+fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]) -> Result<Output> {
     let nan = f64::NAN;
     let n = results.len();
     let nodes = results.iter().map(|r| r.2.positions.len()).max().unwrap_or(0);
     let ndiag = results.iter().map(|r| r.2.diagnostics.len()).max().unwrap_or(0);
-    let mut positions = Array3::from_elem((n, nodes, 3), nan);
-    let mut laid = positions.clone();
-    let mut laid_removed = positions.clone();
-    let mut landing = Array2::from_elem((n, nodes), nan);
+    let what = "the replicates' rows";
+    let mut positions = crate::memory::try_array((n, nodes, 3), nan, what)?;
+    let mut laid = crate::memory::try_array((n, nodes, 3), nan, what)?;
+    let mut laid_removed = crate::memory::try_array((n, nodes, 3), nan, what)?;
+    let mut landing = crate::memory::try_array((n, nodes), nan, what)?;
     let mut diag = Array3::from_elem((n, ndiag, 8), nan);
     let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
     let ok = |r: &LaydownResult, v: f64| if r.error.is_none() { v } else { f64::NAN };
@@ -332,7 +333,7 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
     out.f64("laid_length", &[unit], column(&|r| r.laid_length), "m", "");
     out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
-    out
+    Ok(out)
 }
 
 /// The stage output from the per-replicate rows of every point ([`unit_rows`], whole or

@@ -12,7 +12,7 @@ use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
 use crate::stages::{BadInput, Declared, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
-use ndarray::{Array1, Array2, Array3, Axis};
+use ndarray::{Array1, Array2, Axis};
 use num_complex::Complex64;
 
 pub struct SpectraStage;
@@ -129,7 +129,7 @@ impl Stage for SpectraStage {
             }
             laid(ctx, &ctx.points[0])?
         };
-        Ok(assemble(&rows))
+        assemble(&rows)
     }
 }
 
@@ -250,17 +250,18 @@ fn laid_web_fibres(input: &crate::stages::Input, belt_removed: bool) -> Result<P
         .collect())
 }
 
-fn assemble(rows: &[Vec<Row>]) -> Output {
+fn assemble(rows: &[Vec<Row>]) -> Result<Output> {
     let npoints = rows.len();
     let nfibres = rows.iter().map(|r| r.len()).max().unwrap_or(0);
     let nbins = rows.iter().flatten().map(|r| r.spectrum.points()).max().unwrap_or(0);
     let nangles = rows.iter().flatten().map(|r| r.tangent_angle.len()).max().unwrap_or(0);
     let nan = f64::NAN;
-    let mut re = Array3::from_elem((npoints, nfibres, nbins), nan);
-    let mut im = re.clone();
-    let mut energy = re.clone();
-    let mut kappa = re.clone();
-    let mut theta = Array3::from_elem((npoints, nfibres, nangles), nan);
+    let what = "the spectra";
+    let mut re = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut im = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut energy = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut kappa = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut theta = crate::memory::try_array((npoints, nfibres, nangles), nan, what)?;
     let mut e_k = Array2::from_elem((npoints, nfibres), nan);
     let mut e_s = e_k.clone();
     let mut valid = Array2::from_elem((npoints, nfibres), false);
@@ -330,7 +331,7 @@ fn assemble(rows: &[Vec<Row>]) -> Output {
     }
     out.f64("sample_spacing", &["point"], spacing, "m", "Δs, arc-length spacing of the samples");
     out.f64("segment_length", &["point"], length, "m", "L = NΔs, length of the analysed fibre or segment");
-    out
+    Ok(out)
 }
 
 impl CurvatureSpectrum {

@@ -31,7 +31,7 @@ use crate::params::{ParamSet, ParamSpec};
 use crate::stages::spectra::{declared_spectra, CurvatureSpectrum, SquareWaveParams};
 use crate::stages::{concurrent, BadInput, Declared, Input, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
-use ndarray::{Array1, Array2, Array3, Array5, Axis};
+use ndarray::{Array1, Array2, Array3, Axis};
 use num_complex::Complex64;
 use rayon::prelude::*;
 
@@ -154,7 +154,7 @@ impl Stage for WebStage {
             .flat_map(|(p, w)| (0..reps).flat_map(move |r| (0..w.sample.len()).map(move |i| (p, r, i))))
             .collect();
         let fibres: Vec<Vec<[f64; 2]>> = jobs.par_iter().map(|&(p, r, i)| webs[p].web.generate_fibre(r as u32, webs[p].sample[i])).collect();
-        Ok(assemble(&webs, reps, &jobs, &fibres))
+        assemble(&webs, reps, &jobs, &fibres)
     }
 }
 
@@ -250,7 +250,7 @@ fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> 
     }
 }
 
-fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibres: &[Vec<[f64; 2]>]) -> Output {
+fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibres: &[Vec<[f64; 2]>]) -> Result<Output> {
     let np = webs.len();
     let nan = f64::NAN;
     let nspec = webs.iter().map(|w| w.spectra.len()).max().unwrap_or(0);
@@ -271,7 +271,7 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
             index[[p, i]] = j as i64;
         }
     }
-    let mut positions = Array5::from_elem((np, reps, nsample, nnodes, 2), nan);
+    let mut positions = crate::memory::try_array((np, reps, nsample, nnodes, 2), nan, "the stored fibres' positions")?;
     for (&(p, r, i), nodes) in jobs.iter().zip(fibres) {
         for (k, n) in nodes.iter().enumerate() {
             positions[[p, r, i, k, 0]] = n[0];
@@ -307,7 +307,7 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
         "fibre_sample_rule".into(),
         "all fibres when n_w·(n_l·N+1) <= store_all_max_points, else sample_fibres fibres j_i = floor((2i+1)·n_w/(2k))".into(),
     );
-    out
+    Ok(out)
 }
 
 /// The webs of a web stage version, one per point, rebuilt bit-exactly from its

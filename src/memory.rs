@@ -59,14 +59,6 @@ impl Estimate {
     pub fn new(bytes: f64, what: impl Into<String>, stage: &str, params: &[&str]) -> Self {
         Self { bytes, what: what.into(), params: params.iter().map(|p| (stage.to_string(), p.to_string())).collect() }
     }
-    /// The larger of two estimates of alternatives (e.g. two phases of a run).
-    pub fn max(self, other: Estimate) -> Estimate {
-        if other.bytes > self.bytes {
-            other
-        } else {
-            self
-        }
-    }
 }
 
 /// `2GiB`, `512 MiB`, `1.5GB`, `4G`, `1000000`: binary units KiB..TiB and K..T (as Slurm's

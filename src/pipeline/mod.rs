@@ -489,14 +489,13 @@ impl Checker {
         for d in all {
             let Some(stage) = stages::find(&d.kind) else { continue };
             let Some(e) = stage.estimate_memory(&declared(all, d, &self.dir)) else { continue };
-            if e.bytes <= limit {
+            if e.bytes.is_nan() || e.bytes <= limit {
                 continue;
             }
             let names: Vec<String> = e.params.iter().map(|(s, p)| if *s == d.name { p.clone() } else { format!("{p} of stage `{s}`") }).collect();
-            let (at, key) = match e.params.first().and_then(|(s, p)| all.iter().position(|x| x.name == *s).map(|i| (i, p))) {
-                Some((i, p)) => (i, p.as_str()),
-                None => (all.iter().position(|x| x.name == d.name).unwrap_or(0), ""),
-            };
+            // reported where the first parameter is set, in the stage that sets it
+            let (stage_name, key) = e.params.first().map_or((d.name.as_str(), ""), |(s, p)| (s.as_str(), p.as_str()));
+            let at = all.iter().position(|x| x.name == stage_name).unwrap_or(0);
             let (pos, key) = match items.get(at).and_then(|n| param_or_key_pos(n, key)) {
                 Some((pos, path)) => (pos, format!("stages[{at}].{path}")),
                 // a parameter left at its default: the stage's position
@@ -808,11 +807,11 @@ fn find_in(node: &Node, parts: &[&str]) -> Option<Pos> {
             None => (key.clone(), None),
         };
         let Some((_, _, v)) = entries.iter().find(|(n, _, _)| *n == name) else { continue };
-        let (v, pos) = match (index, &v.kind) {
-            (Some(i), Kind::Seq(items)) => (items.get(i)?, items.get(i)?.pos),
-            _ => (v, v.pos),
+        let v = match (index, &v.kind) {
+            (Some(i), Kind::Seq(items)) => items.get(i)?,
+            _ => v,
         };
-        return if k == parts.len() { Some(pos) } else { find_in(v, &parts[k..]).or(Some(pos)) };
+        return if k == parts.len() { Some(v.pos) } else { find_in(v, &parts[k..]).or(Some(v.pos)) };
     }
     None
 }

@@ -136,3 +136,26 @@ fn an_allocation_that_fails_is_an_error_not_an_abort() {
     let (ls, _) = text(&run_in(tmp.path(), &["ls", "wide.h5"]));
     assert!(ls.contains("web") && !ls.contains("grid "), "{ls}");
 }
+
+/// The estimates are not so tight that normal work is refused: every shipped pipeline
+/// fits in 2 GiB (the largest, an image sweep, is estimated at under 1 GiB).
+#[test]
+fn every_shipped_pipeline_fits_in_two_gib() {
+    let mut files = vec![];
+    let mut dirs = vec![repo_root().join("pipelines")];
+    while let Some(d) = dirs.pop() {
+        for e in fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|x| x == "yaml") {
+                files.push(p);
+            }
+        }
+    }
+    assert!(files.len() > 10);
+    for f in files {
+        let out = run_in(&repo_root(), &["validate", f.to_str().unwrap(), "--max-memory", "2GiB"]);
+        assert_eq!(out.status.code(), Some(0), "{}: {}", f.display(), text(&out).1);
+    }
+}

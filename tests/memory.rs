@@ -55,7 +55,7 @@ fn max_memory_refuses_a_small_pipeline_and_allows_it_when_large_enough() {
         let out = run_in(tmp.path(), &[cmd, p.to_str().unwrap(), "--max-memory", "1KiB"]);
         let (stdout, err) = text(&out);
         assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
-        assert!(err.contains("p.yaml:4:6: stages[0].replicates: stage `s` (spectra) needs more than the 1.0 KiB allowed by --max-memory: about 93.8 KiB at its peak"), "{cmd}: {err}");
+        assert!(err.contains("p.yaml:4:6: stages[0].replicates: stage `s` (spectra) needs more than the 1.0 KiB allowed by --max-memory: about 32.1 MiB at its peak"), "{cmd}: {err}");
         assert!(err.contains("lower replicates"), "{cmd}: {err}");
         assert!(stdout.is_empty(), "{cmd} printed {stdout}");
     }

@@ -18,7 +18,7 @@
 pub mod yaml;
 
 use crate::executor::{ExecutorConfig, ExecutorKind};
-use crate::memory::{format_size, Limit};
+use crate::memory::{format_size, Limit, PROCESS_BYTES};
 use crate::params::{ParamSet, ParamSpec, ParamValue};
 use crate::stages;
 use std::collections::{BTreeMap, HashMap};
@@ -489,7 +489,8 @@ impl Checker {
         for d in all {
             let Some(stage) = stages::find(&d.kind) else { continue };
             let Some(e) = stage.estimate_memory(&declared(all, d, &self.dir)) else { continue };
-            if e.bytes.is_nan() || e.bytes <= limit {
+            let bytes = e.bytes + PROCESS_BYTES;
+            if bytes.is_nan() || bytes <= limit {
                 continue;
             }
             let names: Vec<String> = e.params.iter().map(|(s, p)| if *s == d.name { p.clone() } else { format!("{p} of stage `{s}`") }).collect();
@@ -511,7 +512,7 @@ impl Checker {
                     d.name,
                     d.kind,
                     format_size(limit),
-                    format_size(e.bytes),
+                    format_size(bytes),
                     e.what,
                     names.join(", ")
                 ),

@@ -25,7 +25,7 @@ fn a_grid_of_a_too_wide_web_is_refused_before_the_web_runs() {
         let out = run_in(tmp.path(), &[cmd, bad.to_str().unwrap(), "--max-memory", "16GiB"]);
         let (stdout, err) = text(&out);
         assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
-        assert!(err.contains("stages[0].params.fibres_across: stage `grid` (grid) needs more than the 16.0 GiB allowed by --max-memory: about 59.6 GiB"), "{cmd}: {err}");
+        assert!(err.contains("stages[0].params.fibres_across: stage `grid` (grid) needs more than the 16.0 GiB allowed by --max-memory: about 59.7 GiB"), "{cmd}: {err}");
         assert!(stdout.is_empty(), "{cmd} printed {stdout}");
     }
     assert_eq!(fs::read(&archive).unwrap(), before, "the archive changed");

@@ -54,14 +54,25 @@ pub struct Estimate {
     pub bytes: f64,
     /// What dominates, for messages: `n_w = 4000000000 fibre displacements of the input web`.
     pub what: String,
-    /// The parameters that drive it, most responsible first: (stage name, parameter).
+    /// The parameters that raise it, most responsible first: (stage name, parameter).
     pub params: Vec<(String, String)>,
+    /// Parameters that lower it as they grow (a cell or element size).
+    pub inverse: Vec<(String, String)>,
 }
 
 impl Estimate {
-    /// An estimate driven by `params` of `stage`.
+    /// An estimate that grows with `params` of `stage`.
     pub fn new(bytes: f64, what: impl Into<String>, stage: &str, params: &[&str]) -> Self {
-        Self { bytes, what: what.into(), params: params.iter().map(|p| (stage.to_string(), p.to_string())).collect() }
+        Self { bytes, what: what.into(), params: params.iter().map(|p| (stage.to_string(), p.to_string())).collect(), inverse: vec![] }
+    }
+    /// ... and falls as `params` of `stage` grow.
+    pub fn falling_with(mut self, stage: &str, params: &[&str]) -> Self {
+        self.inverse.extend(params.iter().map(|p| (stage.to_string(), p.to_string())));
+        self
+    }
+    /// Every parameter involved, those that raise it first.
+    pub fn drivers(&self) -> impl Iterator<Item = &(String, String)> {
+        self.params.iter().chain(&self.inverse)
     }
 }
 

@@ -493,9 +493,16 @@ impl Checker {
             if bytes.is_nan() || bytes <= limit {
                 continue;
             }
-            let names: Vec<String> = e.params.iter().map(|(s, p)| if *s == d.name { p.clone() } else { format!("{p} of stage `{s}`") }).collect();
+            let name = |(s, p): &(String, String)| if *s == d.name { p.clone() } else { format!("{p} of stage `{s}`") };
+            let mut advice = vec![];
+            if !e.params.is_empty() {
+                advice.push(format!("lower {}", e.params.iter().map(name).collect::<Vec<_>>().join(", ")));
+            }
+            if !e.inverse.is_empty() {
+                advice.push(format!("raise {}", e.inverse.iter().map(name).collect::<Vec<_>>().join(", ")));
+            }
             // reported where the first parameter is set, in the stage that sets it
-            let (stage_name, key) = e.params.first().map_or((d.name.as_str(), ""), |(s, p)| (s.as_str(), p.as_str()));
+            let (stage_name, key) = e.drivers().next().map_or((d.name.as_str(), ""), |(s, p)| (s.as_str(), p.as_str()));
             let at = all.iter().position(|x| x.name == stage_name).unwrap_or(0);
             let (pos, key) = match items.get(at).and_then(|n| param_or_key_pos(n, key)) {
                 Some((pos, path)) => (pos, format!("stages[{at}].{path}")),
@@ -508,13 +515,13 @@ impl Checker {
                 pos,
                 &key,
                 format!(
-                    "stage `{}` ({}) needs more than the {} {source}: about {} at its peak ({}); allowed: a run within that memory: lower {}",
+                    "stage `{}` ({}) needs more than the {} {source}: about {} at its peak ({}); allowed: a run within that memory: {}",
                     d.name,
                     d.kind,
                     format_size(limit),
                     format_size(bytes),
                     e.what,
-                    names.join(", ")
+                    advice.join(" or ")
                 ),
             );
         }

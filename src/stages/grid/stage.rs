@@ -97,7 +97,7 @@ impl Stage for GridStage {
             let laid = crate::stages::laid_web::stage::declared_fibres(input);
             let nodes: f64 = laid.iter().map(|f| f.count * f.nodes).sum();
             let what = format!("{nodes:.3e} laid nodes of input `{}` read, {LAID_BYTES_PER_NODE} B each", input.name);
-            (laid.len(), 0.0, nodes * LAID_BYTES_PER_NODE, what, vec![input_param("fibres_across"), input_param("belt_travel"), input_param("element_length")])
+            (laid.len(), 0.0, nodes * LAID_BYTES_PER_NODE, what, vec![input_param("fibres_across"), input_param("belt_travel")])
         } else {
             let webs = declared_webs(input);
             let n_w = webs.iter().map(|w| w.fibres_across).fold(0.0, f64::max);
@@ -116,10 +116,11 @@ impl Stage for GridStage {
         let maps = (points * stage.replicates) as f64 * map * copies + 3.0 * map;
         let bytes = maps + fibres + read;
         Some(if maps >= fibres + read {
-            let what = format!("{} density maps of {cells} × {cells} cells ({copies} copies each, 8 B per cell)", points * stage.replicates);
-            Estimate::new(bytes, what, &stage.name, &["cell_size", "window_side", "store_density", "replicates"])
+            let held = if copies > 1.0 { "three copies each (store_density)" } else { "one copy each" };
+            let what = format!("{} density maps of {cells} × {cells} cells, 8 B per cell, {held}", points * stage.replicates);
+            Estimate::new(bytes, what, &stage.name, &["window_side", "replicates"]).falling_with(&stage.name, &["cell_size"])
         } else {
-            Estimate { bytes, what: web_what, params: web_params }
+            Estimate { bytes, what: web_what, params: web_params, inverse: vec![] }
         })
     }
 

@@ -231,7 +231,7 @@ impl Stage for ImageStage {
                 let cells = (g.window_side / g.cell_size).round();
                 let web_points = grid.inputs.first().map(|w| w.points.len()).unwrap_or(1);
                 let maps = (web_points.max(grid.points.len()) * grid.replicates) as f64;
-                let params = vec![(grid.name.clone(), "cell_size".to_string()), (grid.name.clone(), "window_side".to_string())];
+                let params = vec![(grid.name.clone(), "window_side".to_string())];
                 (maps, cells * cells, maps * cells * cells * 8.0, params)
             }
             None if p.text("synthetic.kind") != "none" => {
@@ -254,7 +254,7 @@ impl Stage for ImageStage {
             "{} images of up to {pixels} pixels analysed at once, {ANALYSIS_BYTES_PER_PIXEL} B per pixel, and {stored} stored, {STORED_BYTES_PER_PIXEL} B per pixel",
             concurrent(count)
         );
-        Some(Estimate { bytes: analysis + kept + read, what, params })
+        Some(Estimate { bytes: analysis + kept + read, what, params, inverse: vec![] })
     }
     fn input_files(&self, p: &ParamSet, dir: &Path) -> Result<Vec<PathBuf>> {
         Ok(expand(p, dir)?.into_iter().map(|(f, _)| f).collect())

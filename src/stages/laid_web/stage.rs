@@ -124,7 +124,7 @@ impl Stage for LaidWebStage {
         let count: f64 = fibres.iter().map(|f| f.count).sum();
         let bytes = nodes * KEPT_BYTES_PER_NODE + concurrent(count) * longest * SIM_BYTES_PER_NODE;
         let what = format!("{count} fibres of up to {longest:.3e} nodes, {nodes:.3e} laid nodes in all kept until written, {KEPT_BYTES_PER_NODE} B each");
-        Some(Estimate::new(bytes, what, &stage.name, &["fibres_across", "belt_travel", "element_length"]))
+        Some(Estimate::new(bytes, what, &stage.name, &["fibres_across", "belt_travel"]).falling_with(&stage.name, &["element_length"]))
     }
     fn run(&self, ctx: &RunContext) -> Result<Output> {
         crate::stages::run_by_units(self, ctx)

@@ -105,19 +105,19 @@ impl Stage for SpectraStage {
         let spectra = declared_spectra(stage);
         let samples: f64 = spectra.iter().map(|(n, s)| n * s).sum();
         let (count, longest) = (spectra.iter().map(|s| s.0).sum::<f64>(), spectra.iter().map(|s| s.1).fold(0.0, f64::max));
-        let (input, params): (f64, &[&str]) = match stage.inputs.first() {
+        let (input, params, inverse): (f64, &[&str], &[&str]) = match stage.inputs.first() {
             Some(i) => {
                 let laid = match i.kind.as_str() {
                     "laid_web" => crate::stages::laid_web::stage::declared_fibres(i),
                     _ => crate::stages::laydown::declared_fibres(i),
                 };
-                (laid.iter().map(|f| f.count * f.nodes * INPUT_BYTES_PER_NODE).sum(), &["sample_spacing", "points_per_segment"])
+                (laid.iter().map(|f| f.count * f.nodes * INPUT_BYTES_PER_NODE).sum(), &["points_per_segment"], &["sample_spacing"])
             }
-            None if stage.points.iter().all(|p| p.text("preset") != "none") => (0.0, &["replicates"]),
-            None => (0.0, &["points_per_segment", "replicates"]),
+            None if stage.points.iter().all(|p| p.text("preset") != "none") => (0.0, &["replicates"], &[]),
+            None => (0.0, &["points_per_segment", "replicates"], &[]),
         };
         let what = format!("{count} spectra of up to N = {longest} samples, {BYTES_PER_SAMPLE} B each");
-        Some(Estimate::new(samples * BYTES_PER_SAMPLE + input, what, &stage.name, params))
+        Some(Estimate::new(samples * BYTES_PER_SAMPLE + input, what, &stage.name, params).falling_with(&stage.name, inverse))
     }
 
     fn run(&self, ctx: &RunContext) -> Result<Output> {

@@ -3,7 +3,8 @@
 //! stage, every valid fibre of every replicate) or idealised square-wave spectra (no input).
 //!
 //! **Memory** ([`Stage::estimate_memory`]): every spectrum's samples are kept until the
-//! output is written ([`BYTES_PER_SAMPLE`]), with the input's laid nodes read whole
+//! output is written ([`ROW_BYTES_PER_SAMPLE`]), beside the output's arrays, padded to the
+//! most spectra and the longest N ([`OUTPUT_BYTES_PER_SAMPLE`]); the input's laid nodes read whole
 //! ([`INPUT_BYTES_PER_NODE`]); N is `points_per_segment`, or at most the fibre length
 //! over `sample_spacing`.
 use super::{analyse_fibres, CurvatureSpectrum, SpectraParams, SquareWaveParams, SPECTRA_PARAMS, SQUARE_WAVE_PARAMS};
@@ -19,9 +20,11 @@ pub struct SpectraStage;
 
 const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
 
-/// Bytes per sample of one spectrum: K_r, κ and θ of its row and a random realisation
-/// (48 B), then the output's K_r real and imaginary, S_r, κ and θ (40 B), rounded up.
-const BYTES_PER_SAMPLE: f64 = 96.0;
+/// Bytes per sample of one spectrum's row: K_r (complex), κ, θ and a random realisation
+/// (complex), 48 B, rounded up.
+const ROW_BYTES_PER_SAMPLE: f64 = 56.0;
+/// Bytes per sample of the output: K_r real and imaginary, S_r, κ and θ.
+const OUTPUT_BYTES_PER_SAMPLE: f64 = 40.0;
 /// Bytes per laid node of the input: the stored positions and landing time read
 /// whole, and the fibre copied out of them.
 const INPUT_BYTES_PER_NODE: f64 = 64.0;
@@ -116,8 +119,10 @@ impl Stage for SpectraStage {
             None if stage.points.iter().all(|p| p.text("preset") != "none") => (0.0, &["replicates"], &[]),
             None => (0.0, &["points_per_segment", "replicates"], &[]),
         };
-        let what = format!("{count} spectra of up to N = {longest} samples, {BYTES_PER_SAMPLE} B each");
-        Some(Estimate::new(samples * BYTES_PER_SAMPLE + input, what, &stage.name, params).falling_with(&stage.name, inverse))
+        let most = spectra.iter().map(|s| s.0).fold(0.0, f64::max);
+        let output = spectra.len() as f64 * most * longest * OUTPUT_BYTES_PER_SAMPLE;
+        let what = format!("{count} spectra of up to N = {longest} samples, {ROW_BYTES_PER_SAMPLE} B each, and the output padded to {most} × {longest} per point, {OUTPUT_BYTES_PER_SAMPLE} B each");
+        Some(Estimate::new(samples * ROW_BYTES_PER_SAMPLE + output + input, what, &stage.name, params).falling_with(&stage.name, inverse))
     }
 
     fn run(&self, ctx: &RunContext) -> Result<Output> {

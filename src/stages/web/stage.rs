@@ -42,7 +42,7 @@ const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
 /// Bytes per node of a fibre being generated: κ, θ, sin θ, cos θ (8 B each) and the
 /// nodes (x, y).
 pub const SCRATCH_BYTES_PER_NODE: f64 = 48.0;
-/// Bytes per stored fibre node: generated, then placed in the output (x, y each).
+/// Bytes per stored fibre node: generated, then placed in the (padded) output, x and y each.
 const STORED_BYTES_PER_NODE: f64 = 32.0;
 
 /// One point of a declared web stage.
@@ -125,7 +125,11 @@ impl Stage for WebStage {
     fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
         let webs = declared_webs(stage);
         let reps = stage.replicates as f64;
-        let stored: f64 = webs.iter().map(|w| reps * w.stored_fibres * w.nodes_per_fibre * STORED_BYTES_PER_NODE).sum();
+        // generated fibres, then the output padded to the most stored fibres and the longest
+        let generated: f64 = webs.iter().map(|w| reps * w.stored_fibres * w.nodes_per_fibre * 16.0).sum();
+        let most = webs.iter().map(|w| w.stored_fibres).fold(0.0, f64::max);
+        let longest_stored = webs.iter().map(|w| w.nodes_per_fibre).fold(0.0, f64::max);
+        let stored = generated + webs.len() as f64 * reps * most * longest_stored * 16.0;
         let jobs: f64 = webs.iter().map(|w| reps * w.stored_fibres).sum();
         let longest = webs.iter().map(|w| w.nodes_per_fibre).fold(0.0, f64::max);
         let scratch = concurrent(jobs) * longest * SCRATCH_BYTES_PER_NODE;

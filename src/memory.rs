@@ -5,7 +5,8 @@
 //! `run` refuse a pipeline with a stage above the limit ([`Limit`]: MemAvailable, or
 //! `--max-memory`) with exit 2 before anything is computed. The estimates count the
 //! large buffers (per node, pixel, cell or fibre) that are alive at once, not the small
-//! per-point bookkeeping; each stage's doc says what it counts. Large buffers that are
+//! per-point bookkeeping, plus [`PROCESS_BYTES`]; each stage's doc says what it counts.
+//! Slurm array tasks are not checked again ([`Limit::Unchecked`]). Large buffers that are
 //! still allocated are allocated with [`try_vec`] / [`try_array`], so a failure is an
 //! error (exit 1), not an abort.
 use ndarray::{Array, Dimension, IntoDimension};

@@ -61,6 +61,10 @@ pub enum Command {
         /// Extra argument for sbatch, e.g. `--sbatch-arg=--time=01:00:00` (repeatable).
         #[arg(long, value_name = "ARG", allow_hyphen_values = true)]
         sbatch_arg: Vec<String>,
+        /// Memory the stages may use, e.g. `2GiB`, `512MiB`, `4G`, `1.5GB` (default: the
+        /// machine's available memory); a stage estimated above it is refused (exit 2).
+        #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+        max_memory: Option<u64>,
     },
     /// Run one Slurm array task of a stage (used by `--executor slurm`).
     #[command(hide = true)]
@@ -73,7 +77,12 @@ pub enum Command {
         task: usize,
     },
     /// Parse and check a pipeline without computing anything.
-    Validate { pipeline: PathBuf },
+    Validate {
+        pipeline: PathBuf,
+        /// Memory the stages may use, e.g. `2GiB` (default: the machine's available memory).
+        #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+        max_memory: Option<u64>,
+    },
     /// Print a pipeline's stage graph: one stage per line in the order they run, with
     /// kind, size and inputs; or Graphviz DOT (`laydown dag P --dot | dot -Tsvg > dag.svg`).
     Dag {
@@ -129,8 +138,8 @@ pub enum Command {
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
     match cli.command {
-        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg } => {
-            let mut p = match pipeline::load(&path) {
+        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory } => {
+            let mut p = match pipeline::load_with(&path, memory_limit(max_memory)) {
                 Ok(p) => p,
                 Err(d) => {
                     eprintln!("{d}");
@@ -190,7 +199,7 @@ pub fn main_with(cli: Cli) -> i32 {
                 1
             }
         },
-        Command::Validate { pipeline: path } => match pipeline::load(&path) {
+        Command::Validate { pipeline: path, max_memory } => match pipeline::load_with(&path, memory_limit(max_memory)) {
             Ok(p) => {
                 let n: usize = p.stages.iter().map(|s| s.points().0.len() * s.replicates).sum();
                 println!("{}: ok ({} stages, {} units of work)", path.display(), p.stages.len(), n);
@@ -222,6 +231,11 @@ pub fn main_with(cli: Cli) -> i32 {
             0
         }
     }
+}
+
+/// `--max-memory`, or the machine's available memory.
+fn memory_limit(max_memory: Option<u64>) -> crate::memory::Limit {
+    max_memory.map_or(crate::memory::Limit::Available, crate::memory::Limit::Bytes)
 }
 
 /// Print a command's error; exit 2 for bad input (a [`BadInput`] anywhere in the chain:

@@ -11,6 +11,7 @@
 //! - [`rod`]: the fibre physics (discrete elastic rod, drag, oscillation, belt contact)
 //!   that the laydown and laid_web stages compose;
 //! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation);
+//! - [`memory`]: the memory limit, stage estimates and fallible allocation;
 //! - [`plot`], [`table`]: figures and tables of a stage version, read back from the archive.
 pub mod archive;
 pub mod cli;
@@ -18,6 +19,7 @@ pub mod cli;
 pub mod code_hash;
 pub mod executor;
 pub mod geometry;
+pub mod memory;
 pub mod param_table;
 pub mod params;
 pub mod pipeline;

@@ -2,14 +2,17 @@
 //! exit code 2 and the message in its `# expect:` line (file, line, column, key path,
 //! what is allowed), by `validate` and by `run`, leaving an existing archive
 //! byte-identical. A case marked `# run: skipped` is checked by `validate` only (its
-//! subject, the `archive:` path, is replaced by `run --archive`).
+//! subject, the `archive:` path, is replaced by `run --archive`). A case with an
+//! `# args: --max-memory 16GiB (why)` line is checked with those arguments (the words
+//! before the parenthesis), so a memory refusal reads the same on any machine.
 mod common;
 use common::*;
 use std::fs;
 
-fn corpus() -> Vec<(String, String)> {
+/// (file name, expected message, extra arguments) of every case.
+fn corpus() -> Vec<(String, String, Vec<String>)> {
     let dir = repo_root().join("tests/bad_pipelines");
-    let mut cases: Vec<(String, String)> = fs::read_dir(&dir)
+    let mut cases: Vec<(String, String, Vec<String>)> = fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
         .filter(|n| n.ends_with(".yaml"))
@@ -21,7 +24,12 @@ fn corpus() -> Vec<(String, String)> {
                 .and_then(|l| l.strip_prefix("# expect: "))
                 .unwrap_or_else(|| panic!("{n}: first line must be `# expect: ...`"))
                 .to_string();
-            (n, expect)
+            let args = text
+                .lines()
+                .find_map(|l| l.strip_prefix("# args: "))
+                .map(|a| a.split(" (").next().unwrap().split_whitespace().map(str::to_string).collect())
+                .unwrap_or_default();
+            (n, expect, args)
         })
         .collect();
     cases.sort();
@@ -37,8 +45,10 @@ fn corpus_is_large_enough() {
 fn validate_rejects_each_with_its_message() {
     let dir = repo_root().join("tests/bad_pipelines");
     let mut failures = vec![];
-    for (name, expect) in corpus() {
-        let out = run_in(&dir, &["validate", &name]);
+    for (name, expect, args) in corpus() {
+        let mut cmd = vec!["validate", name.as_str()];
+        cmd.extend(args.iter().map(String::as_str));
+        let out = run_in(&dir, &cmd);
         let (_, err) = text(&out);
         if out.status.code() != Some(2) || !err.contains(&expect) {
             failures.push(format!("{name}: exit {:?}\n  expected: {expect}\n  got: {err}", out.status.code()));
@@ -61,11 +71,13 @@ fn run_rejects_each_and_leaves_the_archive_byte_identical() {
     let archive = tmp.path().join("study.h5");
     let before = fs::read(&archive).unwrap();
     let dir = repo_root().join("tests/bad_pipelines");
-    for (name, expect) in corpus() {
+    for (name, expect, args) in corpus() {
         if fs::read_to_string(dir.join(&name)).unwrap().lines().any(|l| l.starts_with("# run: skipped")) {
             continue;
         }
-        let out = run_in(&dir, &["run", &name, "--archive", archive.to_str().unwrap()]);
+        let mut cmd = vec!["run", name.as_str(), "--archive", archive.to_str().unwrap()];
+        cmd.extend(args.iter().map(String::as_str));
+        let out = run_in(&dir, &cmd);
         let (_, err) = text(&out);
         assert_eq!(out.status.code(), Some(2), "{name}: {err}");
         assert!(err.contains(&expect), "{name}: expected `{expect}` in:\n{err}");

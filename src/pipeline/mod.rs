@@ -13,11 +13,13 @@
 //!     replicates: 1
 //! ```
 //! Every problem is reported with file, line, column, key path and what is allowed;
-//! checking collects all problems rather than stopping at the first.
+//! checking collects all problems rather than stopping at the first. Last, every
+//! stage's memory estimate is checked against the [`Limit`] (see [`crate::memory`]).
 pub mod dag;
 pub mod yaml;
 
 use crate::executor::{ExecutorConfig, ExecutorKind};
+use crate::memory::{format_size, Limit, PROCESS_BYTES};
 use crate::params::{ParamSet, ParamSpec, ParamValue};
 use crate::stages;
 use std::collections::{BTreeMap, HashMap};
@@ -186,8 +188,13 @@ impl Pipeline {
     }
 }
 
-/// Read and check a pipeline file.
+/// Read and check a pipeline file, its stages' memory against the available memory.
 pub fn load(path: &Path) -> Result<Pipeline, Diagnostics> {
+    load_with(path, Limit::Available)
+}
+
+/// [`load`] with the memory limit given.
+pub fn load_with(path: &Path, limit: Limit) -> Result<Pipeline, Diagnostics> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| {
         Diagnostics(vec![Diagnostic {
@@ -197,16 +204,21 @@ pub fn load(path: &Path) -> Result<Pipeline, Diagnostics> {
             message: format!("cannot read the pipeline file: {e}"),
         }])
     })?;
-    parse(&text, path)
+    parse_with(&text, path, limit)
 }
 
 /// Check pipeline text (`path` is used in messages and kept in the result).
 pub fn parse(text: &str, path: &Path) -> Result<Pipeline, Diagnostics> {
+    parse_with(text, path, Limit::Available)
+}
+
+/// [`parse`] with the memory limit given.
+pub fn parse_with(text: &str, path: &Path, limit: Limit) -> Result<Pipeline, Diagnostics> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut c = Checker { file: path.display().to_string(), dir, diags: vec![] };
+    let mut c = Checker { file: path.display().to_string(), dir, limit, diags: vec![] };
     let root = match yaml::parse(text) {
         Ok(r) => r,
         Err((pos, msg)) => {
@@ -226,6 +238,7 @@ struct Checker {
     file: String,
     /// The pipeline file's directory (relative input files are taken from it).
     dir: PathBuf,
+    limit: Limit,
     diags: Vec<Diagnostic>,
 }
 
@@ -466,7 +479,56 @@ impl Checker {
         if self.diags.len() > before {
             return None;
         }
+        self.memory(items, &all);
+        if self.diags.len() > before {
+            return None;
+        }
         Some(decls.into_iter().flatten().collect())
+    }
+
+    /// Every stage's estimated peak memory within the limit; a stage above it is
+    /// reported at the first parameter that drives its estimate.
+    fn memory(&mut self, items: &[Node], all: &[&StageDecl]) {
+        let Some((limit, source)) = self.limit.resolve() else { return };
+        for d in all {
+            let Some(stage) = stages::find(&d.kind) else { continue };
+            let Some(e) = stage.estimate_memory(&declared(all, d, &self.dir)) else { continue };
+            let bytes = e.bytes + PROCESS_BYTES;
+            if bytes.is_nan() || bytes <= limit {
+                continue;
+            }
+            let name = |(s, p): &(String, String)| if *s == d.name { p.clone() } else { format!("{p} of stage `{s}`") };
+            let mut advice = vec![];
+            if !e.params.is_empty() {
+                advice.push(format!("lower {}", e.params.iter().map(name).collect::<Vec<_>>().join(", ")));
+            }
+            if !e.inverse.is_empty() {
+                advice.push(format!("raise {}", e.inverse.iter().map(name).collect::<Vec<_>>().join(", ")));
+            }
+            // reported where the first parameter is set, in the stage that sets it
+            let (stage_name, key) = e.drivers().next().map_or((d.name.as_str(), ""), |(s, p)| (s.as_str(), p.as_str()));
+            let at = all.iter().position(|x| x.name == stage_name).unwrap_or(0);
+            let (pos, key) = match items.get(at).and_then(|n| param_or_key_pos(n, key)) {
+                Some((pos, path)) => (pos, format!("stages[{at}].{path}")),
+                // a parameter left at its default: the stage's position
+                None if key.is_empty() => (all[at].pos, format!("stages[{at}]")),
+                None if STAGE_KEYS.contains(&key) => (all[at].pos, format!("stages[{at}].{key}")),
+                None => (all[at].pos, format!("stages[{at}].params.{key}")),
+            };
+            self.err(
+                pos,
+                &key,
+                format!(
+                    "stage `{}` ({}) needs more than the {} {source}: about {} at its peak ({}); allowed: a run within that memory: {}",
+                    d.name,
+                    d.kind,
+                    format_size(limit),
+                    format_size(bytes),
+                    e.what,
+                    advice.join(" or ")
+                ),
+            );
+        }
     }
 
     fn stage(&mut self, node: &Node, key: &str) -> Option<StageDecl> {
@@ -711,27 +773,59 @@ fn join(prefix: &str, key: &str) -> String {
     }
 }
 
-fn find_param_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option<Pos> {
-    let (_, _, params) = stage_entries.iter().find(|(k, _, _)| k == "params")?;
-    let mut node = params;
-    let mut pos = None;
-    for part in dotted.split('.') {
-        // `files[1]`: an item of a list.
-        let (name, index) = match part.strip_suffix(']').and_then(|p| p.split_once('[')) {
-            Some((n, i)) => (n, i.parse::<usize>().ok()),
-            None => (part, None),
-        };
-        let Kind::Map(entries) = &node.kind else { return pos };
-        let (_, _, v) = entries.iter().find(|(k, _, _)| k == name)?;
-        pos = Some(v.pos);
-        node = v;
-        if let (Some(i), Kind::Seq(items)) = (index, &v.kind) {
-            let item = items.get(i)?;
-            pos = Some(item.pos);
-            node = item;
+/// A stage as declared with its inputs, for [`stages::Stage::estimate_memory`].
+fn declared(all: &[&StageDecl], d: &StageDecl, dir: &Path) -> stages::Declared {
+    stages::Declared {
+        name: d.name.clone(),
+        kind: d.kind.clone(),
+        points: d.points().0,
+        replicates: d.replicates,
+        inputs: d.inputs.iter().filter_map(|i| all.iter().find(|s| s.name == *i)).map(|i| declared(all, i, dir)).collect(),
+        pipeline_dir: dir.to_path_buf(),
+    }
+}
+
+/// Where a stage node writes `name`: a parameter (`params.x`, or its sweep list
+/// `sweep.x`) or a stage key such as `replicates`, with its key path below the stage.
+fn param_or_key_pos(stage: &Node, name: &str) -> Option<(Pos, String)> {
+    let Kind::Map(entries) = &stage.kind else { return None };
+    if let Some(pos) = find_param_pos(entries, name) {
+        return Some((pos, format!("params.{name}")));
+    }
+    let key = |k: &str| entries.iter().find(|(n, _, _)| n == k).map(|(_, _, v)| v);
+    if let Some(Kind::Map(sweep)) = key("sweep").map(|n| &n.kind) {
+        if let Some((_, _, v)) = sweep.iter().find(|(n, _, _)| n == name) {
+            return Some((v.pos, format!("sweep.{name}")));
         }
     }
-    pos
+    key(name).map(|v| (v.pos, name.to_string()))
+}
+
+fn find_param_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option<Pos> {
+    let (_, _, params) = stage_entries.iter().find(|(k, _, _)| k == "params")?;
+    let parts: Vec<&str> = dotted.split('.').collect();
+    find_in(params, &parts)
+}
+
+/// The position of a dotted parameter below `node`, written nested (`synthetic: {rows: 1}`)
+/// or flat (`synthetic.rows: 1`), its last part possibly a list item (`files[1]`).
+fn find_in(node: &Node, parts: &[&str]) -> Option<Pos> {
+    let Kind::Map(entries) = &node.kind else { return None };
+    // the longest run of parts written as one key first
+    for k in (1..=parts.len()).rev() {
+        let key = parts[..k].join(".");
+        let (name, index) = match key.strip_suffix(']').and_then(|p| p.split_once('[')) {
+            Some((n, i)) => (n.to_string(), i.parse::<usize>().ok()),
+            None => (key.clone(), None),
+        };
+        let Some((_, _, v)) = entries.iter().find(|(n, _, _)| *n == name) else { continue };
+        let v = match (index, &v.kind) {
+            (Some(i), Kind::Seq(items)) => items.get(i)?,
+            _ => v,
+        };
+        return if k == parts.len() { Some(v.pos) } else { find_in(v, &parts[k..]).or(Some(v.pos)) };
+    }
+    None
 }
 
 fn find_cycle(stages: &[&StageDecl]) -> Option<Vec<String>> {

@@ -17,6 +17,8 @@
 //! Errors of means over a few random replicates include their sampling error: compare
 //! candidates against a reference with the same seed and replicates, and read errors
 //! below the replicate scatter (`<metric>_std / sqrt(n)`) as "converged".
+//! It reads only per-point values, so it makes no memory estimate
+//! ([`Stage::estimate_memory`]).
 use super::{BadInput, Input, InputRule, RunContext, Stage};
 use crate::archive::data::Output;
 use crate::archive::hdf;

@@ -6,6 +6,7 @@
 //! of YAML, files or versions: the pipeline runner and the archive do that.
 use crate::archive::data::Output;
 use crate::archive::{hdf, VersionInfo};
+use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec, ParamValue};
 use anyhow::Result;
 use ndarray::ArrayD;
@@ -30,6 +31,36 @@ pub struct InputRule {
     pub max: usize,
 }
 
+/// A stage as the pipeline declares it, with its inputs' declarations: what a memory
+/// estimate ([`Stage::estimate_memory`]) is taken from before anything runs.
+#[derive(Debug, Clone)]
+pub struct Declared {
+    pub name: String,
+    pub kind: String,
+    /// Resolved parameters of every sweep point.
+    pub points: Vec<ParamSet>,
+    pub replicates: usize,
+    pub inputs: Vec<Declared>,
+    /// Directory of the pipeline file (relative paths in parameters).
+    pub pipeline_dir: std::path::PathBuf,
+}
+
+/// Threads that hold per-item buffers at once: rayon's pool, at most `items`.
+pub fn concurrent(items: f64) -> f64 {
+    (rayon::current_num_threads() as f64).min(items).max(1.0)
+}
+
+/// Laid fibres of one sweep point of an upstream stage, as declared (upper bounds).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeclaredFibres {
+    /// Fibres stored over every replicate.
+    pub count: f64,
+    /// Nodes per fibre.
+    pub nodes: f64,
+    /// Length per fibre (m).
+    pub length: f64,
+}
+
 /// A problem with the user's input found while running (exit code 2), as opposed to
 /// a runtime failure (exit code 1).
 #[derive(Debug, thiserror::Error)]
@@ -50,6 +81,13 @@ pub trait Stage: Send + Sync {
     /// `Err((parameter, message))`.
     fn check(&self, _params: &ParamSet) -> std::result::Result<(), (String, String)> {
         Ok(())
+    }
+    /// The peak memory of a run of `stage` (its resolved sweep points and replicates,
+    /// and its inputs as declared), with the parameters that drive it; `None` when the
+    /// stage holds nothing large. Checked by `validate` and `run` before anything is
+    /// computed ([`crate::memory`]).
+    fn estimate_memory(&self, _stage: &Declared) -> Option<Estimate> {
+        None
     }
     fn run(&self, ctx: &RunContext) -> Result<Output>;
     /// Files outside the archive that the run of one resolved parameter set reads

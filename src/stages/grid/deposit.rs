@@ -115,7 +115,16 @@ pub struct DensityGrid {
 
 impl DensityGrid {
     pub fn new(x_min: f64, y_min: f64, cell_size: f64, cells: usize) -> Self {
-        Self { x_min, y_min, cell_size, cells, inverse_cell: 1.0 / cell_size, period: None, quanta: (0..cells * cells).map(|_| AtomicU64::new(0)).collect() }
+        Self::try_new(x_min, y_min, cell_size, cells).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// [`Self::new`] with the cells (8 B each) allocated fallibly.
+    pub fn try_new(x_min: f64, y_min: f64, cell_size: f64, cells: usize) -> Result<Self, crate::memory::AllocError> {
+        let n = cells.saturating_mul(cells);
+        let mut quanta = Vec::new();
+        quanta.try_reserve_exact(n).map_err(|_| crate::memory::AllocError { bytes: n.saturating_mul(8), what: "the density grid's cells".into() })?;
+        quanta.extend((0..n).map(|_| AtomicU64::new(0)));
+        Ok(Self { x_min, y_min, cell_size, cells, inverse_cell: 1.0 / cell_size, period: None, quanta })
     }
 
     /// Folds every deposit onto a periodic domain (see [`Boundary::Periodic`]); the

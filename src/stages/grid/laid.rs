@@ -105,7 +105,7 @@ impl LaidPoint {
         let md_extent = fibres.iter().flatten().fold([f64::INFINITY, f64::NEG_INFINITY], |a, p| [a[0].min(p[0]), a[1].max(p[0])]);
         let origin_md = md_extent[0].min(corner.0) - 1.0;
         let span_md = md_extent[1].max(corner.0 + params.window_side) - origin_md + 1.0;
-        let grid = DensityGrid::new(corner.0, corner.1, params.cell_size, cells).with_period(Period {
+        let grid = DensityGrid::try_new(corner.0, corner.1, params.cell_size, cells)?.with_period(Period {
             origin: [origin_md, corner.1],
             period: [span_md, self.cd_period],
         });

@@ -124,6 +124,8 @@ pub enum GridError {
     StationaryBelt,
     #[error("window {window_md} m (MD) × {window_cd} m (CD) at centre ({centre_md}, {centre_cd}) m does not lie inside the web's nominal extent: MD 0..{web_length} m (c·n_l·L), CD ±{half_width} m (n_wΔw/2)")]
     WindowOutsideWeb { window_md: f64, window_cd: f64, centre_md: f64, centre_cd: f64, web_length: f64, half_width: f64 },
+    #[error(transparent)]
+    Alloc(#[from] crate::memory::AllocError),
     #[error("window is {margin:.4} m from the web's {edge}, less than {required_spreads} × the fibre spread {spread:.4} m (RMS over {fibres} fibres) = {required:.4} m: the density there falls short of the interior value. Use a wider/longer web (n_w, n_l), a smaller window, or lower edge_margin_spreads knowingly")]
     WindowTooCloseToEdge { edge: &'static str, margin: f64, spread: f64, fibres: usize, required_spreads: f64, required: f64 },
 }
@@ -248,7 +250,7 @@ pub fn grid_realisation(web: &Web, params: &GridParams, realisation: u32) -> Res
         let rough = Spreads { cross_direction: rms(&sample, 0), machine_direction: rms(&sample, 1) };
         check_margins(params, &p, x_min, y_min, drift_end, &rough, 0.8, PRECHECK_FIBRES)?;
     }
-    let mut grid = DensityGrid::new(x_min, y_min, params.cell_size, cells);
+    let mut grid = DensityGrid::try_new(x_min, y_min, params.cell_size, cells)?;
     if params.boundary == Boundary::Periodic {
         grid = grid.with_period(Period {
             origin: [0.0, -p.half_width()],
@@ -257,7 +259,7 @@ pub fn grid_realisation(web: &Web, params: &GridParams, realisation: u32) -> Res
     }
     // Per-fibre displacements, stored by index and summed in order (deterministic).
     let n_w = p.fibres_across;
-    let displacements = Mutex::new(vec![[0.0f64; 2]; n_w]);
+    let displacements = Mutex::new(crate::memory::try_vec(n_w, [0.0f64; 2], "the fibres' displacements")?);
     web.par_for_each_fibre(realisation, |j, nodes| {
         grid.deposit_fibre(nodes, params.deposit);
         displacements.lock().unwrap()[j] = displacement(nodes);

@@ -336,10 +336,16 @@ pub fn random_fibre_web(
 /// Gaussian-smoothed white noise (periodic), scaled to the given mean and CV: a smooth,
 /// noise-free "web" whose spectrum falls to round-off at high frequency.
 pub fn smoothed_noise(rows: usize, cols: usize, sigma_px: f64, mean: f64, cv: f64, seed: u64) -> Array2<f64> {
+    try_smoothed_noise(rows, cols, sigma_px, mean, cv, seed).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// [`smoothed_noise`] with its buffers allocated fallibly (16 B per pixel, then 8 B).
+pub fn try_smoothed_noise(rows: usize, cols: usize, sigma_px: f64, mean: f64, cv: f64, seed: u64) -> Result<Array2<f64>, crate::memory::AllocError> {
     use super::fft2::{signed_index, Fft2};
     use num_complex::Complex64;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut a = Array2::from_shape_fn((rows, cols), |_| Complex64::new(rng.random::<f64>() - 0.5, 0.0));
+    let mut a = crate::memory::try_array((rows, cols), Complex64::default(), "a synthetic noise image's spectrum")?;
+    a.iter_mut().for_each(|z| z.re = rng.random::<f64>() - 0.5);
     let plan = Fft2::new(rows, cols);
     plan.forward(&mut a);
     let two_pi_s = 2.0 * std::f64::consts::PI * sigma_px;
@@ -350,9 +356,12 @@ pub fn smoothed_noise(rows: usize, cols: usize, sigma_px: f64, mean: f64, cv: f6
     }
     a[[0, 0]] = Complex64::default();
     plan.inverse(&mut a);
-    let re = a.mapv(|z| z.re);
+    let mut re = crate::memory::try_array((rows, cols), 0.0, "a synthetic noise image")?;
+    re.zip_mut_with(&a, |v, z| *v = z.re);
+    drop(a);
     let sd = (re.mapv(|v| v * v).mean().unwrap()).sqrt();
-    re.mapv(|v| mean * (1.0 + cv * v / sd))
+    re.mapv_inplace(|v| mean * (1.0 + cv * v / sd));
+    Ok(re)
 }
 
 #[cfg(test)]

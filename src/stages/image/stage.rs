@@ -37,11 +37,18 @@
 //! Documented results: a constant grey image gives CV 0 and no notches (warning on
 //! stderr); a lattice whose period exceeds the image is not detected and the image is
 //! returned unchanged (`notches` = 0, `cv_corr` = `cv_raw`).
+//!
+//! **Memory** ([`Stage::estimate_memory`]): each thread reads or renders and analyses
+//! one image at a time ([`ANALYSIS_BYTES_PER_PIXEL`]); the first `max_stored_images`
+//! images of every point are kept until written ([`STORED_BYTES_PER_PIXEL`]); a grid
+//! input's density maps are read whole. Image files count with the size in their
+//! header (one that cannot be read there counts nothing; reading it is checked later).
 use super::render::{render, render_with_coverage, BondPattern, BondShape, RenderParams};
 use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PixelSource, PARAMETERS};
 use crate::archive::data::{Attr, Output, Values};
+use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
-use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
+use crate::stages::{concurrent, BadInput, Declared, Input, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
 use ndarray::{s, Array1, Array2, Array3, Axis};
 use rayon::prelude::*;
@@ -51,6 +58,14 @@ pub struct ImageStage;
 
 const SHAPES: &[&str] = &["none", "circle", "ellipse", "rectangle"];
 const SYNTHETIC: &[&str] = &["none", "constant", "noise"];
+/// Bytes per pixel of one image being analysed: the image and its copy, its spectra
+/// (complex, with the periodic decomposition), power, background fit, notch mask,
+/// filtered image and FFT scratch: the peak resident memory of a 3000 × 3000 synthetic
+/// noise image was 97 B per pixel (one or two at once), rounded up.
+const ANALYSIS_BYTES_PER_PIXEL: f64 = 128.0;
+/// Bytes per pixel of a stored image: raw, filtered and two log spectra, kept and
+/// placed in the output (8 B each).
+const STORED_BYTES_PER_PIXEL: f64 = 64.0;
 /// Spectrum range of the PNG panels (decades below the largest non-DC value).
 const PANEL_DECADES: f64 = 6.0;
 
@@ -205,6 +220,41 @@ impl Stage for ImageStage {
             return Err(("zone_max".into(), format!("zone_max is below zone_min = {}", p.f64("zone_min"))));
         }
         Ok(())
+    }
+    fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
+        let p = &stage.points[0];
+        // (images, largest pixels per image, bytes of the input read whole, the drivers)
+        let own = |names: &[&str]| names.iter().map(|n| (stage.name.clone(), n.to_string())).collect::<Vec<_>>();
+        let (count, pixels, read, mut params) = match stage.inputs.first() {
+            Some(grid) => {
+                let g = crate::stages::grid::grid_params(&grid.points[0]);
+                let cells = (g.window_side / g.cell_size).round();
+                let web_points = grid.inputs.first().map(|w| w.points.len()).unwrap_or(1);
+                let maps = (web_points.max(grid.points.len()) * grid.replicates) as f64;
+                let params = vec![(grid.name.clone(), "window_side".to_string())];
+                (maps, cells * cells, maps * cells * cells * 8.0, params)
+            }
+            None if p.text("synthetic.kind") != "none" => {
+                let px = (p.usize("synthetic.rows") * p.usize("synthetic.cols")) as f64;
+                (p.usize("synthetic.count") as f64, px, 0.0, own(&["synthetic.rows", "synthetic.cols"]))
+            }
+            None => {
+                let files = expand(p, &stage.pipeline_dir).unwrap_or_default();
+                let px = files.iter().filter_map(|(f, _)| image::image_dimensions(f).ok()).map(|(w, h)| w as f64 * h as f64).fold(0.0, f64::max);
+                (files.len() as f64, px, 0.0, own(&["files"]))
+            }
+        };
+        let stored = count.min(p.usize("max_stored_images") as f64) * stage.points.len() as f64;
+        let analysis = concurrent(count) * pixels * ANALYSIS_BYTES_PER_PIXEL;
+        let kept = stored * pixels * STORED_BYTES_PER_PIXEL;
+        if kept > analysis {
+            params.insert(0, (stage.name.clone(), "max_stored_images".into()));
+        }
+        let what = format!(
+            "{} images of up to {pixels} pixels analysed at once, {ANALYSIS_BYTES_PER_PIXEL} B per pixel, and {stored} stored, {STORED_BYTES_PER_PIXEL} B per pixel",
+            concurrent(count)
+        );
+        Some(Estimate { bytes: analysis + kept + read, what, params, inverse: vec![] })
     }
     fn input_files(&self, p: &ParamSet, dir: &Path) -> Result<Vec<PathBuf>> {
         Ok(expand(p, dir)?.into_iter().map(|(f, _)| f).collect())
@@ -605,8 +655,8 @@ fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
 fn synthetic_image(p: &ParamSet, seed: u64, pixel: f64, bonded: &RenderParams, plain: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<(Array2<f64>, f64)> {
     let (rows, cols, mean) = (p.usize("synthetic.rows"), p.usize("synthetic.cols"), p.f64("synthetic.mean"));
     let grey = match p.text("synthetic.kind") {
-        "constant" => Array2::from_elem((rows, cols), mean),
-        _ => super::render::smoothed_noise(rows, cols, p.f64("synthetic.correlation"), mean, p.f64("synthetic.cv"), seed),
+        "constant" => crate::memory::try_array((rows, cols), mean, "a synthetic image")?,
+        _ => super::render::try_smoothed_noise(rows, cols, p.f64("synthetic.correlation"), mean, p.f64("synthetic.cv"), seed)?,
     };
     let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("synthetic image: {e}")));
     let web = super::render::overlay(grey.clone(), pixel, plain, None).map_err(bad)?.grey;

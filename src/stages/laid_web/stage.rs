@@ -16,11 +16,13 @@ use crate::archive::data::Output;
 use crate::params::{ParamSet, ParamSpec};
 use crate::rod::feed::FeedSettings;
 use crate::rod::LaydownParams;
+use crate::memory::Estimate;
+use crate::stages::laydown::SIM_BYTES_PER_NODE;
 use crate::stages::laydown::LaydownStage;
 use crate::stages::rows::{self as get, place};
-use crate::stages::{InputRule, RunContext, Stage, Units, UNIT_DIM};
+use crate::stages::{concurrent, Declared, DeclaredFibres, InputRule, RunContext, Stage, Units, UNIT_DIM};
 use anyhow::{bail, Result};
-use ndarray::{Array1, Array2, Array3, ArrayD};
+use ndarray::{Array1, Array2, ArrayD};
 
 pub struct LaidWebStage;
 
@@ -40,9 +42,10 @@ const OWN: &[&str] = &[
     "settle_time",
 ];
 
-/// Bytes per stored laid node (positions, landing time) and per node while a web is
-/// assembled (rows, placed arrays and the HDF5 write buffer).
-const BYTES_PER_NODE: f64 = 4.0 * 8.0 * 3.0;
+/// Bytes per laid node until the output is written: the fed fibre's positions and
+/// landing time, its row and the copy placed on (point, replicate), 32 B each, and the
+/// write buffer.
+const KEPT_BYTES_PER_NODE: f64 = 128.0;
 
 /// The typed parameters of one sweep point.
 pub fn laid_web_params(p: &ParamSet) -> Result<LaidWebParams, String> {
@@ -63,14 +66,21 @@ pub fn laid_web_params(p: &ParamSet) -> Result<LaidWebParams, String> {
     })
 }
 
-/// Memory available to a run (bytes): MemAvailable of /proc/meminfo, or 8 GiB where
-/// that cannot be read.
-fn available_memory() -> f64 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("MemAvailable:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok()))
-        .map(|kib| kib * 1024.0)
-        .unwrap_or(8.0 * (1u64 << 30) as f64)
+/// The fibres of a declared laid_web stage, per point: every fibre of every replicate,
+/// each as long as the fed length (an upper bound of what lands).
+pub fn declared_fibres(stage: &Declared) -> Vec<DeclaredFibres> {
+    stage
+        .points
+        .iter()
+        .map(|p| match laid_web_params(p) {
+            Ok(lw) => DeclaredFibres {
+                count: (stage.replicates * lw.fibres_across) as f64,
+                nodes: lw.nodes_per_web() / lw.fibres_across as f64,
+                length: lw.fed_length(),
+            },
+            Err(_) => DeclaredFibres { count: 0.0, nodes: 0.0, length: 0.0 },
+        })
+        .collect()
 }
 
 impl Stage for LaidWebStage {
@@ -102,24 +112,19 @@ impl Stage for LaidWebStage {
     }
     fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
         let lw = laid_web_params(p).map_err(|e| ("turbulence".to_string(), e))?;
-        lw.validate()?;
-        let bytes = lw.nodes_per_web() * BYTES_PER_NODE;
-        let available = available_memory();
-        if bytes > 0.5 * available {
-            return Err((
-                "belt_travel".into(),
-                format!(
-                    "one web of {} fibres × {:.3e} m fed at Δs = {:.3e} m needs about {:.1} GiB (≈ {:.3e} nodes), more than half the {:.1} GiB available: lower fibres_across, belt_travel or raise element_length",
-                    lw.fibres_across,
-                    lw.fed_length(),
-                    lw.resolved_element_length(),
-                    bytes / (1u64 << 30) as f64,
-                    lw.nodes_per_web(),
-                    available / (1u64 << 30) as f64
-                ),
-            ));
-        }
-        Ok(())
+        lw.validate()
+    }
+    /// Every web of the run is held until the output is written
+    /// ([`KEPT_BYTES_PER_NODE`]), and each thread simulates one fibre
+    /// ([`SIM_BYTES_PER_NODE`], all its nodes active at worst).
+    fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
+        let fibres = declared_fibres(stage);
+        let nodes: f64 = fibres.iter().map(|f| f.count * f.nodes).sum();
+        let longest = fibres.iter().map(|f| f.nodes).fold(0.0, f64::max);
+        let count: f64 = fibres.iter().map(|f| f.count).sum();
+        let bytes = nodes * KEPT_BYTES_PER_NODE + concurrent(count) * longest * SIM_BYTES_PER_NODE;
+        let what = format!("{count} fibres of up to {longest:.3e} nodes, {nodes:.3e} laid nodes in all kept until written, {KEPT_BYTES_PER_NODE} B each");
+        Some(Estimate::new(bytes, what, &stage.name, &["fibres_across", "belt_travel"]).falling_with(&stage.name, &["element_length"]))
     }
     fn run(&self, ctx: &RunContext) -> Result<Output> {
         crate::stages::run_by_units(self, ctx)
@@ -142,7 +147,7 @@ impl Stage for LaidWebStage {
         // every unit's fibre axis is the widest point's, so rows computed apart (Slurm
         // tasks) stack without padding
         let fibres = params.iter().map(|p| p.fibres_across).max().unwrap_or(0);
-        Ok(unit_rows(&webs, fibres))
+        unit_rows(&webs, fibres)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let params: Vec<LaidWebParams> = ctx.points.iter().map(|p| laid_web_params(p).expect("checked")).collect();
@@ -176,11 +181,11 @@ const REASON_SEPARATOR: char = '\u{1f}';
 /// The per-web rows of `webs` ((point, replicate, web) in any order): the laid-node axis
 /// is NaN-padded to the longest web, the fibre axis is `nf` wide (padded with −1, 0, NaN,
 /// invalid). A web's fibre reasons are one text joined by [`REASON_SEPARATOR`].
-fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Output {
+fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     let n = webs.len();
     let nodes = webs.iter().map(|w| w.2.fibres.iter().map(|f| f.fed.laid_nodes()).sum::<usize>()).max().unwrap_or(0);
-    let mut laid = Array3::from_elem((n, nodes, 3), f64::NAN);
-    let mut landing = Array2::from_elem((n, nodes), f64::NAN);
+    let mut laid = crate::memory::try_array((n, nodes, 3), f64::NAN, "the webs' laid nodes")?;
+    let mut landing = crate::memory::try_array((n, nodes), f64::NAN, "the webs' landing times")?;
     let mut start = Array2::from_elem((n, nf), -1i64);
     let mut count = Array2::from_elem((n, nf), 0i64);
     let mut valid = Array2::from_elem((n, nf), false);
@@ -225,7 +230,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Output {
     out.f64("interior_md_min", &[UNIT_DIM], web_col(&|w| w.interior_md[0]), "m", "");
     out.f64("interior_md_max", &[UNIT_DIM], web_col(&|w| w.interior_md[1]), "m", "");
     out.f64("spread", &[UNIT_DIM], web_col(&|w| w.spread), "m", "");
-    out
+    Ok(out)
 }
 
 /// The stage output from the per-web rows of every (point, replicate).

@@ -133,4 +133,4 @@ pub use crate::rod::{
 };
 
 mod stage;
-pub use stage::{scene, LaydownStage};
+pub use stage::{declared_fibres, scene, LaydownStage, SIM_BYTES_PER_NODE};

@@ -19,12 +19,18 @@
 //! computed as per-replicate rows ([`Stage::run_units`]) and placed on the (point,
 //! replicate) axes with the statistics by [`Stage::reduce`], for the local run and for a
 //! gathered Slurm array alike.
+//!
+//! **Memory** ([`Stage::estimate_memory`]): every replicate's nodes are kept until the
+//! output is written (result, per-replicate row, placed copy: [`KEPT_BYTES_PER_NODE`]),
+//! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
+//! (one record per `diagnostic_stride` steps) are not counted.
 use super::params::{BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
+use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
 use crate::stages::rows::place;
-use crate::stages::{InputRule, RunContext, Stage, Units};
+use crate::stages::{concurrent, Declared, DeclaredFibres, InputRule, RunContext, Stage, Units};
 use anyhow::{bail, Result};
 use ndarray::{Array1, Array2, Array3};
 use rayon::prelude::*;
@@ -34,6 +40,36 @@ const TARGET: &str = "valid_replicates_target";
 const CAP: &str = "max_replicates";
 
 pub struct LaydownStage;
+
+/// Bytes per node of a rod being simulated: state, workspace (forces, drag and
+/// constraint matrices, contact) and the step-rejection snapshot, about 75 f64. One
+/// replicate of 100001 nodes peaked at 71 MB resident, estimated at 90 MB.
+pub const SIM_BYTES_PER_NODE: f64 = 640.0;
+/// Bytes per node of a finished replicate until the output is written: its positions,
+/// velocities and landing times, its row (positions, laid, belt-removed, landing) and
+/// the copy placed on (point, replicate).
+pub const KEPT_BYTES_PER_NODE: f64 = 256.0;
+
+/// Replicates a point may attempt: `replicates`, or `max_replicates` with a target.
+fn attempts(p: &ParamSet, replicates: usize) -> usize {
+    if p.usize(TARGET) > 0 {
+        replicates.max(p.usize(CAP))
+    } else {
+        replicates
+    }
+}
+
+/// The fibres of a declared laydown stage, per point: one per attempted replicate.
+pub fn declared_fibres(stage: &Declared) -> Vec<DeclaredFibres> {
+    stage
+        .points
+        .iter()
+        .map(|p| {
+            let (nodes, length) = scene(p).map(|s| (s.resolved_elements() as f64 + 1.0, s.length)).unwrap_or((0.0, 0.0));
+            DeclaredFibres { count: attempts(p, stage.replicates) as f64, nodes, length }
+        })
+        .collect()
+}
 
 /// The scene of one sweep point, from its resolved parameters (names are the fields of
 /// [`LaydownParams`]; `effects.X` are the [`Effects`] flags).
@@ -107,6 +143,20 @@ impl Stage for LaydownStage {
         })
     }
 
+    fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
+        let fibres = declared_fibres(stage);
+        let kept: f64 = fibres.iter().map(|f| f.count * f.nodes * KEPT_BYTES_PER_NODE).sum();
+        let units: f64 = fibres.iter().map(|f| f.count).sum();
+        let nodes = fibres.iter().map(|f| f.nodes).fold(0.0, f64::max);
+        let simulated = concurrent(units) * nodes * SIM_BYTES_PER_NODE;
+        let mut params = vec!["elements", "coil_resolution"];
+        if fibres.iter().any(|f| f.count > stage.replicates as f64) {
+            params.push(CAP);
+        }
+        params.push("replicates");
+        let what = format!("{units} replicates of up to {nodes} nodes kept, {KEPT_BYTES_PER_NODE} B each, and {} rods simulated at once", concurrent(units));
+        Some(Estimate::new(kept + simulated, what, &stage.name, &params))
+    }
     fn run(&self, ctx: &RunContext) -> Result<Output> {
         crate::stages::run_by_units(self, ctx)
     }
@@ -151,7 +201,7 @@ impl Stage for LaydownStage {
             bar.finish_and_clear();
             out
         };
-        Ok(unit_rows(&scenes, &rows))
+        unit_rows(&scenes, &rows)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
@@ -227,15 +277,16 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 /// everything of a replicate that the stage output holds, with the laid polylines
 /// computed here. Node, laid-node and record axes are padded with NaN to the longest
 /// replicate (the laid axis to the node count, as the output's is).
-fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]) -> Output {
+fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]) -> Result<Output> {
     let nan = f64::NAN;
     let n = results.len();
     let nodes = results.iter().map(|r| r.2.positions.len()).max().unwrap_or(0);
     let ndiag = results.iter().map(|r| r.2.diagnostics.len()).max().unwrap_or(0);
-    let mut positions = Array3::from_elem((n, nodes, 3), nan);
-    let mut laid = positions.clone();
-    let mut laid_removed = positions.clone();
-    let mut landing = Array2::from_elem((n, nodes), nan);
+    let what = "the replicates' rows";
+    let mut positions = crate::memory::try_array((n, nodes, 3), nan, what)?;
+    let mut laid = crate::memory::try_array((n, nodes, 3), nan, what)?;
+    let mut laid_removed = crate::memory::try_array((n, nodes, 3), nan, what)?;
+    let mut landing = crate::memory::try_array((n, nodes), nan, what)?;
     let mut diag = Array3::from_elem((n, ndiag, 8), nan);
     let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
     let ok = |r: &LaydownResult, v: f64| if r.error.is_none() { v } else { f64::NAN };
@@ -283,7 +334,7 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
     out.f64("laid_length", &[unit], column(&|r| r.laid_length), "m", "");
     out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
-    out
+    Ok(out)
 }
 
 /// The stage output from the per-replicate rows of every point ([`unit_rows`], whole or

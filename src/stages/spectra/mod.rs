@@ -192,4 +192,4 @@ pub fn analyse_fibres<F: AsRef<[[f64; 3]]>>(fibres: &[F], params: &SpectraParams
 mod tests;
 
 mod stage;
-pub use stage::SpectraStage;
+pub use stage::{declared_spectra, SpectraStage};

@@ -1,17 +1,58 @@
 //! `kind: spectra` — the pipeline stage around the spectra numerics: curvature spectra
 //! of laid fibres (input: a laydown stage, one fibre per valid replicate; or a laid_web
 //! stage, every valid fibre of every replicate) or idealised square-wave spectra (no input).
+//!
+//! **Memory** ([`Stage::estimate_memory`]): every spectrum's samples are kept until the
+//! output is written ([`ROW_BYTES_PER_SAMPLE`]), beside the output's arrays, padded to the
+//! most spectra and the longest N ([`OUTPUT_BYTES_PER_SAMPLE`]); the input's laid nodes read whole
+//! ([`INPUT_BYTES_PER_NODE`]); N is `points_per_segment`, or at most the fibre length
+//! over `sample_spacing`.
 use super::{analyse_fibres, CurvatureSpectrum, SpectraParams, SquareWaveParams, SPECTRA_PARAMS, SQUARE_WAVE_PARAMS};
 use crate::archive::data::Output;
+use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
-use crate::stages::{BadInput, InputRule, RunContext, Stage};
+use crate::stages::{BadInput, Declared, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
-use ndarray::{Array1, Array2, Array3, Axis};
+use ndarray::{Array1, Array2, Axis};
 use num_complex::Complex64;
 
 pub struct SpectraStage;
 
 const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
+
+/// Bytes per sample of one spectrum's row: K_r (complex), κ, θ and a random realisation
+/// (complex), 48 B, rounded up.
+const ROW_BYTES_PER_SAMPLE: f64 = 56.0;
+/// Bytes per sample of the output: K_r real and imaginary, S_r, κ and θ.
+const OUTPUT_BYTES_PER_SAMPLE: f64 = 40.0;
+/// Bytes per laid node of the input: the stored positions and landing time read
+/// whole, and the fibre copied out of them.
+const INPUT_BYTES_PER_NODE: f64 = 64.0;
+
+/// The spectra of a declared spectra stage, per output point: (spectra, N samples each).
+pub fn declared_spectra(stage: &Declared) -> Vec<(f64, f64)> {
+    let p = &stage.points[0];
+    let given = p.usize("points_per_segment") as f64;
+    let laid = match stage.inputs.first() {
+        Some(input) if input.kind == "laid_web" => crate::stages::laid_web::stage::declared_fibres(input),
+        Some(input) => crate::stages::laydown::declared_fibres(input),
+        None => {
+            return stage
+                .points
+                .iter()
+                .map(|p| {
+                    let n = match (p.text("preset"), p.usize("points_per_segment")) {
+                        ("none", n) if n > 0 => n,
+                        _ => 1000,
+                    };
+                    (stage.replicates as f64, n as f64)
+                })
+                .collect()
+        }
+    };
+    let spacing = p.f64("sample_spacing");
+    laid.iter().map(|f| (f.count, if given > 0.0 { given } else { (f.length / spacing).floor() + 1.0 })).collect()
+}
 
 /// One spectrum with what produced it.
 struct Row {
@@ -63,6 +104,27 @@ impl Stage for SpectraStage {
         Ok(())
     }
 
+    fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
+        let spectra = declared_spectra(stage);
+        let samples: f64 = spectra.iter().map(|(n, s)| n * s).sum();
+        let (count, longest) = (spectra.iter().map(|s| s.0).sum::<f64>(), spectra.iter().map(|s| s.1).fold(0.0, f64::max));
+        let (input, params, inverse): (f64, &[&str], &[&str]) = match stage.inputs.first() {
+            Some(i) => {
+                let laid = match i.kind.as_str() {
+                    "laid_web" => crate::stages::laid_web::stage::declared_fibres(i),
+                    _ => crate::stages::laydown::declared_fibres(i),
+                };
+                (laid.iter().map(|f| f.count * f.nodes * INPUT_BYTES_PER_NODE).sum(), &["points_per_segment"], &["sample_spacing"])
+            }
+            None if stage.points.iter().all(|p| p.text("preset") != "none") => (0.0, &["replicates"], &[]),
+            None => (0.0, &["points_per_segment", "replicates"], &[]),
+        };
+        let most = spectra.iter().map(|s| s.0).fold(0.0, f64::max);
+        let output = spectra.len() as f64 * most * longest * OUTPUT_BYTES_PER_SAMPLE;
+        let what = format!("{count} spectra of up to N = {longest} samples, {ROW_BYTES_PER_SAMPLE} B each, and the output padded to {most} × {longest} per point, {OUTPUT_BYTES_PER_SAMPLE} B each");
+        Some(Estimate::new(samples * ROW_BYTES_PER_SAMPLE + output + input, what, &stage.name, params).falling_with(&stage.name, inverse))
+    }
+
     fn run(&self, ctx: &RunContext) -> Result<Output> {
         let rows: Vec<Vec<Row>> = if ctx.inputs.is_empty() {
             ctx.points.iter().map(|p| idealised(ctx, p)).collect::<Result<_>>()?
@@ -72,7 +134,7 @@ impl Stage for SpectraStage {
             }
             laid(ctx, &ctx.points[0])?
         };
-        Ok(assemble(&rows))
+        assemble(&rows)
     }
 }
 
@@ -193,17 +255,18 @@ fn laid_web_fibres(input: &crate::stages::Input, belt_removed: bool) -> Result<P
         .collect())
 }
 
-fn assemble(rows: &[Vec<Row>]) -> Output {
+fn assemble(rows: &[Vec<Row>]) -> Result<Output> {
     let npoints = rows.len();
     let nfibres = rows.iter().map(|r| r.len()).max().unwrap_or(0);
     let nbins = rows.iter().flatten().map(|r| r.spectrum.points()).max().unwrap_or(0);
     let nangles = rows.iter().flatten().map(|r| r.tangent_angle.len()).max().unwrap_or(0);
     let nan = f64::NAN;
-    let mut re = Array3::from_elem((npoints, nfibres, nbins), nan);
-    let mut im = re.clone();
-    let mut energy = re.clone();
-    let mut kappa = re.clone();
-    let mut theta = Array3::from_elem((npoints, nfibres, nangles), nan);
+    let what = "the spectra";
+    let mut re = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut im = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut energy = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut kappa = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
+    let mut theta = crate::memory::try_array((npoints, nfibres, nangles), nan, what)?;
     let mut e_k = Array2::from_elem((npoints, nfibres), nan);
     let mut e_s = e_k.clone();
     let mut valid = Array2::from_elem((npoints, nfibres), false);
@@ -273,7 +336,7 @@ fn assemble(rows: &[Vec<Row>]) -> Output {
     }
     out.f64("sample_spacing", &["point"], spacing, "m", "Δs, arc-length spacing of the samples");
     out.f64("segment_length", &["point"], length, "m", "L = NΔs, length of the analysed fibre or segment");
-    out
+    Ok(out)
 }
 
 impl CurvatureSpectrum {

@@ -43,7 +43,7 @@ mod generate;
 mod stage;
 pub mod trig;
 
-pub use stage::{web_from_input, WebStage};
+pub use stage::{declared_webs, stored_bytes, web_from_input, DeclaredWeb, WebStage, SCRATCH_BYTES_PER_NODE};
 
 pub use generate::{fibre_rng, FibreScratch, Web};
 

@@ -20,19 +20,70 @@
 //! stores all fibres when n_w·(n_l·N + 1) ≤ `store_all_max_points`, otherwise
 //! `sample_fibres` fibres evenly spread across the web: fibre indices
 //! ⌊(2i + 1)·n_w / (2k)⌋, i = 0..k (centred strips, away from the edges).
+//!
+//! **Memory** ([`Stage::estimate_memory`]): the stored fibres' nodes, generated and
+//! placed (32 B each), every thread's fibre buffers ([`SCRATCH_BYTES_PER_NODE`] per node
+//! of a fibre being generated) and the spectrum set (read and prepared, 48 B per bin).
 use super::{SpectrumSelection, Web, WebParams, WEB_PARAMS};
 use crate::archive::data::Output;
+use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
-use crate::stages::spectra::{CurvatureSpectrum, SquareWaveParams};
-use crate::stages::{BadInput, Input, InputRule, RunContext, Stage};
+use crate::stages::spectra::{declared_spectra, CurvatureSpectrum, SquareWaveParams};
+use crate::stages::{concurrent, BadInput, Declared, Input, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
-use ndarray::{Array1, Array2, Array3, Array5, Axis};
+use ndarray::{Array1, Array2, Array3, Axis};
 use num_complex::Complex64;
 use rayon::prelude::*;
 
 pub struct WebStage;
 
 const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
+
+/// Bytes per node of a fibre being generated: κ, θ, sin θ, cos θ (8 B each) and the
+/// nodes (x, y).
+pub const SCRATCH_BYTES_PER_NODE: f64 = 48.0;
+/// Bytes per stored fibre node: generated, then placed in the (padded) output, x and y each.
+const STORED_BYTES_PER_NODE: f64 = 32.0;
+
+/// One point of a declared web stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeclaredWeb {
+    /// n_w.
+    pub fibres_across: f64,
+    /// n_l·N + 1.
+    pub nodes_per_fibre: f64,
+    /// Fibres stored per realisation.
+    pub stored_fibres: f64,
+    /// Spectra in the set and their N.
+    pub spectra: f64,
+    pub points_per_segment: f64,
+}
+
+/// The webs of a declared web stage, per point (N of an input spectra stage: the
+/// largest of its points).
+pub fn declared_webs(stage: &Declared) -> Vec<DeclaredWeb> {
+    let input = stage.inputs.first().map(declared_spectra);
+    stage
+        .points
+        .iter()
+        .map(|p| {
+            let (count, n) = match &input {
+                Some(s) => s.iter().fold((0.0, 0.0), |a, b| (f64::max(a.0, b.0), f64::max(a.1, b.1))),
+                None => (1.0, p.usize("points_per_segment") as f64),
+            };
+            let spectra = if p.text("spectrum_selection") == "per_segment" { count } else { 1.0 };
+            let n_w = p.usize("fibres_across") as f64;
+            let nodes = p.usize("segments_per_fibre") as f64 * n + 1.0;
+            let stored = if n_w * nodes <= p.int("store_all_max_points") as f64 { n_w } else { (p.usize("sample_fibres") as f64).min(n_w) };
+            DeclaredWeb { fibres_across: n_w, nodes_per_fibre: nodes, stored_fibres: stored, spectra, points_per_segment: n }
+        })
+        .collect()
+}
+
+/// Bytes of a declared web's stored fibres (`fibre_positions`), as a reader gets them.
+pub fn stored_bytes(stage: &Declared) -> f64 {
+    declared_webs(stage).iter().map(|w| stage.replicates as f64 * w.stored_fibres * w.nodes_per_fibre * 16.0).sum()
+}
 
 /// One sweep point's web with where its spectrum came from.
 struct PointWeb {
@@ -71,6 +122,32 @@ impl Stage for WebStage {
         v
     }
 
+    fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
+        let webs = declared_webs(stage);
+        let reps = stage.replicates as f64;
+        // generated fibres, then the output padded to the most stored fibres and the longest
+        let generated: f64 = webs.iter().map(|w| reps * w.stored_fibres * w.nodes_per_fibre * 16.0).sum();
+        let most = webs.iter().map(|w| w.stored_fibres).fold(0.0, f64::max);
+        let longest_stored = webs.iter().map(|w| w.nodes_per_fibre).fold(0.0, f64::max);
+        let stored = generated + webs.len() as f64 * reps * most * longest_stored * 16.0;
+        let jobs: f64 = webs.iter().map(|w| reps * w.stored_fibres).sum();
+        let longest = webs.iter().map(|w| w.nodes_per_fibre).fold(0.0, f64::max);
+        let scratch = concurrent(jobs) * longest * SCRATCH_BYTES_PER_NODE;
+        let spectra: f64 = webs.iter().map(|w| w.spectra * w.points_per_segment * 48.0).sum();
+        // N is the preset's points_per_segment, or the input spectra stage's.
+        let n_param = match stage.inputs.first() {
+            Some(i) => (i.name.clone(), "points_per_segment".to_string()),
+            None => (stage.name.clone(), "points_per_segment".to_string()),
+        };
+        let own = |p: &str| (stage.name.clone(), p.to_string());
+        let (what, params) = if stored > scratch {
+            (format!("{jobs} stored fibres of up to {longest} nodes, {STORED_BYTES_PER_NODE} B each"), vec![own("segments_per_fibre"), n_param, own("store_all_max_points"), own("sample_fibres")])
+        } else {
+            (format!("fibres of n_l·N + 1 = {longest} nodes generated by {} threads at once, {SCRATCH_BYTES_PER_NODE} B per node", concurrent(jobs)), vec![own("segments_per_fibre"), n_param])
+        };
+        Some(Estimate { bytes: stored + scratch + spectra, what, params, inverse: vec![] })
+    }
+
     fn run(&self, ctx: &RunContext) -> Result<Output> {
         let webs: Vec<PointWeb> = ctx.points.iter().enumerate().map(|(i, p)| point_web(ctx, i, p)).collect::<Result<_>>()?;
         let reps = ctx.replicates;
@@ -81,7 +158,7 @@ impl Stage for WebStage {
             .flat_map(|(p, w)| (0..reps).flat_map(move |r| (0..w.sample.len()).map(move |i| (p, r, i))))
             .collect();
         let fibres: Vec<Vec<[f64; 2]>> = jobs.par_iter().map(|&(p, r, i)| webs[p].web.generate_fibre(r as u32, webs[p].sample[i])).collect();
-        Ok(assemble(&webs, reps, &jobs, &fibres))
+        assemble(&webs, reps, &jobs, &fibres)
     }
 }
 
@@ -177,7 +254,7 @@ fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> 
     }
 }
 
-fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibres: &[Vec<[f64; 2]>]) -> Output {
+fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibres: &[Vec<[f64; 2]>]) -> Result<Output> {
     let np = webs.len();
     let nan = f64::NAN;
     let nspec = webs.iter().map(|w| w.spectra.len()).max().unwrap_or(0);
@@ -198,7 +275,7 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
             index[[p, i]] = j as i64;
         }
     }
-    let mut positions = Array5::from_elem((np, reps, nsample, nnodes, 2), nan);
+    let mut positions = crate::memory::try_array((np, reps, nsample, nnodes, 2), nan, "the stored fibres' positions")?;
     for (&(p, r, i), nodes) in jobs.iter().zip(fibres) {
         for (k, n) in nodes.iter().enumerate() {
             positions[[p, r, i, k, 0]] = n[0];
@@ -234,7 +311,7 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
         "fibre_sample_rule".into(),
         "all fibres when n_w·(n_l·N+1) <= store_all_max_points, else sample_fibres fibres j_i = floor((2i+1)·n_w/(2k))".into(),
     );
-    out
+    Ok(out)
 }
 
 /// The webs of a web stage version, one per point, rebuilt bit-exactly from its

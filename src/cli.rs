@@ -64,6 +64,10 @@ pub enum Command {
         /// machine's available memory); a stage estimated above it is refused (exit 2).
         #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
         max_memory: Option<u64>,
+        /// Threads of this process (default: RAYON_NUM_THREADS, or one per core); the
+        /// results are bit-identical with any number. Slurm array tasks use SLURM_CPUS_PER_TASK.
+        #[arg(short = 'j', long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+        threads: Option<u32>,
     },
     /// Run one Slurm array task of a stage (used by `--executor slurm`).
     #[command(hide = true)]
@@ -147,7 +151,14 @@ pub enum Command {
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
     match cli.command {
-        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory } => {
+        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads } => {
+            // before the pipeline's memory estimates, which count the threads
+            if let Some(n) = threads {
+                if let Err(e) = crate::executor::local::set_threads(n as usize) {
+                    eprintln!("error: --threads: {e:#}");
+                    return 1;
+                }
+            }
             let mut p = match pipeline::load_with(&path, memory_limit(max_memory)) {
                 Ok(p) => p,
                 Err(d) => {

@@ -1,4 +1,6 @@
-//! Machine-readable output (`ls --json`, `stages --json`), parsed with serde_json.
+//! Machine-readable output (`ls --json`, `stages --json`), parsed with serde_json, and
+//! `run -j/--threads N`: the pool size is N, recorded in provenance, and the results are
+//! bit-identical with any N (every dataset but the laydown's per-replicate wall times).
 mod common;
 use common::*;
 use serde_json::Value;
@@ -94,4 +96,31 @@ fn stages_json_lists_kinds_and_typed_parameter_tables() {
     let out = run_in(tmp.path(), &["stages", "nope", "--json"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(out.stdout.is_empty());
+}
+
+#[test]
+fn threads_flag_sets_the_pool_and_results_stay_bit_identical() {
+    let tmp = tempfile::tempdir().unwrap();
+    write_pipeline(tmp.path(), "p.yaml", CHAIN);
+    // the flag wins over RAYON_NUM_THREADS
+    for (flag, n) in [("-j", 1), ("--threads", 2)] {
+        let out = run_in_with_threads(tmp.path(), 3, &["run", "p.yaml", "--archive", &format!("t{n}.h5"), flag, &n.to_string()]);
+        assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    }
+    for stage in ["fibre", "spectra"] {
+        let a = json(tmp.path(), &["show", "t1.h5", stage, "--json"]);
+        let b = json(tmp.path(), &["show", "t2.h5", stage, "--json"]);
+        assert_eq!(a["provenance"]["threads"], 1);
+        assert_eq!(b["provenance"]["threads"], 2);
+        // every dataset bit for bit, but a replicate's wall time
+        let hashes = |d: &Value| -> Vec<String> {
+            d["provenance"]["dataset_hashes"].as_str().unwrap().lines().filter(|l| !l.contains("wall_seconds")).map(str::to_string).collect()
+        };
+        assert!(hashes(&a).len() > 5, "{a}");
+        assert_eq!(hashes(&a), hashes(&b), "{stage}");
+    }
+    for bad in ["0", "two"] {
+        let out = run_in(tmp.path(), &["run", "p.yaml", "-j", bad]);
+        assert_eq!(out.status.code(), Some(2), "-j {bad}: {:?}", text(&out));
+    }
 }

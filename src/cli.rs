@@ -3,10 +3,9 @@
 //! archive, 2 bad input. A failing command prints nothing to stdout.
 use crate::archive::data::Attr;
 use crate::archive::{hdf, Archive, Integrity};
-use crate::params::ParamKind;
 use crate::runner::{self, RunError, RunOptions};
 use crate::stages::BadInput;
-use crate::{pipeline, stages};
+use crate::pipeline;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -65,6 +64,10 @@ pub enum Command {
         /// machine's available memory); a stage estimated above it is refused (exit 2).
         #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
         max_memory: Option<u64>,
+        /// Threads of this process (default: RAYON_NUM_THREADS, or one per core); the
+        /// results are bit-identical with any number. Slurm array tasks use SLURM_CPUS_PER_TASK.
+        #[arg(short = 'j', long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+        threads: Option<u32>,
     },
     /// Run one Slurm array task of a stage (used by `--executor slurm`).
     #[command(hide = true)]
@@ -93,7 +96,12 @@ pub enum Command {
     },
     /// List stages and versions of an archive (status, params hash, wall time); `*`
     /// marks each stage's current version, the one the pipeline's last run matched or wrote.
-    Ls { archive: PathBuf },
+    Ls {
+        archive: PathBuf,
+        /// Machine-readable output (see the README's CLI section).
+        #[arg(long)]
+        json: bool,
+    },
     /// Check every version of an archive against the hashes stored when it was
     /// committed (reading every value); names each damaged group and dataset. Exit 1 on damage.
     Verify { archive: PathBuf },
@@ -107,7 +115,12 @@ pub enum Command {
         json: bool,
     },
     /// List stage kinds, or print one kind's parameter table (units, defaults, ranges).
-    Stages { kind: Option<String> },
+    Stages {
+        kind: Option<String>,
+        /// Machine-readable output (see the README's CLI section).
+        #[arg(long)]
+        json: bool,
+    },
     /// Print the JSON schema of pipeline files (schemas/pipeline.schema.json).
     Schema,
     /// Print a stage version's per-point results as a table (swept parameters as columns,
@@ -138,7 +151,14 @@ pub enum Command {
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
     match cli.command {
-        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory } => {
+        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads } => {
+            // before the pipeline's memory estimates, which count the threads
+            if let Some(n) = threads {
+                if let Err(e) = crate::executor::local::set_threads(n as usize) {
+                    eprintln!("error: --threads: {e:#}");
+                    return 1;
+                }
+            }
             let mut p = match pipeline::load_with(&path, memory_limit(max_memory)) {
                 Ok(p) => p,
                 Err(d) => {
@@ -220,10 +240,10 @@ pub fn main_with(cli: Cli) -> i32 {
                 2
             }
         },
-        Command::Ls { archive } => report(ls(&archive)),
+        Command::Ls { archive, json } => report(ls(&archive, json)),
         Command::Verify { archive } => report(verify(&archive)),
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
-        Command::Stages { kind } => report(describe_stages(kind.as_deref())),
+        Command::Stages { kind, json } => report(describe_stages(kind.as_deref(), json)),
         Command::Plot { archive, stages, out, format } => report(plot(&archive, &stages, out.as_deref(), format)),
         Command::Table { archive, stage, all, format } => report(table(&archive, &stage, all, format)),
         Command::Schema => {
@@ -263,29 +283,13 @@ pub fn exit_code(e: &anyhow::Error) -> i32 {
 }
 
 /// Lists everything before printing, so a failure prints nothing to stdout.
-fn ls(path: &std::path::Path) -> Result<()> {
-    let archive = Archive::open_read(path)?;
-    let marks = archive.current_marks()?;
-    let mut lines = vec![format!("{:<16} {:>5} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)")];
-    for stage in archive.stages()? {
-        for v in archive.versions(&stage)? {
-            let mark = if marks.get(&stage) == Some(&v.number) { "*" } else { " " };
-            lines.push(format!(
-                "{:<16} {:>5} {:<10} {:<10} {:<17} {:>10.2}  {}",
-                stage,
-                format!("v{}{mark}", v.number),
-                v.attr_str("stage_kind").unwrap_or("?"),
-                v.attr_str("status").unwrap_or("?"),
-                v.attr_str("params_hash").unwrap_or("?"),
-                v.attr_f64("wall_seconds").unwrap_or(f64::NAN),
-                v.attr_str("end_utc").unwrap_or("?"),
-            ));
-        }
+fn ls(path: &std::path::Path, json: bool) -> Result<()> {
+    let listing = crate::listing::list(path)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&listing.json())?);
+    } else {
+        print!("{}", listing.text());
     }
-    if !marks.is_empty() {
-        lines.push("* current: the version the pipeline's last run matched or wrote".into());
-    }
-    println!("{}", lines.join("\n"));
     Ok(())
 }
 
@@ -437,33 +441,11 @@ fn plot(archive: &std::path::Path, stage_refs: &[String], out: Option<&std::path
     Ok(())
 }
 
-fn describe_stages(kind: Option<&str>) -> Result<()> {
-    match kind {
-        None => {
-            for s in stages::registry() {
-                println!("{:<10} {}", s.kind(), s.summary());
-            }
-            println!("\n`laydown stages KIND` prints a kind's parameters.");
-        }
-        Some(k) => {
-            let s = stages::find(k).ok_or_else(|| {
-                BadInput(format!("unknown stage kind `{k}`; allowed: {}", stages::kinds().join(", ")))
-            }).context("laydown stages")?;
-            println!("{} — {}\n", s.kind(), s.summary());
-            let rule = s.inputs();
-            if rule.max > 0 {
-                println!("input: {} to {} stage(s) of kind {}\n", rule.min, rule.max, rule.kinds.join(" or "));
-            }
-            println!("{:<32} {:<10} {:<14} {:<40} {}", "parameter", "unit", "default", "allowed", "meaning");
-            for p in s.params() {
-                let unit = if p.unit.is_empty() { "-" } else { p.unit };
-                let allowed = match &p.kind {
-                    ParamKind::Choice(c) => c.join("|"),
-                    _ => p.allowed(),
-                };
-                println!("{:<32} {:<10} {:<14} {:<40} {}", p.name, unit, p.default.to_string(), allowed, p.doc);
-            }
-        }
+fn describe_stages(kind: Option<&str>, json: bool) -> Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(&crate::listing::stages_json(kind)?)?);
+    } else {
+        print!("{}", crate::listing::stages_text(kind)?);
     }
     Ok(())
 }

@@ -12,13 +12,16 @@
 //!   that the laydown and laid_web stages compose;
 //! - [`geometry`], [`uniformity`]: shared science (eq 5, eq 6, CV, formation);
 //! - [`memory`]: the memory limit, stage estimates and fallible allocation;
-//! - [`plot`], [`table`]: figures and tables of a stage version, read back from the archive.
+//! - [`plot`], [`table`]: figures and tables of a stage version, read back from the archive;
+//! - [`listing`]: what `ls` and `stages` print, as text or JSON.
 pub mod archive;
 pub mod cli;
 /// What source code each stage kind's results depend on, hashed at build time (see build.rs).
 pub mod code_hash;
 pub mod executor;
 pub mod geometry;
+/// What `ls` and `stages` print, as text or JSON.
+pub mod listing;
 pub mod memory;
 pub mod param_table;
 pub mod params;

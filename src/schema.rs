@@ -7,7 +7,8 @@ use crate::params::{ParamKind, ParamSpec};
 use crate::stages;
 use serde_json::{json, Map, Value};
 
-fn value_schema(p: &ParamSpec) -> Value {
+/// The JSON Schema of one parameter's value (also in `laydown stages KIND --json`).
+pub fn value_schema(p: &ParamSpec) -> Value {
     let mut s = match &p.kind {
         ParamKind::Float { min, max } => {
             let mut m = Map::new();

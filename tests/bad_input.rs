@@ -4,7 +4,8 @@
 //! byte-identical. A case marked `# run: skipped` is checked by `validate` only (its
 //! subject, the `archive:` path, is replaced by `run --archive`). A case with an
 //! `# args: --max-memory 16GiB (why)` line is checked with those arguments (the words
-//! before the parenthesis), so a memory refusal reads the same on any machine.
+//! before the parenthesis), so a memory refusal reads the same on any machine. A case
+//! with an `# errors: N (why)` line must print exactly N `error:` lines (by `validate`).
 mod common;
 use common::*;
 use std::fs;
@@ -52,6 +53,11 @@ fn validate_rejects_each_with_its_message() {
         let (_, err) = text(&out);
         if out.status.code() != Some(2) || !err.contains(&expect) {
             failures.push(format!("{name}: exit {:?}\n  expected: {expect}\n  got: {err}", out.status.code()));
+        }
+        let count = fs::read_to_string(dir.join(&name)).unwrap().lines().find_map(|l| l.strip_prefix("# errors: ").map(|n| n.split(' ').next().unwrap().parse::<usize>().unwrap()));
+        let lines = err.lines().filter(|l| l.starts_with("error: ")).count();
+        if count.is_some_and(|n| n != lines) {
+            failures.push(format!("{name}: expected {count:?} error lines, got {lines}:\n{err}"));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

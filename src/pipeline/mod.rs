@@ -16,6 +16,7 @@
 //! checking collects all problems rather than stopping at the first. Last, every
 //! stage's memory estimate is checked against the [`Limit`] (see [`crate::memory`]).
 pub mod dag;
+pub mod inputs;
 pub mod yaml;
 
 use crate::executor::{ExecutorConfig, ExecutorKind};
@@ -439,6 +440,15 @@ impl Checker {
             }
         }
         let all: Vec<&StageDecl> = decls.iter().flatten().collect();
+        // Stages with errors of their own, by the name they were given: an input naming
+        // one gets one line saying so, not "names no stage".
+        let broken: Vec<(usize, String)> = decls
+            .iter()
+            .zip(items)
+            .enumerate()
+            .filter(|(_, (d, _))| d.is_none())
+            .filter_map(|(i, (_, n))| Some((i, declared_name(n)?)))
+            .collect();
         // Inputs exist and have the right kinds.
         for (i, d) in decls.iter().enumerate() {
             let Some(d) = d else { continue };
@@ -458,6 +468,10 @@ impl Checker {
             }
             for inp in &d.inputs {
                 match all.iter().find(|s| &s.name == inp) {
+                    None if broken.iter().any(|(_, n)| n == inp) => {
+                        let at = broken.iter().find(|(_, n)| n == inp).map(|(j, _)| *j).unwrap_or(0);
+                        self.err(d.pos, &key, format!("input `{inp}` (stages[{at}]) has errors of its own, reported above; this stage is checked once they are fixed"));
+                    }
                     None => {
                         let hint = suggest(inp, all.iter().map(|s| s.name.as_str())).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
                         let names: Vec<&str> = all.iter().map(|s| s.name.as_str()).filter(|n| *n != d.name).collect();
@@ -479,11 +493,37 @@ impl Checker {
         if self.diags.len() > before {
             return None;
         }
+        self.declared_checks(items, &all);
+        if self.diags.len() > before {
+            return None;
+        }
         self.memory(items, &all);
         if self.diags.len() > before {
             return None;
         }
         Some(decls.into_iter().flatten().collect())
+    }
+
+    /// Every stage against its inputs as declared ([`inputs::check`]),
+    /// e.g. a web choosing one point of a swept spectra stage: what `run` would find
+    /// only after computing the upstream stages. Reported where the parameter is set,
+    /// else at the stage's `input:`, else at the stage.
+    fn declared_checks(&mut self, items: &[Node], all: &[&StageDecl]) {
+        for (i, d) in all.iter().enumerate() {
+            let Err((param, msg)) = inputs::check(d, &declared(all, d, &self.dir)) else { continue };
+            let node = &items[i];
+            let (pos, path) = match param_or_key_pos(node, &param) {
+                Some((pos, path)) => (pos, path),
+                None => {
+                    let input = match &node.kind {
+                        Kind::Map(entries) => entries.iter().find(|(k, _, _)| k == "input").map(|(_, _, v)| v.pos),
+                        _ => None,
+                    };
+                    (input.unwrap_or(d.pos), format!("params.{param}"))
+                }
+            };
+            self.err(pos, &format!("stages[{i}].{path}"), msg);
+        }
     }
 
     /// Every stage's estimated peak memory within the limit; a stage above it is
@@ -770,6 +810,15 @@ fn join(prefix: &str, key: &str) -> String {
         key.to_string()
     } else {
         format!("{prefix}.{key}")
+    }
+}
+
+/// The `name:` a stage node gives itself, valid or not (to name a stage with errors).
+fn declared_name(stage: &Node) -> Option<String> {
+    let Kind::Map(entries) = &stage.kind else { return None };
+    match &entries.iter().find(|(k, _, _)| k == "name")?.2.kind {
+        Kind::Scalar(Scalar::Str(s)) => Some(s.clone()),
+        _ => None,
     }
 }
 

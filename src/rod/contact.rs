@@ -30,12 +30,17 @@ impl BeltContact {
     /// Apply contact and friction to the velocities of the nodes in `nodes` (clamped
     /// and driven nodes are excluded). Returns the work of the normal and of the
     /// tangential impulses (J).
-    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool) -> (f64, f64) {
+    /// Nodes with `supported[i]` set (held up by another fibre in this step, see
+    /// [`super::fibre_contact`]) are left alone.
+    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool, supported: &[bool]) -> (f64, f64) {
         let mut w_normal = 0.0;
         let mut w_friction = 0.0;
         let vb = self.belt_speed;
         let idt = 1.0 / dt;
         for i in nodes {
+            if supported.get(i).copied().unwrap_or(false) {
+                continue;
+            }
             let z = rod.x[i][2];
             let v = rod.v[i];
             let m = rod.mass[i];

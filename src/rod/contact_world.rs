@@ -50,6 +50,7 @@ struct Active {
     /// Index of the segment in its rod (u32::MAX: the link to the frozen stretch).
     segment: u32,
     held: bool,
+    landed: bool,
     /// Reach per axis, 2 |v − w| Δt_c (w the reference velocity).
     reach: [f64; 3],
 }
@@ -255,7 +256,15 @@ impl ContactWorld {
                                 let k = k as usize;
                                 let (x, v) = (&sim.rod.x, &sim.rod.v);
                                 let shift = |p: [f64; 3]| [p[0], p[1] + o.cd_shift, p[2]];
-                                ObstacleSegment { a: shift(x[k]), b: shift(x[k + 1]), va: v[k], vb: v[k + 1], t_ref: t, ..*o }
+                                ObstacleSegment {
+                                    a: shift(x[k]),
+                                    b: shift(x[k + 1]),
+                                    va: v[k],
+                                    vb: v[k + 1],
+                                    t_ref: t,
+                                    landed: sim.landing_time[k].is_finite() && sim.landing_time[k + 1].is_finite(),
+                                    ..*o
+                                }
                             }
                             None => *o,
                         })
@@ -294,12 +303,13 @@ impl ContactWorld {
                 // the link from the last frozen node to the first (held) simulated one
                 let a = [l[0] + vb * t, l[1], l[2]];
                 let reach = reach(belt, belt, w, interval);
-                active.push(Active { a, b: world(x[0]), va: belt, vb: v[0], fibre: f as u32, segment: u32::MAX, held: true, reach });
+                active.push(Active { a, b: world(x[0]), va: belt, vb: v[0], fibre: f as u32, segment: u32::MAX, held: true, landed: true, reach });
             }
             for k in 0..x.len() - 1 {
                 let held = !free.contains(&k) && !free.contains(&(k + 1));
                 let reach = reach(v[k], v[k + 1], w, interval);
-                active.push(Active { a: world(x[k]), b: world(x[k + 1]), va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, reach });
+                let landed = sim.landing_time[k].is_finite() && sim.landing_time[k + 1].is_finite();
+                active.push(Active { a: world(x[k]), b: world(x[k + 1]), va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, landed, reach });
             }
         }
         first.push(active.len());
@@ -377,11 +387,11 @@ impl ContactWorld {
                         let source = (o.segment != u32::MAX).then_some((o.fibre, o.segment));
                         let local = |p: [f64; 3]| [p[0], p[1] - own, p[2]];
                         let cd_shift = self.cd_offsets[o.fibre as usize] - own;
-                        ObstacleSegment { a: local(o.a), b: local(o.b), va: o.va, vb: o.vb, t_ref: t, simulated: !o.held, source, cd_shift }
+                        ObstacleSegment { a: local(o.a), b: local(o.b), va: o.va, vb: o.vb, t_ref: t, simulated: !o.held, landed: o.landed, source, cd_shift }
                     } else {
                         let z = &self.frozen[key as usize - active.len()];
                         let lab = |p: [f64; 3]| [p[0] + vb * t, p[1] - own, p[2]];
-                        ObstacleSegment { a: lab(z.a), b: lab(z.b), va: belt, vb: belt, t_ref: t, simulated: false, source: None, cd_shift: 0.0 }
+                        ObstacleSegment { a: lab(z.a), b: lab(z.b), va: belt, vb: belt, t_ref: t, simulated: false, landed: true, source: None, cd_shift: 0.0 }
                     };
                     contact.obstacles.push(o);
                 }

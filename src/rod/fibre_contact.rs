@@ -44,6 +44,9 @@ pub const SLOP: f64 = 0.01;
 /// begins, or after an extrapolation error) is undone over several steps.
 pub const MAX_SEPARATION_SPEED: f64 = 1.0;
 
+/// Centreline distance, in diameters, below which a pair counts as crossed and is left alone.
+pub const CROSSED: f64 = 0.5;
+
 /// Most rounds of belt push, fibre push and length projection in one step; each fibre
 /// push moves a pair by at most [`MAX_SEPARATION_SPEED`]·Δt/`POSITION_ROUNDS`.
 pub const POSITION_ROUNDS: usize = 8;
@@ -59,6 +62,8 @@ pub struct ObstacleSegment {
     /// Whether it belongs to another simulated fibre, which responds to contact too
     /// (see [`yield_share`]); false: frozen or held, this rod takes every correction.
     pub simulated: bool,
+    /// Both its nodes have landed (it lies on the belt or the web, which hold it).
+    pub landed: bool,
     /// The simulated segment it copies, (rod, segment), refreshed before every step;
     /// None: frozen (moves with the belt, never refreshed).
     pub source: Option<(u32, u32)>,
@@ -87,6 +92,9 @@ pub struct FibreContact {
     pub candidates: Vec<u32>,
     /// Share of each candidate contact this rod takes in the current step.
     shares: Vec<f64>,
+    /// Nodes held up by another fibre in the current step (the nearer node of each
+    /// contact that got an impulse): the belt leaves them alone in this step.
+    pub supported: Vec<bool>,
     /// Nodes dropped from the front of the rod since the rows were prepared: own
     /// segment k is row k + `dropped`. Segments added at the top have no row.
     pub dropped: usize,
@@ -95,6 +103,8 @@ pub struct FibreContact {
     /// Contacts that received a velocity impulse, and position corrections.
     pub impulses: u64,
     pub corrections: u64,
+    /// Pair-steps found crossed (closer than [`CROSSED`] d at the start of a step) and left alone.
+    pub crossed: u64,
 }
 
 /// The range of own nodes free to move (clamped leading nodes and a driven top excluded).
@@ -134,22 +144,30 @@ impl FibreContact {
     /// each contact point loses its freedom along the contact normal in this step's
     /// length projection, as a node on the belt loses its vertical one: otherwise the
     /// projection pulls a node held up by a crossing fibre back into it.
-    pub fn apply_impulses(&mut self, rod: &mut Rod, mut winv: Option<&mut [[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) {
+    pub fn apply_impulses(&mut self, rod: &mut Rod, landing_time: &[f64], mut winv: Option<&mut [[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) {
         let d = self.diameter;
         let mut impulses = 0;
         self.shares.clear();
         self.shares.resize(self.candidates.len(), 0.0);
+        self.supported.clear();
+        self.supported.resize(rod.nodes(), false);
         for k in 0..rod.rest.len() {
             let (i, j) = (k, k + 1);
-            let (wi, wj) = (inverse_mass(rod, i, &free), inverse_mass(rod, j, &free));
             for c in self.row(k) {
                 let ob = &self.obstacles[self.candidates[c] as usize];
                 let (q0, q1) = ob.at(t);
                 let (s, u, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
-                let share = yield_share(ob, gap[2], d);
-                self.shares[c] = share;
                 let g = norm(gap);
-                if share == 0.0 || !movable(s, wi, wj) || !(g > 0.0) {
+                // a pair closer than d/2 has crossed (in a violent event, or before
+                // contact began): pushing it apart along a normal that flipped as they
+                // passed would drive them into each other; it is left until it parts
+                let own_landed = landing_time[i].is_finite() && landing_time[j].is_finite();
+                let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, gap[2], d, own_landed) };
+                self.shares[c] = share;
+                if share == 0.0 && g < CROSSED * d {
+                    self.crossed += 1;
+                }
+                if share == 0.0 || !(g > 0.0) {
                     continue;
                 }
                 let n = scale(gap, 1.0 / g);
@@ -164,20 +182,21 @@ impl FibreContact {
                     continue;
                 }
                 let delta = target - vn;
-                let mut dvp = scale(n, share * delta);
+                let mobility = Mobility { winv: winv.as_deref(), mass: &rod.mass, free: &free };
+                if !mobility.shift(&mut rod.v, i, j, s, scale(n, share * delta)) {
+                    continue;
+                }
                 if let Some(mu) = self.friction {
                     let wt = sub(vrel, scale(n, vn));
                     let wtn = norm(wt);
                     if wtn > 0.0 {
                         let removed = if wtn <= mu * delta { 1.0 } else { mu * delta / wtn };
-                        dvp = add_scaled(dvp, wt, -share * removed);
+                        mobility.shift(&mut rod.v, i, j, s, scale(wt, -share * removed));
                     }
                 }
-                let w = (1.0 - s) * (1.0 - s) * wi + s * s * wj;
-                rod.v[i] = add_scaled(rod.v[i], dvp, (1.0 - s) * wi / w);
-                rod.v[j] = add_scaled(rod.v[j], dvp, s * wj / w);
+                let near = if s < 0.5 { i } else { j };
+                self.supported[near] = true;
                 if let Some(winv) = winv.as_deref_mut() {
-                    let near = if s < 0.5 { i } else { j };
                     winv[near] = without_direction(&winv[near], n);
                 }
                 impulses += 1;
@@ -190,14 +209,13 @@ impl FibreContact {
     /// than (1 − SLOP) d apart towards d, each by the share the velocity pass settled and
     /// by at most [`MAX_SEPARATION_SPEED`]·Δt. Returns the
     /// corrections made and the deepest penetration d − g found before correcting (m).
-    pub fn push_apart(&mut self, rod: &mut Rod, t: f64, dt: f64, free: FreeNodes) -> (usize, f64) {
+    pub fn push_apart(&mut self, rod: &mut Rod, winv: Option<&[[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) -> (usize, f64) {
         let d = self.diameter;
         let max_push = MAX_SEPARATION_SPEED * dt / POSITION_ROUNDS as f64;
         let mut count = 0;
         let mut deepest = 0.0f64;
         for k in 0..rod.rest.len() {
             let (i, j) = (k, k + 1);
-            let (wi, wj) = (inverse_mass(rod, i, &free), inverse_mass(rod, j, &free));
             for c in self.row(k) {
                 let ob = &self.obstacles[self.candidates[c] as usize];
                 let (q0, q1) = ob.at(t);
@@ -208,14 +226,14 @@ impl FibreContact {
                 }
                 deepest = deepest.max(d - g);
                 let share = self.shares.get(c).copied().unwrap_or(1.0);
-                if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 || !movable(s, wi, wj) {
+                if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 {
                     continue;
                 }
                 let dx = scale(gap, share * (d - g).min(max_push) / g);
-                let w = (1.0 - s) * (1.0 - s) * wi + s * s * wj;
-                rod.x[i] = add_scaled(rod.x[i], dx, (1.0 - s) * wi / w);
-                rod.x[j] = add_scaled(rod.x[j], dx, s * wj / w);
-                count += 1;
+                let mobility = Mobility { winv, mass: &rod.mass, free: &free };
+                if mobility.shift(&mut rod.x, i, j, s, dx) {
+                    count += 1;
+                }
             }
         }
         self.corrections += count as u64;
@@ -240,14 +258,17 @@ impl FibreContact {
 pub const SIDE_BY_SIDE: f64 = 0.1;
 
 /// The share of a contact's correction this rod takes, `dz` = z_P − z_Q the height of
-/// its contact point above the obstacle's: all of it against a frozen or held segment;
-/// against another simulated fibre, the upper one yields (all of it: the lower one lies
-/// on the belt or the web, which hold it), and side by side (|dz| < 0.1 d) each takes ½.
-/// Both rods evaluate the same rule, so a contact is corrected once.
-pub fn yield_share(ob: &ObstacleSegment, dz: f64, d: f64) -> f64 {
-    if !ob.simulated || dz > SIDE_BY_SIDE * d {
+/// its contact point above the obstacle's: all of it against a frozen or held segment.
+/// Against another simulated fibre: if the lower of the two has landed (the belt or the
+/// web holds it), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
+/// each takes ½ (equal masses per length: momentum is exchanged, not made). Both rods
+/// evaluate the same rule on the same data, so a contact is corrected once.
+pub fn yield_share(ob: &ObstacleSegment, dz: f64, d: f64, own_landed: bool) -> f64 {
+    if !ob.simulated {
         1.0
-    } else if dz < -SIDE_BY_SIDE * d {
+    } else if dz > SIDE_BY_SIDE * d && ob.landed {
+        1.0
+    } else if dz < -SIDE_BY_SIDE * d && own_landed {
         0.0
     } else {
         0.5
@@ -273,19 +294,47 @@ fn without_direction(w: &[f64; 6], n: [f64; 3]) -> [f64; 6] {
     ]
 }
 
-/// Whether the point P(s) of a segment with end inverse masses wi, wj can be moved:
-/// its effective inverse mass (1 − s)² wi + s² wj is at least a quarter of the larger
-/// end's. Near a held end (w = 0) the free end would need a velocity change 1/s times
-/// the point's; such a contact is left to the held node (on the belt or frozen).
-fn movable(s: f64, wi: f64, wj: f64) -> bool {
-    (1.0 - s) * (1.0 - s) * wi + s * s * wj >= 0.25 * wi.max(wj) && wi.max(wj) > 0.0
+/// How the nodes of the rod respond to a change asked of a point of a segment: the
+/// inverse node matrices W_k of the step (the projection schemes' effective inverse
+/// masses, which already hold a node stuck on the belt fixed and a sliding one in plane),
+/// or 1/m for the free nodes.
+struct Mobility<'a> {
+    winv: Option<&'a [[f64; 6]]>,
+    mass: &'a [f64],
+    free: &'a FreeNodes,
 }
 
-fn inverse_mass(rod: &Rod, i: usize, free: &FreeNodes) -> f64 {
-    if free.contains(&i) {
-        1.0 / rod.mass[i]
-    } else {
-        0.0
+impl Mobility<'_> {
+    fn along(&self, k: usize, u: [f64; 3]) -> [f64; 3] {
+        match self.winv {
+            Some(w) => super::forces::sym_mul(&w[k], &u),
+            None if self.free.contains(&k) => scale(u, 1.0 / self.mass[k]),
+            None => [0.0; 3],
+        }
+    }
+
+    /// Change the point P(s) = (1 − s) q_i + s q_j of `q` (velocities or positions) by
+    /// `change`: along u = change/|change|, q_k += β_k λ W_k u with λ = |change| /
+    /// Σ β_k² uᵀW_k u (β = (1 − s, s)), so that the point moves by exactly `change` along
+    /// u. Refused (false, nothing changed) where the point can hardly move: an effective
+    /// mobility below a quarter of the larger end's (near a held end the free one would
+    /// need 1/s times the change), such a contact is left to the held node.
+    fn shift(&self, q: &mut [[f64; 3]], i: usize, j: usize, s: f64, change: [f64; 3]) -> bool {
+        let size = norm(change);
+        if !(size > 0.0) {
+            return true;
+        }
+        let u = scale(change, 1.0 / size);
+        let (wi, wj) = (self.along(i, u), self.along(j, u));
+        let (mi, mj) = (dot(u, wi), dot(u, wj));
+        let effective = (1.0 - s) * (1.0 - s) * mi + s * s * mj;
+        if !(mi.max(mj) > 0.0 && effective >= 0.25 * mi.max(mj)) {
+            return false;
+        }
+        let lambda = size / effective;
+        q[i] = add_scaled(q[i], wi, (1.0 - s) * lambda);
+        q[j] = add_scaled(q[j], wj, s * lambda);
+        true
     }
 }
 

@@ -429,7 +429,15 @@ impl Simulator {
             self.ws.winv[i] = [0.0; 6];
         }
 
-        // 3. contact and friction
+        // 3. contact and friction: with other fibres first (a fibre lying on the belt
+        // holds up a node that would otherwise reach the belt in this step), then the belt
+        if self.fibre_contact.is_some() {
+            let free = self.free_nodes();
+            if let Some(c) = &mut self.fibre_contact {
+                let winv = if need_w { Some(&mut self.ws.winv[..]) } else { None };
+                c.apply_impulses(&mut self.rod, &self.landing_time, winv, t, dt, free);
+            }
+        }
         if let Some(c) = &self.contact {
             let skip_top = if self.driven_top.is_some() { n - 1 } else { n };
             if need_w {
@@ -445,16 +453,10 @@ impl Simulator {
                     }
                 }
             }
-            let (wn, wf) = c.apply(&mut self.rod, &mut self.ws, dt, self.clamped.len()..skip_top, need_w);
+            let supported = self.fibre_contact.as_ref().map_or(&[][..], |f| &f.supported[..]);
+            let (wn, wf) = c.apply(&mut self.rod, &mut self.ws, dt, self.clamped.len()..skip_top, need_w, supported);
             self.work.contact += wn;
             self.work.friction += wf;
-        }
-        if self.fibre_contact.is_some() {
-            let free = self.free_nodes();
-            if let Some(c) = &mut self.fibre_contact {
-                let winv = if need_w { Some(&mut self.ws.winv[..]) } else { None };
-                c.apply_impulses(&mut self.rod, winv, t, dt, free);
-            }
         }
 
         // 4./5. positions
@@ -496,7 +498,7 @@ impl Simulator {
                             }
                         }
                         if let Some(c) = &mut self.fibre_contact {
-                            let (corrected, deepest) = c.push_apart(&mut self.rod, t + dt, dt, free.clone());
+                            let (corrected, deepest) = c.push_apart(&mut self.rod, Some(&self.ws.winv), t + dt, dt, free.clone());
                             pushed += corrected;
                             fibre_penetration = deepest;
                         }

@@ -2,35 +2,41 @@
 //! stretch) stay at least one diameter d apart, with Coulomb friction μ_ff between them.
 //! Opt-in: a [`Simulator`](super::Simulator) without a [`FibreContact`] pays nothing.
 //!
-//! A rod sees the other fibres as **obstacle segments** prepared at a reference time
-//! t_ref (by [`ContactWorld`] for a web): their end points and velocities then, moved
-//! on linearly (x_q(t) = x_q + v_q (t − t_ref)). A laid, frozen segment moves with the
-//! belt, which is exact; a segment of another simulated fibre is extrapolated over
-//! the preparation interval. Each own segment carries its list of candidate obstacles
-//! (those whose swept bounding boxes can meet its own within the interval).
+//! A rod sees the other fibres as **obstacle segments**: end points and velocities at a
+//! reference time t_ref, moved on linearly (x_q(t) = x_q + v_q (t − t_ref)). A laid,
+//! frozen segment moves with the belt, which is exact; a segment of another simulated
+//! fibre is refreshed before every step by [`ContactWorld`](super::contact_world), so
+//! within a step each rod sees the others as they were at its start. Each own segment
+//! carries its list of candidate obstacles (those whose swept bounding boxes can meet
+//! its own before the next broad-phase search).
 //!
 //! Within each step, for an own segment P(s) = (1 − s) x_i + s x_j and an obstacle
 //! Q(u), with (s, u) the closest points, n = (P − Q)/|P − Q| and g = |P − Q| the
 //! centreline distance:
-//! - **velocity pass** (after the belt impulses): if the relative normal velocity
+//! - **velocity pass** (before the belt's impulses): if the relative normal velocity
 //!   v_n = (v_P − v_Q)·n would bring g below d by the end of the step, the point velocity
-//!   gets the impulse that makes v_n = (d − g)/Δt (g ≥ d) or 0 (g < d): perfectly
-//!   inelastic like the belt. Coulomb friction: a relative tangential velocity w_t with
-//!   |w_t| ≤ μ_ff Δv_n is removed (stick), otherwise reduced by μ_ff Δv_n. The change of
-//!   the point velocity Δv_P is shared by the two nodes in proportion to β_k w_k
-//!   (β = (1 − s, s), w the inverse masses, held nodes 0), so that Σ β_k Δv_k = Δv_P;
+//!   gets the impulse that makes v_n = (d − g)/Δt (g ≥ d), or keeps it within
+//!   [0, `MAX_SEPARATION_SPEED`] (g < d): perfectly inelastic like the belt. Coulomb
+//!   friction: a relative tangential velocity w_t with |w_t| ≤ μ_ff Δv_n is removed
+//!   (stick), otherwise reduced by μ_ff Δv_n. A change Δ of the point is carried by the
+//!   nodes through the step's inverse node matrices W_k (which hold a node stuck on the
+//!   belt fixed): q_k += β_k λ W_k u, β = (1 − s, s), u = Δ/|Δ|, λ = |Δ|/Σ β_k² uᵀW_k u.
+//!   The node nearer the contact then loses its freedom along n in the length
+//!   projection, and the belt leaves it alone in that step (its lagged axial force would
+//!   otherwise send it through the fibre onto the belt);
 //! - **position pass** (after the length projection, alternating with it and with the
 //!   belt's, like the belt): a pair closer than (1 − `SLOP`) d is pushed apart towards
 //!   d, by at most [`MAX_SEPARATION_SPEED`]·Δt per step.
 //!
 //! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
-//! correction. Of two simulated fibres the upper one takes it all: the lower one lies on
-//! the belt or on the web, which hold it (with half each, a fibre pressed onto the belt
-//! cannot give way, the other keeps only half of its correction, and the penetration
-//! left drives spurious velocities); side by side (heights within 0.1 d) each takes ½
-//! (equal masses per length). Tunnelling needs a relative normal motion of more than d in one step while
-//! the pair is not yet a candidate; the candidate margins are taken twice the motion
-//! measured at preparation.
+//! correction. Of two simulated fibres, the upper one takes it all if the lower one has
+//! landed (the belt or the web holds it; with half each, a fibre pressed onto the belt
+//! cannot give way and the penetration left drives spurious velocities); otherwise, and
+//! side by side (heights within 0.1 d), each takes ½ (equal masses per length). A pair
+//! closer than d/2 at the start of a step has crossed ([`CROSSED`]) and is left alone.
+//! Tunnelling needs a relative normal motion of more than d in one step while the pair
+//! is not yet a candidate; the candidate margins are twice the motion measured at the
+//! search.
 
 use super::state::Rod;
 

@@ -6,18 +6,7 @@ use common::*;
 use laydown::archive::data::Attr;
 use laydown::archive::{hdf, Archive};
 
-const PIPE: &str = "pipeline: cur
-archive: study.h5
-seed: 7
-stages:
-  - name: first
-    kind: spectra
-    params: {preset: none, bending_energy: 2500, cutoff_number: 20}
-    replicates: 2
-  - name: second
-    kind: spectra
-    params: {preset: spectrum2}
-";
+const PIPE: &str = TWO_SPECTRA;
 
 /// A laydown feeding a spectra stage: a real dependency.
 const CHAIN: &str = "pipeline: chain\narchive: study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60, diameter: 5.0e-05}\n    replicates: 2\n  - name: spectra\n    kind: spectra\n    input: fibre\n";

@@ -5,18 +5,7 @@ use common::*;
 use laydown::archive::Archive;
 use std::fs;
 
-const PIPE: &str = "pipeline: rerun
-archive: study.h5
-seed: 7
-stages:
-  - name: first
-    kind: spectra
-    params: {preset: none, bending_energy: 2500, cutoff_number: 20}
-    replicates: 2
-  - name: second
-    kind: spectra
-    params: {preset: spectrum2}
-";
+const PIPE: &str = TWO_SPECTRA;
 
 fn run(dir: &std::path::Path, args: &[&str]) -> String {
     let out = run_in(dir, args);

@@ -174,16 +174,6 @@ impl ContactWorld {
         }
     }
 
-    /// Frozen segments so far.
-    pub fn frozen_segments(&self) -> usize {
-        self.frozen.len()
-    }
-
-    /// Nodes of `fibre` frozen so far (as told by [`Self::add_frozen`]).
-    pub fn frozen_nodes(&self, fibre: usize) -> usize {
-        self.frozen_count[fibre]
-    }
-
     /// Append frozen nodes of `fibre`, in fibre order, in belt coordinates of the rod's
     /// frame (x − v_b t_freeze, y, z); they join the fibre's frozen chain.
     pub fn add_frozen(&mut self, fibre: usize, nodes: &[[f64; 3]]) {

@@ -209,14 +209,6 @@ impl Feeder {
     pub fn frozen(&self) -> &[([f64; 3], f64, f64)] {
         &self.frozen
     }
-    /// The error that stopped the fibre, if any.
-    pub fn error(&self) -> Option<&str> {
-        self.error.as_deref()
-    }
-    pub fn time(&self) -> f64 {
-        self.sim.t
-    }
-
     /// Advance to `until` (s); does nothing once the fibre has failed.
     pub fn advance_to(&mut self, until: f64) {
         if self.error.is_some() {

@@ -245,18 +245,6 @@ impl FibreContact {
         self.corrections += count as u64;
         (count, deepest)
     }
-
-    /// Deepest penetration d − g of the rod's current positions at time `t` (m, 0 if none).
-    pub fn penetration(&self, rod: &Rod, t: f64) -> f64 {
-        let mut deepest = 0.0f64;
-        for k in 0..rod.rest.len() {
-            for c in self.row(k) {
-                let (q0, q1) = self.obstacles[self.candidates[c] as usize].at(t);
-                deepest = deepest.max(self.diameter - norm(closest_points(rod.x[k], rod.x[k + 1], q0, q1).2));
-            }
-        }
-        deepest
-    }
 }
 
 /// Height difference, in diameters, below which two simulated fibres in contact are

@@ -23,6 +23,21 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// Two independent spectra stages (the first with two replicates): the smallest study
+/// whose stages can be changed, rerun and marked one at a time.
+pub const TWO_SPECTRA: &str = "pipeline: two_spectra
+archive: study.h5
+seed: 7
+stages:
+  - name: first
+    kind: spectra
+    params: {preset: none, bending_energy: 2500, cutoff_number: 20}
+    replicates: 2
+  - name: second
+    kind: spectra
+    params: {preset: spectrum2}
+";
+
 /// Write a pipeline file into `dir` and return its path.
 pub fn write_pipeline(dir: &Path, name: &str, yaml: &str) -> PathBuf {
     let p = dir.join(name);

@@ -5,11 +5,17 @@
 //! settled, then gives each rod its [`FibreContact`] obstacles (the segments of the other
 //! rods, and every frozen laid segment, its own included) with each own segment's
 //! candidates, and advances all rods in lock step to the end of the interval: every
-//! step is the smallest any rod asks for, and before each step every rod's copies of
-//! the other rods' segments are refreshed from their current state (Jacobi: within a
-//! step a rod sees the others as they were at its start, moving on at their
-//! velocities; which of two fibres yields is in [`super::fibre_contact::yield_share`]). The rods step in parallel and only read what was refreshed, so the
-//! result does not depend on the thread count.
+//! step is the smallest any rod asks for. Before each step every rod predicts the
+//! velocities v* it will reach without fibre contact (forces, the implicit update and
+//! the belt: [`Simulator::predict_velocities`]), and every rod's copies of the other
+//! rods' segments are refreshed with their positions and v* (Jacobi: within a step a
+//! rod sees the others move as they would without it, and judges a pair's approach as
+//! the other rod does; which of the two yields is in
+//! [`super::fibre_contact::yield_share`]). Seen at their start-of-step velocities, two
+//! fibres accelerated by the drag passed through each other
+//! (`fibres_colliding_in_the_air_stay_one_diameter_apart`). The rods step in parallel
+//! and only read what was refreshed, so the result does not depend on the thread
+//! count; the step reuses the forces of its prediction.
 //!
 //! Spatial hashing keeps the cost proportional to the local neighbour count: the
 //! simulated segments go into a 3-D grid rebuilt at each preparation, each spread over
@@ -50,7 +56,8 @@ struct Active {
     /// Index of the segment in its rod (u32::MAX: the link to the frozen stretch).
     segment: u32,
     held: bool,
-    landed: bool,
+    /// Whether each end has landed.
+    landed: [bool; 2],
     /// Reach per axis, 2 |v − w| Δt_c (w the reference velocity).
     reach: [f64; 3],
 }
@@ -92,6 +99,22 @@ pub trait ContactBody: Send + Sync {
     fn advance_to(&mut self, until: f64);
     /// Whether it still runs (not failed).
     fn running(&self) -> bool;
+    /// Prepare the next step, to `until` at most: what must happen before it (a fed rod
+    /// adds its new top node), then the velocities before contact it will reach, kept
+    /// in its [`FibreContact`] for the other rods to see.
+    fn predict(&mut self, until: f64) {
+        self.before_step();
+        let dt = self.next_step().min(until - self.simulator().t);
+        let sim = self.simulator_mut();
+        let Some(mut contact) = sim.fibre_contact.take() else { return };
+        let mut predicted = std::mem::take(&mut contact.predicted);
+        let ok = sim.predict_velocities(dt, &mut predicted).is_ok();
+        contact.predicted = predicted;
+        contact.predicted_at = ok.then_some(sim.t);
+        sim.fibre_contact = Some(contact);
+    }
+    /// What must happen before each step (a fed rod adds its new top node).
+    fn before_step(&mut self) {}
     /// Freeze what has settled; append the nodes newly frozen, in fibre order, in belt
     /// coordinates (x − v_b t_freeze, y, z).
     fn freeze(&mut self, _frozen: &mut Vec<[f64; 3]>) {}
@@ -219,13 +242,14 @@ impl ContactWorld {
             }
             let until = if now + dt >= t_next - t_next.abs() * 1e-12 { t_next } else { now + dt };
             let stepping = std::time::Instant::now();
+            bodies.par_iter_mut().filter(|b| b.running()).for_each(|b| b.predict(until));
+            in_bodies += stepping.elapsed().as_secs_f64();
+            self.refresh(bodies, now);
+            let stepping = std::time::Instant::now();
             bodies.par_iter_mut().for_each(|b| b.advance_to(until));
             in_bodies += stepping.elapsed().as_secs_f64();
             now = until;
             stats.lock_steps += 1;
-            if now < t_next {
-                self.refresh(bodies, now);
-            }
         }
         stats.wall_seconds += clock.elapsed().as_secs_f64() - in_bodies;
     }
@@ -241,10 +265,16 @@ impl ContactWorld {
                         .obstacles
                         .iter()
                         .map(|o| match o.source {
-                            Some((g, k)) => {
+                            // a rod that failed mid-interval keeps its last copy
+                            Some((g, k)) if k as usize + 1 < bodies[g as usize].simulator().rod.nodes() => {
                                 let sim = bodies[g as usize].simulator();
                                 let k = k as usize;
-                                let (x, v) = (&sim.rod.x, &sim.rod.v);
+                                let x = &sim.rod.x;
+                                // the velocities it reaches before contact in this step, if known
+                                let v = match &sim.fibre_contact {
+                                    Some(c) if c.predicted_at == Some(sim.t) && c.predicted.len() == x.len() => &c.predicted,
+                                    _ => &sim.rod.v,
+                                };
                                 let shift = |p: [f64; 3]| [p[0], p[1] + o.cd_shift, p[2]];
                                 ObstacleSegment {
                                     a: shift(x[k]),
@@ -252,11 +282,11 @@ impl ContactWorld {
                                     va: v[k],
                                     vb: v[k + 1],
                                     t_ref: t,
-                                    landed: sim.landing_time[k].is_finite() && sim.landing_time[k + 1].is_finite(),
+                                    landed: [sim.landing_time[k].is_finite(), sim.landing_time[k + 1].is_finite()],
                                     ..*o
                                 }
                             }
-                            None => *o,
+                            _ => *o,
                         })
                         .collect(),
                 )
@@ -293,12 +323,12 @@ impl ContactWorld {
                 // the link from the last frozen node to the first (held) simulated one
                 let a = [l[0] + vb * t, l[1], l[2]];
                 let reach = reach(belt, belt, w, interval);
-                active.push(Active { a, b: world(x[0]), va: belt, vb: v[0], fibre: f as u32, segment: u32::MAX, held: true, landed: true, reach });
+                active.push(Active { a, b: world(x[0]), va: belt, vb: v[0], fibre: f as u32, segment: u32::MAX, held: true, landed: [true; 2], reach });
             }
             for k in 0..x.len() - 1 {
                 let held = !free.contains(&k) && !free.contains(&(k + 1));
                 let reach = reach(v[k], v[k + 1], w, interval);
-                let landed = sim.landing_time[k].is_finite() && sim.landing_time[k + 1].is_finite();
+                let landed = [sim.landing_time[k].is_finite(), sim.landing_time[k + 1].is_finite()];
                 active.push(Active { a: world(x[k]), b: world(x[k + 1]), va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, landed, reach });
             }
         }
@@ -381,7 +411,7 @@ impl ContactWorld {
                     } else {
                         let z = &self.frozen[key as usize - active.len()];
                         let lab = |p: [f64; 3]| [p[0] + vb * t, p[1] - own, p[2]];
-                        ObstacleSegment { a: lab(z.a), b: lab(z.b), va: belt, vb: belt, t_ref: t, simulated: false, landed: true, source: None, cd_shift: 0.0 }
+                        ObstacleSegment { a: lab(z.a), b: lab(z.b), va: belt, vb: belt, t_ref: t, simulated: false, landed: [true; 2], source: None, cd_shift: 0.0 }
                     };
                     contact.obstacles.push(o);
                 }

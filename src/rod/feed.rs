@@ -219,17 +219,9 @@ impl Feeder {
         let belt = [self.belt_speed, 0.0, 0.0];
         let creep_tolerance = self.settings.creep_tolerance * ds;
         let tol = until * 1e-12;
-        let sim = &mut self.sim;
-        while sim.t < until - tol {
-            // feed: a new top node whenever the driven one has descended an element
-            let top = sim.rod.nodes() - 1;
-            if sim.rod.x[top][2] <= self.feed_height - ds {
-                let (x, v) = (sim.rod.x[top], sim.rod.v[top]);
-                sim.push_top([x[0], x[1], x[2] + ds], v, ds, self.mass_per_length);
-                self.stuck_since.push(f64::NAN);
-                self.anchors.push([0.0; 2]);
-                self.max_active = self.max_active.max(sim.rod.nodes());
-            }
+        while self.sim.t < until - tol {
+            self.feed_top();
+            let sim = &mut self.sim;
             if self.settings.freeze && !self.defer_freezing && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt) {
                 self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
             }
@@ -257,6 +249,19 @@ impl Feeder {
             }
         }
         self.wall_seconds += clock.elapsed().as_secs_f64();
+    }
+
+    /// Feed: a new top node whenever the driven one has descended an element.
+    fn feed_top(&mut self) {
+        let (sim, ds) = (&mut self.sim, self.element_length);
+        let top = sim.rod.nodes() - 1;
+        if sim.rod.x[top][2] <= self.feed_height - ds {
+            let (x, v) = (sim.rod.x[top], sim.rod.v[top]);
+            sim.push_top([x[0], x[1], x[2] + ds], v, ds, self.mass_per_length);
+            self.stuck_since.push(f64::NAN);
+            self.anchors.push([0.0; 2]);
+            self.max_active = self.max_active.max(sim.rod.nodes());
+        }
     }
 
     /// The fibre at the time reached: frozen nodes carried with the belt to it.
@@ -310,6 +315,9 @@ impl ContactBody for Feeder {
     }
     fn running(&self) -> bool {
         self.error.is_none()
+    }
+    fn before_step(&mut self) {
+        self.feed_top();
     }
     fn freeze(&mut self, frozen: &mut Vec<[f64; 3]>) {
         if !self.settings.freeze || self.error.is_some() {

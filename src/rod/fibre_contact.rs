@@ -6,7 +6,8 @@
 //! reference time t_ref, moved on linearly (x_q(t) = x_q + v_q (t − t_ref)). A laid,
 //! frozen segment moves with the belt, which is exact; a segment of another simulated
 //! fibre is refreshed before every step by [`ContactWorld`](super::contact_world), so
-//! within a step each rod sees the others as they were at its start. Each own segment
+//! within a step each rod sees the others where they were at its start, moving at the
+//! velocities they reach in the step without fibre contact. Each own segment
 //! carries its list of candidate obstacles (those whose swept bounding boxes can meet
 //! its own before the next broad-phase search).
 //!
@@ -68,8 +69,8 @@ pub struct ObstacleSegment {
     /// Whether it belongs to another simulated fibre, which responds to contact too
     /// (see [`yield_share`]); false: frozen or held, this rod takes every correction.
     pub simulated: bool,
-    /// Both its nodes have landed (it lies on the belt or the web, which hold it).
-    pub landed: bool,
+    /// Whether each end node has landed (lies on the belt or the web, which hold it).
+    pub landed: [bool; 2],
     /// The simulated segment it copies, (rod, segment), refreshed before every step;
     /// None: frozen (moves with the belt, never refreshed).
     pub source: Option<(u32, u32)>,
@@ -111,6 +112,12 @@ pub struct FibreContact {
     pub corrections: u64,
     /// Pair-steps found crossed (closer than [`CROSSED`] d at the start of a step) and left alone.
     pub crossed: u64,
+    /// The rod's velocities v* before contact in the step about to be taken from time
+    /// `predicted_at` ([`super::Simulator::predict_velocities`]): the other rods see this
+    /// rod's segments move at v* in that step, as the rod itself does, so both sides of
+    /// a pair judge its approach alike.
+    pub predicted: Vec<[f64; 3]>,
+    pub predicted_at: Option<f64>,
 }
 
 /// The range of own nodes free to move (clamped leading nodes and a driven top excluded).
@@ -167,8 +174,8 @@ impl FibreContact {
                 // a pair closer than d/2 has crossed (in a violent event, or before
                 // contact began): pushing it apart along a normal that flipped as they
                 // passed would drive them into each other; it is left until it parts
-                let own_landed = landing_time[i].is_finite() && landing_time[j].is_finite();
-                let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, gap[2], d, own_landed) };
+                let own_landed = landing_time[if s < 0.5 { i } else { j }].is_finite();
+                let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, own_landed) };
                 self.shares[c] = share;
                 if share == 0.0 && g < CROSSED * d {
                     self.crossed += 1;
@@ -253,14 +260,16 @@ pub const SIDE_BY_SIDE: f64 = 0.1;
 
 /// The share of a contact's correction this rod takes, `dz` = z_P − z_Q the height of
 /// its contact point above the obstacle's: all of it against a frozen or held segment.
-/// Against another simulated fibre: if the lower of the two has landed (the belt or the
-/// web holds it), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
+/// Against another simulated fibre: if the lower of the two has landed at the contact
+/// (the segment end nearer the contact point, at `u` along the obstacle; the belt or
+/// the web holds it), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
 /// each takes ½ (equal masses per length: momentum is exchanged, not made). Both rods
 /// evaluate the same rule on the same data, so a contact is corrected once.
-pub fn yield_share(ob: &ObstacleSegment, dz: f64, d: f64, own_landed: bool) -> f64 {
+pub fn yield_share(ob: &ObstacleSegment, u: f64, dz: f64, d: f64, own_landed: bool) -> f64 {
+    let ob_landed = ob.landed[usize::from(u >= 0.5)];
     if !ob.simulated {
         1.0
-    } else if dz > SIDE_BY_SIDE * d && ob.landed {
+    } else if dz > SIDE_BY_SIDE * d && ob_landed {
         1.0
     } else if dz < -SIDE_BY_SIDE * d && own_landed {
         0.0

@@ -151,3 +151,43 @@ fn fibre_lands_on_a_frozen_fibre_and_rests_on_it() {
     assert!((mid[2] - d).abs() < 0.05 * d, "middle node at z = {:.3e} m, d = {d:.3e} m", mid[2]);
     assert!(b.rod.x[0][2] < 0.05 * d && b.rod.x[20][2] < 0.05 * d, "ends on the belt");
 }
+
+/// Fibre B (along y) thrown down at `speed` onto fibre A (along x) falling in the air
+/// below it, both simulated: neither is held, each takes half of every correction, and
+/// the drag changes their velocities within each step, so each must see the other move
+/// as it will in the step (its predicted velocity): seen at its start-of-step velocity,
+/// B passed through A at 2 m/s (least distance 0.49 d). Measured now: 0.9998 d at
+/// 2 m/s, 0.94 d at 8 m/s (about 3 d per step); B then rises off A, the bent fibres'
+/// elastic rebound (the contact itself is inelastic). Returns (least distance, B's
+/// height above A at the crossing at the end).
+fn collide_in_air(speed: f64) -> (f64, f64) {
+    let p = scene();
+    let d = p.diameter;
+    let mpl = p.mass_per_length();
+    let a = straight(&p, [0.0, 0.0, 20e-3], [1.0, 0.0, 0.0], 20, [0.0; 3]);
+    let b = straight(&p, [0.0, 0.0, 23e-3], [0.0, 1.0, 0.0], 20, [0.0, 0.0, -speed]);
+    let mut rods = [FreeRod::new(a, mpl), FreeRod::new(b, mpl)];
+    let mut world = ContactWorld::new(2, d, Some(0.3), 0.0, None, 1e-3);
+    let mut stats = ContactStats::default();
+    let interval = 1e-4;
+    let mut least = f64::INFINITY;
+    for n in 0..40 {
+        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
+        for (i, r) in rods.iter().enumerate() {
+            assert!(r.error.is_none(), "rod {i}: {:?}", r.error);
+        }
+        least = least.min(least_distance(&rods[0].sim, &rods[1].sim));
+    }
+    (least, crossing(&rods[0].sim, &rods[1].sim).0)
+}
+
+#[test]
+fn fibres_colliding_in_the_air_stay_one_diameter_apart() {
+    let d = scene().diameter;
+    for speed in [2.0, 8.0] {
+        let (least, height) = collide_in_air(speed);
+        println!("collision in the air at {speed} m/s: least distance {:.4} d, B above A by {:.4} d at the end", least / d, height / d);
+        assert!(least >= 0.9 * d, "closer than 0.9 d: {least:.3e} m");
+        assert!(height > 0.9 * d, "B passed through A: {height:.3e} m above it");
+    }
+}

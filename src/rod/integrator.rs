@@ -171,6 +171,9 @@ pub struct Simulator {
     pub projection_calls: u64,
     /// Contact with other fibres (opt-in; see [`super::fibre_contact`]).
     pub fibre_contact: Option<FibreContact>,
+    /// (t, Δt, nodes) of the forces in the workspace when [`Self::predict_velocities`]
+    /// left them for the step that follows; None: the step evaluates them.
+    pub(super) forces_for: Option<(f64, f64, usize)>,
 }
 
 /// State needed to retake a rejected step.
@@ -385,50 +388,38 @@ impl Simulator {
         }
     }
 
+    /// The velocities v* a step of `dt` from the current state reaches before fibre
+    /// contact (forces, the node-wise implicit update and the belt, steps 1-3), into `out`; the state is
+    /// unchanged, and the step of `dt` that follows reuses the forces. Fibres in contact
+    /// see one another moving at v* (see [`super::contact_world`]).
+    pub fn predict_velocities(&mut self, dt: f64, out: &mut Vec<[f64; 3]>) -> Result<(), StepFailure> {
+        let saved_dt = self.dt;
+        self.dt = dt;
+        self.evaluate_forces();
+        out.clone_from(&self.rod.v);
+        let solved = self.solve_velocities();
+        if solved.is_ok() {
+            // the belt holds what reaches it (fibre contact comes on top)
+            self.belt_impulses();
+        }
+        std::mem::swap(out, &mut self.rod.v);
+        self.dt = saved_dt;
+        self.forces_for = solved.is_ok().then_some((self.t, dt, self.rod.nodes()));
+        solved
+    }
+
     pub fn step(&mut self) -> Result<(), StepFailure> {
         let dt = self.dt;
         let t = self.t;
         let n = self.rod.nodes();
         self.max_compression = 0.0;
-        self.evaluate_forces();
-        // 2. node-wise implicit velocity update
+        // 1.-2. forces (unless predicted for this step) and the node-wise implicit
+        // velocity update
+        if self.forces_for.take() != Some((t, dt, n)) {
+            self.evaluate_forces();
+        }
+        self.solve_velocities()?;
         let need_w = self.integrator != Integrator::Explicit;
-        let driven = if self.driven_top.is_some() { n - 1 } else { usize::MAX };
-        for i in 0..n {
-            let m = self.rod.mass[i];
-            let v = self.rod.v[i];
-            let f = self.ws.force[i];
-            let r = self.ws.rhs[i];
-            let b = [m * v[0] + dt * f[0] + r[0], m * v[1] + dt * f[1] + r[1], m * v[2] + dt * f[2] + r[2]];
-            let a = &self.ws.amat[i];
-            self.ws.contact[i] = NodeContact::Free;
-            if i == driven {
-                // v_z imposed: A_xy v_xy = b_xy − A_{xy,z} v_z
-                let vz = -self.driven_top.unwrap_or(0.0);
-                let wi = sym_inverse_xy(a).ok_or_else(|| StepFailure("singular top-node matrix".into()))?;
-                let (bx, by) = (b[0] - a[4] * vz, b[1] - a[5] * vz);
-                self.rod.v[i] = [wi[0] * bx + wi[3] * by, wi[3] * bx + wi[1] * by, vz];
-                if need_w {
-                    self.ws.winv[i] = wi;
-                }
-                continue;
-            }
-            let ai = if a[3] == 0.0 && a[4] == 0.0 && a[5] == 0.0 {
-                // no coupling term on this node (outside the drag zone): diagonal
-                [1.0 / a[0], 1.0 / a[1], 1.0 / a[2], 0.0, 0.0, 0.0]
-            } else {
-                sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?
-            };
-            self.rod.v[i] = super::forces::sym_mul(&ai, &b);
-            if need_w {
-                self.ws.winv[i] = ai;
-            }
-        }
-        for &i in &self.clamped {
-            self.rod.v[i] = self.clamp_velocity;
-            self.ws.winv[i] = [0.0; 6];
-        }
-
         // 3. contact and friction: with other fibres first (a fibre lying on the belt
         // holds up a node that would otherwise reach the belt in this step), then the belt
         if self.fibre_contact.is_some() {
@@ -438,25 +429,10 @@ impl Simulator {
                 c.apply_impulses(&mut self.rod, &self.landing_time, winv, t, dt, free);
             }
         }
-        if let Some(c) = &self.contact {
-            let skip_top = if self.driven_top.is_some() { n - 1 } else { n };
-            if need_w {
-                for f in self.ws.lag_force.iter_mut() {
-                    *f = [0.0; 3];
-                }
-                for k in 0..self.rod.rest.len() {
-                    let p = self.segment_force[k];
-                    let tk = self.ws.tangent[k];
-                    for (j, t) in tk.iter().enumerate() {
-                        self.ws.lag_force[k][j] -= p * t;
-                        self.ws.lag_force[k + 1][j] += p * t;
-                    }
-                }
-            }
-            let supported = self.fibre_contact.as_ref().map_or(&[][..], |f| &f.supported[..]);
-            let (wn, wf) = c.apply(&mut self.rod, &mut self.ws, dt, self.clamped.len()..skip_top, need_w, supported);
-            self.work.contact += wn;
-            self.work.friction += wf;
+        if self.contact.is_some() {
+            let (normal, friction) = self.belt_impulses();
+            self.work.contact += normal;
+            self.work.friction += friction;
         }
 
         // 4./5. positions
@@ -589,6 +565,76 @@ impl Simulator {
         }
         self.t = t_new;
         self.steps += 1;
+        Ok(())
+    }
+
+    /// Step 3, the belt: its normal and friction impulses on the nodes that reach it
+    /// (the nodes held up by another fibre in this step left alone). Returns the work of
+    /// the normal and friction impulses (J).
+    fn belt_impulses(&mut self) -> (f64, f64) {
+        let Some(c) = &self.contact else { return (0.0, 0.0) };
+        let n = self.rod.nodes();
+        let need_w = self.integrator != Integrator::Explicit;
+        let skip_top = if self.driven_top.is_some() { n - 1 } else { n };
+        if need_w {
+            for f in self.ws.lag_force.iter_mut() {
+                *f = [0.0; 3];
+            }
+            for k in 0..self.rod.rest.len() {
+                let p = self.segment_force[k];
+                let tk = self.ws.tangent[k];
+                for (j, t) in tk.iter().enumerate() {
+                    self.ws.lag_force[k][j] -= p * t;
+                    self.ws.lag_force[k + 1][j] += p * t;
+                }
+            }
+        }
+        let supported = self.fibre_contact.as_ref().map_or(&[][..], |f| &f.supported[..]);
+        c.apply(&mut self.rod, &mut self.ws, self.dt, self.clamped.len()..skip_top, need_w, supported)
+    }
+
+    /// Step 2: the node-wise implicit velocity update from the forces and node matrices
+    /// in the workspace, v = A⁻¹ (m v + Δt f + r), with the driven top's v_z imposed and
+    /// the clamped nodes carried; the projection schemes keep A⁻¹ as the nodes' inverse
+    /// masses.
+    fn solve_velocities(&mut self) -> Result<(), StepFailure> {
+        let (dt, t, n) = (self.dt, self.t, self.rod.nodes());
+        let need_w = self.integrator != Integrator::Explicit;
+        let driven = if self.driven_top.is_some() { n - 1 } else { usize::MAX };
+        for i in 0..n {
+            let m = self.rod.mass[i];
+            let v = self.rod.v[i];
+            let f = self.ws.force[i];
+            let r = self.ws.rhs[i];
+            let b = [m * v[0] + dt * f[0] + r[0], m * v[1] + dt * f[1] + r[1], m * v[2] + dt * f[2] + r[2]];
+            let a = &self.ws.amat[i];
+            self.ws.contact[i] = NodeContact::Free;
+            if i == driven {
+                // v_z imposed: A_xy v_xy = b_xy − A_{xy,z} v_z
+                let vz = -self.driven_top.unwrap_or(0.0);
+                let wi = sym_inverse_xy(a).ok_or_else(|| StepFailure("singular top-node matrix".into()))?;
+                let (bx, by) = (b[0] - a[4] * vz, b[1] - a[5] * vz);
+                self.rod.v[i] = [wi[0] * bx + wi[3] * by, wi[3] * bx + wi[1] * by, vz];
+                if need_w {
+                    self.ws.winv[i] = wi;
+                }
+                continue;
+            }
+            let ai = if a[3] == 0.0 && a[4] == 0.0 && a[5] == 0.0 {
+                // no coupling term on this node (outside the drag zone): diagonal
+                [1.0 / a[0], 1.0 / a[1], 1.0 / a[2], 0.0, 0.0, 0.0]
+            } else {
+                sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?
+            };
+            self.rod.v[i] = super::forces::sym_mul(&ai, &b);
+            if need_w {
+                self.ws.winv[i] = ai;
+            }
+        }
+        for &i in &self.clamped {
+            self.rod.v[i] = self.clamp_velocity;
+            self.ws.winv[i] = [0.0; 6];
+        }
         Ok(())
     }
 

@@ -138,6 +138,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         projection_iterations: 0,
         projection_calls: 0,
         fibre_contact: None,
+        forces_for: None,
         compliance: match p.integrator {
             Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => 1.0 / p.axial_stiffness(),
             _ => 0.0,

@@ -18,9 +18,9 @@ pub const STAGE_CODE: &[(&str, &[&str])] = &[
     ("accuracy", &["src/stages/accuracy.rs"]),
 ];
 
-/// Shared by every kind: the stage interface, parameter tables and values, and how
-/// outputs are built and written.
-pub const COMMON_CODE: &[&str] = &["src/stages/mod.rs", "src/param_table.rs", "src/params.rs", "src/archive/data.rs", "src/archive/hdf.rs"];
+/// Shared by every kind: the stage interface, the random streams, parameter tables and
+/// values, and how outputs are built and written.
+pub const COMMON_CODE: &[&str] = &["src/stages/mod.rs", "src/rng.rs", "src/param_table.rs", "src/params.rs", "src/archive/data.rs", "src/archive/hdf.rs"];
 
 /// Every `.rs` file under `path` (or `path` itself), sorted, without test files.
 pub fn code_files(root: &std::path::Path, path: &str) -> Vec<String> {

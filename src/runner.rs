@@ -632,7 +632,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         put("sweep_yaml", Attr::Str(decl.sweep_yaml()));
         put("replicates", Attr::I64(decl.replicates as i64));
         put("seed", Attr::Str(seed.to_string()));
-        put("rng_scheme", Attr::Str(provenance::RNG_SCHEME.into()));
+        put("rng_scheme", Attr::Str(crate::rng::SCHEME.into()));
         put(
             "inputs",
             Attr::Str(

@@ -33,7 +33,6 @@ use crate::stages::rows::place;
 use crate::stages::{concurrent, Declared, DeclaredFibres, InputRule, RunContext, Stage, Units};
 use anyhow::{bail, Result};
 use ndarray::{Array1, Array2, Array3};
-use rayon::prelude::*;
 
 /// Stage-level parameters (not scene parameters): the valid-replicate target and its cap.
 const TARGET: &str = "valid_replicates_target";
@@ -188,18 +187,7 @@ impl Stage for LaydownStage {
             let results = run_until_valid(&scenes[a..b], &targets, ctx.replicates, ctx.progress, &ctx.stage_name, |p, r| sim(a + p, r));
             results.into_iter().enumerate().flat_map(|(p, rs)| rs.into_iter().enumerate().map(move |(r, res)| (a + p, r, res))).collect()
         } else {
-            let jobs: Vec<(usize, usize)> = range.map(|u| units.split(u)).collect();
-            let bar = crate::progress::bar(ctx.progress, jobs.len() as u64, &format!("{} units", ctx.stage_name));
-            let out = jobs
-                .par_iter()
-                .map(|&(p, r)| {
-                    let res = sim(p, r);
-                    bar.inc(1);
-                    (p, r, res)
-                })
-                .collect();
-            bar.finish_and_clear();
-            out
+            ctx.par_units(range, |p, r| (p, r, sim(p, r)))
         };
         unit_rows(&scenes, &rows)
     }
@@ -229,16 +217,7 @@ pub(crate) fn run_until_valid(
     let mut round = 0;
     while !jobs.is_empty() {
         let label = if round == 0 { format!("{stage_name} units") } else { format!("{stage_name} extra {round}") };
-        let bar = crate::progress::bar(progress, jobs.len() as u64, &label);
-        let out: Vec<LaydownResult> = jobs
-            .par_iter()
-            .map(|&(p, r)| {
-                let res = sim(p, r);
-                bar.inc(1);
-                res
-            })
-            .collect();
-        bar.finish_and_clear();
+        let out: Vec<LaydownResult> = crate::progress::par_map_shown(progress, &label, &jobs, |&(p, r)| sim(p, r));
         for (&(p, _), res) in jobs.iter().zip(out) {
             results[p].push(res);
         }

@@ -9,12 +9,12 @@
 
 /// Paths (files or directories, relative to the crate root) whose code computes each kind.
 pub const STAGE_CODE: &[(&str, &[&str])] = &[
-    ("laydown", &["src/stages/laydown", "src/rod", "src/geometry.rs", "src/executor/partial.rs"]),
-    ("laid_web", &["src/stages/laid_web", "src/stages/laydown", "src/rod", "src/geometry.rs", "src/executor/partial.rs"]),
+    ("laydown", &["src/stages/laydown", "src/rod", "src/geometry.rs", "src/archive/gather.rs"]),
+    ("laid_web", &["src/stages/laid_web", "src/stages/laydown", "src/rod", "src/geometry.rs", "src/archive/gather.rs"]),
     ("spectra", &["src/stages/spectra", "src/geometry.rs"]),
     ("web", &["src/stages/web", "src/stages/spectra", "src/geometry.rs"]),
-    ("grid", &["src/stages/grid", "src/stages/web", "src/stages/spectra", "src/geometry.rs", "src/uniformity.rs", "src/executor/partial.rs"]),
-    ("image", &["src/stages/image", "src/uniformity.rs", "src/executor/partial.rs"]),
+    ("grid", &["src/stages/grid", "src/stages/web", "src/stages/spectra", "src/geometry.rs", "src/uniformity.rs", "src/archive/gather.rs"]),
+    ("image", &["src/stages/image", "src/uniformity.rs", "src/archive/gather.rs"]),
     ("accuracy", &["src/stages/accuracy.rs"]),
 ];
 

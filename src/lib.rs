@@ -14,7 +14,13 @@
 //! - [`memory`]: the memory limit, stage estimates and fallible allocation;
 //! - [`plot`], [`table`]: figures and tables of a stage version, read back from the archive;
 //! - [`listing`]: what `ls` and `stages` print, as text or JSON;
-//! - [`rng`]: the one random-number scheme, shared by the stages and the library API.
+//! - [`rng`]: the one random-number scheme, shared by the stages and the library API;
+//! - [`error`]: whose fault a failure is ([`error::BadInput`], exit code 2).
+//!
+//! The modules are layers, each using only those below it (`tests/layers.rs` fails on
+//! an import cycle): `error`, `rng`, `params` and the shared science at the bottom, then
+//! `archive`, `rod`, `stages`, `pipeline`, `executor`, `runner`, and the commands' own
+//! modules (`table`, `plot`, `listing`, `schema`, `cli`) on top.
 //!
 //! # Reproducing a replicate of an archive
 //! The stages and the library draw from the same random streams ([`rng`]), so the library
@@ -56,6 +62,7 @@ pub mod archive;
 pub mod cli;
 /// What source code each stage kind's results depend on, hashed at build time (see build.rs).
 pub mod code_hash;
+pub mod error;
 pub mod executor;
 pub mod geometry;
 /// What `ls` and `stages` print, as text or JSON.

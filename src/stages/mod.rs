@@ -61,11 +61,8 @@ pub struct DeclaredFibres {
     pub length: f64,
 }
 
-/// A problem with the user's input found while running (exit code 2), as opposed to
-/// a runtime failure (exit code 1).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct BadInput(pub String);
+/// A stage's bad input is the crate's ([`crate::error`]).
+pub use crate::error::BadInput;
 
 pub trait Stage: Send + Sync {
     /// The `kind:` that selects this stage in a pipeline.
@@ -115,7 +112,7 @@ pub trait Stage: Send + Sync {
     /// global point and replicate in the i64 variables `unit_point` and
     /// `unit_replicate`), and whose other variables and attributes do not depend on the
     /// range. The rows of consecutive ranges concatenated along [`UNIT_DIM`] (ragged
-    /// trailing dimensions NaN-padded, [`crate::executor::partial::gather`]) equal the
+    /// trailing dimensions NaN-padded, [`crate::archive::gather::gather`]) equal the
     /// rows of the whole range.
     fn run_units(&self, _ctx: &RunContext, _range: std::ops::Range<usize>) -> Result<Output> {
         anyhow::bail!("stage kind `{}` cannot be run by units", self.kind())

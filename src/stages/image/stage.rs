@@ -507,7 +507,7 @@ fn stack_points(mut parts: Vec<Output>, swept: bool) -> Result<Output> {
             };
         }
     }
-    crate::executor::partial::gather(&parts, &["point"])
+    crate::archive::gather::gather(&parts, &["point"])
 }
 
 /// Drops the large arrays of an analysis that is not stored.

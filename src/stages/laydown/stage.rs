@@ -25,6 +25,7 @@
 //! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
 //! (one record per `diagnostic_stride` steps) are not counted.
 use super::params::{BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
+use super::metrics::ENERGY_COLUMNS;
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
@@ -266,7 +267,7 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
     let mut laid = crate::memory::try_array((n, nodes, 3), nan, what)?;
     let mut laid_removed = crate::memory::try_array((n, nodes, 3), nan, what)?;
     let mut landing = crate::memory::try_array((n, nodes), nan, what)?;
-    let mut diag = Array3::from_elem((n, ndiag, 8), nan);
+    let mut diag = Array3::from_elem((n, ndiag, ENERGY_COLUMNS.len()), nan);
     let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
     let ok = |r: &LaydownResult, v: f64| if r.error.is_none() { v } else { f64::NAN };
     // Row u of an (unit, node, xyz) array from a polyline (the rest stays NaN).
@@ -283,10 +284,8 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
         put(&mut laid, u, &laid_polyline(&res.positions, &res.landing_time, None));
         put(&mut laid_removed, u, &laid_polyline(&res.positions, &res.landing_time, Some((scenes[*p].belt_speed, res.end_time))));
         for (i, d) in res.diagnostics.iter().enumerate() {
-            let w = &d.work;
-            let row = [d.time, d.kinetic, d.elastic, w.drag, w.friction, w.gravity, w.oscillation, w.damping];
-            for (k, v) in row.iter().enumerate() {
-                diag[[u, i, k]] = *v;
+            for (k, (_, value)) in ENERGY_COLUMNS.iter().enumerate() {
+                diag[[u, i, k]] = value(d);
             }
         }
     }
@@ -429,7 +428,7 @@ fn assemble(rows: &Output, targets: &[(usize, usize)]) -> Result<Output> {
     out.strings(
         "diagnostic",
         "diagnostic",
-        ["time", "kinetic", "elastic", "work_drag", "work_friction", "work_gravity", "work_oscillation", "work_damping"].iter().map(|s| s.to_string()).collect(),
+        ENERGY_COLUMNS.iter().map(|c| c.0.to_string()).collect(),
         "energy diagnostic: time (s), energies and cumulative work (J)",
     );
     out.f64("energy_diagnostics", &["point", "replicate", "record", "diagnostic"], diag, "J", "energy diagnostics every diagnostic_stride steps (the `time` column is in s)");

@@ -3,10 +3,11 @@
 //! (`params.diameter changed 5e-05 -> 2e-05`, `input fibre v1 -> v2`, `new stage`),
 //! runs what must run, and writes each result as a new version with provenance.
 //!
-//! The fingerprint of a stage run is blake3 over: kind, cache_version, the hash of the
-//! stage code ([`stages::code_hash`], `code of grid changed`), canonical
-//! parameters (defaults filled in), sweep, replicates, seed, and the content hashes of
-//! the input versions. Equal fingerprints mean equal results (stages are deterministic).
+//! The fingerprint of a stage run ([`crate::pipeline::stage_run::fingerprint`]) is blake3
+//! over: kind, cache_version, the hash of the stage code ([`stages::code_hash`], `code of
+//! grid changed`), canonical parameters (defaults filled in), sweep, replicates, seed, and
+//! the content hashes of the input versions. Equal fingerprints mean equal results
+//! (stages are deterministic).
 //!
 //! A version is used only once its datasets match the hashes stored with it
 //! ([`VersionInfo::verify`]): a damaged up-to-date version is computed again (and the

@@ -76,6 +76,5 @@ mod tests {
         let with = |code: &str| fingerprint_with_code(decl, 1, code, 0, &[]);
         assert_ne!(with("old code"), with("new code"));
         assert_eq!(fingerprint(decl, 1, 0, &[]), with(stages::code_hash("spectra")));
-        assert!(!stages::code_hash("spectra").is_empty());
     }
 }

@@ -2,9 +2,9 @@
 //! Exit codes, the same for every command: 0 success, 1 runtime failure or damaged
 //! archive, 2 bad input. A failing command prints nothing to stdout.
 use crate::archive::data::Attr;
-use crate::archive::{hdf, Archive, Integrity};
+use crate::archive::{hdf, parse_stage_ref, Archive, Integrity};
 use crate::runner::{self, RunError, RunOptions};
-use crate::stages::BadInput;
+use crate::error::BadInput;
 use crate::pipeline;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -339,20 +339,6 @@ fn verify(path: &std::path::Path) -> Result<()> {
         groups.join(", "),
         fixes.join(", ")
     ))
-}
-
-/// Parse `STAGE` or `STAGE@vN`.
-pub fn parse_stage_ref(s: &str) -> Result<(String, Option<u32>)> {
-    match s.split_once('@') {
-        None => Ok((s.to_string(), None)),
-        Some((name, v)) => {
-            let n = v
-                .strip_prefix('v')
-                .and_then(|n| n.parse().ok())
-                .ok_or_else(|| BadInput(format!("`{s}`: expected STAGE or STAGE@vN, e.g. fibre@v2")))?;
-            Ok((name.to_string(), Some(n)))
-        }
-    }
 }
 
 fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {

@@ -9,18 +9,18 @@
 
 /// Paths (files or directories, relative to the crate root) whose code computes each kind.
 pub const STAGE_CODE: &[(&str, &[&str])] = &[
-    ("laydown", &["src/stages/laydown", "src/rod", "src/geometry.rs", "src/executor/partial.rs"]),
-    ("laid_web", &["src/stages/laid_web", "src/stages/laydown", "src/rod", "src/geometry.rs", "src/executor/partial.rs"]),
+    ("laydown", &["src/stages/laydown", "src/rod", "src/geometry.rs", "src/archive/gather.rs"]),
+    ("laid_web", &["src/stages/laid_web", "src/stages/laydown", "src/rod", "src/geometry.rs", "src/archive/gather.rs"]),
     ("spectra", &["src/stages/spectra", "src/geometry.rs"]),
     ("web", &["src/stages/web", "src/stages/spectra", "src/geometry.rs"]),
-    ("grid", &["src/stages/grid", "src/stages/web", "src/stages/spectra", "src/geometry.rs", "src/uniformity.rs", "src/executor/partial.rs"]),
-    ("image", &["src/stages/image", "src/uniformity.rs", "src/executor/partial.rs"]),
+    ("grid", &["src/stages/grid", "src/stages/web", "src/stages/spectra", "src/geometry.rs", "src/uniformity.rs", "src/archive/gather.rs"]),
+    ("image", &["src/stages/image", "src/uniformity.rs", "src/archive/gather.rs"]),
     ("accuracy", &["src/stages/accuracy.rs"]),
 ];
 
-/// Shared by every kind: the stage interface, parameter tables and values, and how
-/// outputs are built and written.
-pub const COMMON_CODE: &[&str] = &["src/stages/mod.rs", "src/param_table.rs", "src/params.rs", "src/archive/data.rs", "src/archive/hdf.rs"];
+/// Shared by every kind: the stage interface, the random streams, parameter tables and
+/// values, and how outputs are built and written.
+pub const COMMON_CODE: &[&str] = &["src/stages/mod.rs", "src/rng.rs", "src/param_table.rs", "src/params.rs", "src/archive/data.rs", "src/archive/hdf.rs"];
 
 /// Every `.rs` file under `path` (or `path` itself), sorted, without test files.
 pub fn code_files(root: &std::path::Path, path: &str) -> Vec<String> {

@@ -3,10 +3,11 @@
 //! (`params.diameter changed 5e-05 -> 2e-05`, `input fibre v1 -> v2`, `new stage`),
 //! runs what must run, and writes each result as a new version with provenance.
 //!
-//! The fingerprint of a stage run is blake3 over: kind, cache_version, the hash of the
-//! stage code ([`stages::code_hash`], `code of grid changed`), canonical
-//! parameters (defaults filled in), sweep, replicates, seed, and the content hashes of
-//! the input versions. Equal fingerprints mean equal results (stages are deterministic).
+//! The fingerprint of a stage run ([`crate::pipeline::stage_run::fingerprint`]) is blake3
+//! over: kind, cache_version, the hash of the stage code ([`stages::code_hash`], `code of
+//! grid changed`), canonical parameters (defaults filled in), sweep, replicates, seed, and
+//! the content hashes of the input versions. Equal fingerprints mean equal results
+//! (stages are deterministic).
 //!
 //! A version is used only once its datasets match the hashes stored with it
 //! ([`VersionInfo::verify`]): a damaged up-to-date version is computed again (and the
@@ -19,8 +20,9 @@
 use crate::archive::data::{Attr, Output, Values};
 use crate::archive::{provenance, Archive, Integrity, VersionInfo};
 use crate::params::ParamValue;
+use crate::pipeline::stage_run::{fingerprint, pipeline_dir, stage_context};
 use crate::pipeline::{Pipeline, StageDecl};
-use crate::stages::{self, BadInput, Input, RunContext};
+use crate::stages::{self, BadInput};
 use anyhow::{anyhow, Result};
 use ndarray::{ArrayD, IxDyn};
 use std::collections::BTreeMap;
@@ -76,32 +78,6 @@ pub struct StageReport {
     /// `None` when up to date, otherwise why it ran (or would run).
     pub ran_because: Option<String>,
     pub wall_seconds: f64,
-}
-
-pub fn fingerprint(decl: &StageDecl, cache_version: u32, seed: u64, inputs: &[(String, String)]) -> String {
-    fingerprint_with_code(decl, cache_version, stages::code_hash(&decl.kind), seed, inputs)
-}
-
-/// [`fingerprint`] with the stage code's hash given.
-fn fingerprint_with_code(decl: &StageDecl, cache_version: u32, code: &str, seed: u64, inputs: &[(String, String)]) -> String {
-    let mut h = blake3::Hasher::new();
-    let mut field = |k: &str, v: &str| {
-        h.update(k.as_bytes());
-        h.update(b"=");
-        h.update(v.as_bytes());
-        h.update(b"\n");
-    };
-    field("kind", &decl.kind);
-    field("cache_version", &cache_version.to_string());
-    field("code", code);
-    field("params", &decl.params.canonical_yaml());
-    field("sweep", &decl.sweep_yaml());
-    field("replicates", &decl.replicates.to_string());
-    field("seed", &seed.to_string());
-    for (name, hash) in inputs {
-        field(&format!("input.{name}"), hash);
-    }
-    h.finalize().to_hex()[..32].to_string()
 }
 
 /// The reason when nothing that [`reason`] compares differs.
@@ -186,14 +162,6 @@ fn reason(
         why.push(NO_MATCH.into());
     }
     why.join(", ")
-}
-
-/// The directory of the pipeline file (relative parameter paths are relative to it).
-fn pipeline_dir(pipeline: &Pipeline) -> std::path::PathBuf {
-    match pipeline.file.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    }
 }
 
 /// (path, blake3 of the content) of each file, in the given order. Paths are shown
@@ -303,28 +271,6 @@ fn units_of_sweep(out: &mut Output, sweep: &[(String, Vec<ParamValue>)], specs: 
                 v.units = if unit.is_empty() { "1".into() } else { unit.into() };
             }
         }
-    }
-}
-
-/// The context of a whole stage run (all its sweep points) on the given input versions.
-/// The context of one stage run; `version` is the number the run will commit as.
-pub fn stage_context(pipeline: &Pipeline, decl: &StageDecl, inputs: &[VersionInfo], progress: bool, version: u32) -> RunContext {
-    let (points, sweep) = decl.points();
-    RunContext {
-        stage_name: decl.name.clone(),
-        points,
-        sweep,
-        replicates: decl.replicates,
-        seed: decl.seed.unwrap_or(pipeline.seed),
-        inputs: decl
-            .inputs
-            .iter()
-            .zip(inputs)
-            .map(|(n, v)| Input { name: n.clone(), kind: pipeline.stage(n).unwrap().kind.clone(), version: v.clone() })
-            .collect(),
-        progress,
-        pipeline_dir: pipeline_dir(pipeline),
-        figure_dir: crate::archive::figure_dir(&pipeline.archive, &decl.name, version),
     }
 }
 
@@ -632,7 +578,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         put("sweep_yaml", Attr::Str(decl.sweep_yaml()));
         put("replicates", Attr::I64(decl.replicates as i64));
         put("seed", Attr::Str(seed.to_string()));
-        put("rng_scheme", Attr::Str(provenance::RNG_SCHEME.into()));
+        put("rng_scheme", Attr::Str(crate::rng::SCHEME.into()));
         put(
             "inputs",
             Attr::Str(
@@ -751,19 +697,4 @@ fn stale_warning(pipeline: &Pipeline, stage: &str, input: &VersionInfo, why: &st
         input.number,
         pipeline.file.display(),
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_code_hash_is_part_of_the_fingerprint() {
-        let p = crate::pipeline::parse("pipeline: t\narchive: t.h5\nstages:\n  - {name: s, kind: spectra}\n", std::path::Path::new("t.yaml")).unwrap();
-        let decl = &p.stages[0];
-        let with = |code: &str| fingerprint_with_code(decl, 1, code, 0, &[]);
-        assert_ne!(with("old code"), with("new code"));
-        assert_eq!(fingerprint(decl, 1, 0, &[]), with(stages::code_hash("spectra")));
-        assert!(!stages::code_hash("spectra").is_empty());
-    }
 }

@@ -123,7 +123,7 @@ fn read(group: &hdf5::Group, name: &str) -> Result<Data> {
 
 /// Reads the table of `stage_ref` (`STAGE` or `STAGE@vN`) of an archive.
 pub fn read_table(archive: &Path, stage_ref: &str, all: bool) -> Result<Table> {
-    let (stage, number) = crate::cli::parse_stage_ref(stage_ref)?;
+    let (stage, number) = crate::archive::parse_stage_ref(stage_ref)?;
     let a = Archive::open_read(archive)?;
     let info = a.version(&stage, number)?;
     let group = info.open()?;

@@ -263,26 +263,6 @@ fn panel_png_has_the_2x2_layout() {
     assert_eq!(back.data.dim(), (2 * 64 + 3 * g, 2 * 80 + 3 * g));
 }
 
-/// Timing on the paper's image size (871×617). Run with
-/// `cargo test --release --test image_stage -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn timing_871x617() {
-    let density = web(617, 871, 71);
-    let (_, img) = bonded(&density, BondPattern { contrast: 0.3, ..Default::default() });
-    let p = ImageParams::default();
-    let _ = analyze(&img, PX, &p).unwrap();
-    let mut times = Vec::new();
-    for _ in 0..5 {
-        let t = std::time::Instant::now();
-        let a = analyze(&img, PX, &p).unwrap();
-        times.push(t.elapsed().as_secs_f64() * 1e3);
-        assert!(!a.peaks.is_empty());
-    }
-    times.sort_by(|a, b| a.total_cmp(b));
-    println!("871×617 analyze: min {:.1} ms, median {:.1} ms", times[0], times[2]);
-}
-
 // ---------------------------------------------------------------------------------
 // `kind: image` as a pipeline stage, through the `laydown` binary.
 // ---------------------------------------------------------------------------------

@@ -25,10 +25,11 @@
 //! [`hdf::dataset_hashes`]) and `content_hash`, the hash of those. [`VersionInfo::verify`]
 //! reads every value back and names each dataset that no longer matches.
 pub mod data;
+pub mod gather;
 pub mod hdf;
 pub mod provenance;
 
-use crate::stages::BadInput;
+use crate::error::BadInput;
 use anyhow::{anyhow, bail, Context, Result};
 use data::{Attr, Output};
 use std::collections::BTreeMap;
@@ -41,6 +42,20 @@ pub const LAYOUT_VERSION: i64 = 2;
 
 /// The attribute of `/<stage>` naming its current version (`v3`).
 pub const CURRENT_ATTR: &str = "current";
+
+/// Parse a stage reference `STAGE` or `STAGE@vN` (the version number, when given).
+pub fn parse_stage_ref(s: &str) -> Result<(String, Option<u32>)> {
+    match s.split_once('@') {
+        None => Ok((s.to_string(), None)),
+        Some((name, v)) => {
+            let n = v
+                .strip_prefix('v')
+                .and_then(|n| n.parse().ok())
+                .ok_or_else(|| BadInput(format!("`{s}`: expected STAGE or STAGE@vN, e.g. fibre@v2")))?;
+            Ok((name.to_string(), Some(n)))
+        }
+    }
+}
 
 /// Where the figures of `stage` version `number` go: `<archive stem>_figures/<stage>/v<number>/`
 /// beside the archive (used by stages that draw while they run and by `laydown plot`).

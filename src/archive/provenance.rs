@@ -3,10 +3,6 @@ use super::data::Attr;
 use std::collections::BTreeMap;
 use std::time::{SystemTime, UNIX_EPOCH};
 
-/// How the random streams of a stage are derived (recorded as `rng_scheme`).
-pub const RNG_SCHEME: &str = "ChaCha8Rng (rand_chacha 0.9); key = blake3(\"laydown-rng-v1\" | seed u64 LE | replicate u64 LE), \
-stream = item index within the replicate (stage-specific); sweep points share the replicate's stream (common random numbers)";
-
 /// The software and machine a run happens on.
 pub fn environment() -> BTreeMap<String, Attr> {
     let mut m = BTreeMap::new();

@@ -1,5 +1,6 @@
 //! The default executor: every unit in this process, in parallel on all cores (rayon,
-//! through [`crate::stages::RunContext::par_units`]). Nothing about Slurm is needed.
+//! through each stage's parallel map, [`crate::progress::par_map`]). Nothing about Slurm
+//! is needed.
 use crate::archive::data::{Attr, Output};
 use crate::stages::{RunContext, Stage};
 use anyhow::Result;

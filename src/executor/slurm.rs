@@ -12,7 +12,7 @@
 //! computes its units ([`crate::stages::Stage::run_units`]: every random stream is keyed
 //! by the unit's global point and replicate, so it is the local executor's) and writes
 //! their per-replicate rows to `task-I.h5`. When the array has finished the driver
-//! gathers the rows ([`partial::gather`]) and reduces them to the stage's output with
+//! gathers the rows ([`crate::archive::gather::gather`]) and reduces them to the stage's output with
 //! [`crate::stages::Stage::reduce`] — the same call the local executor makes, so the
 //! per-point statistics over replicates are computed by one piece of code — and commits
 //! it through the normal archive path, with each task's Slurm job and array IDs, host and
@@ -67,8 +67,7 @@
 use super::{partial, ExecutorConfig, StageJob};
 use crate::archive::data::{Attr, Output};
 use crate::archive::{provenance, Archive};
-use crate::pipeline;
-use crate::runner;
+use crate::pipeline::{self, stage_run};
 use crate::stages::{self, RunContext, Stage, Units};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::{Deserialize, Serialize};
@@ -303,7 +302,7 @@ pub fn collect(stage: &dyn Stage, ctx: &RunContext, job: &StageJob, units: Units
         }));
         parts.push(out);
     }
-    let rows = partial::gather(&parts, &[stages::UNIT_DIM]).with_context(|| format!("gathering the partial results in {}", dir.display()))?;
+    let rows = crate::archive::gather::gather(&parts, &[stages::UNIT_DIM]).with_context(|| format!("gathering the partial results in {}", dir.display()))?;
     let gathered = stage.reduce(ctx, rows).with_context(|| format!("reducing the gathered partial results in {}", dir.display()))?;
     let mut attrs = BTreeMap::new();
     attrs.insert("executor".to_string(), Attr::Str("slurm".into()));
@@ -475,11 +474,11 @@ pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
     }
     let seed = decl.seed.unwrap_or(p.seed);
     let hashes: Vec<(String, String)> = inputs.iter().map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string())).collect();
-    let fp = runner::fingerprint(decl, stage.cache_version(), seed, &hashes);
+    let fp = stage_run::fingerprint(decl, stage.cache_version(), seed, &hashes);
     if fp != plan.fingerprint {
         bail!("the stage `{}` in {} has changed since it was submitted (fingerprint {fp}, submitted {}); rerun laydown run", plan.stage, plan.pipeline.display(), plan.fingerprint);
     }
-    let ctx = runner::stage_context(&p, decl, &inputs, false, 0);
+    let ctx = stage_run::stage_context(&p, decl, &inputs, false, 0);
     let units = stage.units(&ctx)?.ok_or_else(|| anyhow!("stage `{}` cannot be split into units any more", plan.stage))?;
     if (units.points, units.per_point) != (plan.points, plan.per_point) {
         bail!(
@@ -519,6 +518,8 @@ pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    // (a test may set up its inputs with the runner, a layer above)
+    use crate::runner;
 
     fn covers(s: &[(usize, usize)], n: usize) -> bool {
         s.first().map(|t| t.0) == Some(0) && s.last().map(|t| t.1) == Some(n) && s.windows(2).all(|w| w[0].1 == w[1].0) && s.iter().all(|t| t.1 > t.0)
@@ -638,8 +639,8 @@ stages:
             let stage = stages::find(&decl.kind).unwrap();
             let inputs: Vec<_> = decl.inputs.iter().map(|i| archive.version(i, Some(1)).unwrap()).collect();
             let hashes: Vec<(String, String)> = inputs.iter().map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string())).collect();
-            let fp = runner::fingerprint(decl, stage.cache_version(), decl.seed.unwrap_or(p.seed), &hashes);
-            let ctx = runner::stage_context(&p, decl, &inputs, false, 0);
+            let fp = stage_run::fingerprint(decl, stage.cache_version(), decl.seed.unwrap_or(p.seed), &hashes);
+            let ctx = stage_run::stage_context(&p, decl, &inputs, false, 0);
             let units = stage.units(&ctx).unwrap().unwrap();
             assert_eq!((units.points, units.per_point), (points, per_point), "{what}");
             assert_eq!(units.note.is_some(), name == "rounds", "{what}");
@@ -679,8 +680,8 @@ stages:
         // A rerun with another --units-per-task keeps the split whose partials exist.
         let decl = p.stage("single").unwrap();
         let stage = stages::find(&decl.kind).unwrap();
-        let fp = runner::fingerprint(decl, stage.cache_version(), decl.seed.unwrap_or(p.seed), &[]);
-        let ctx = runner::stage_context(&p, decl, &[], false, 0);
+        let fp = stage_run::fingerprint(decl, stage.cache_version(), decl.seed.unwrap_or(p.seed), &[]);
+        let ctx = stage_run::stage_context(&p, decl, &[], false, 0);
         let units = stage.units(&ctx).unwrap().unwrap();
         let job = StageJob { pipeline: &p, stage_name: "single", fingerprint: &fp, inputs: &[] };
         let one = ExecutorConfig { units_per_task: Some(1), ..Default::default() };

@@ -16,10 +16,12 @@
 //! checking collects all problems rather than stopping at the first. Last, every
 //! stage's memory estimate is checked against the [`Limit`] (see [`crate::memory`]).
 pub mod dag;
+pub mod executor_config;
 pub mod inputs;
+pub mod stage_run;
 pub mod yaml;
 
-use crate::executor::{ExecutorConfig, ExecutorKind};
+pub use executor_config::{ExecutorConfig, ExecutorKind};
 use crate::memory::{format_size, Limit, PROCESS_BYTES};
 use crate::params::{ParamSet, ParamSpec, ParamValue};
 use crate::stages;

@@ -99,7 +99,7 @@ pub fn labelled(name: &str, units: &str) -> String {
 
 /// Open `stage_ref` (`STAGE` or `STAGE@vN`) of an archive.
 pub fn open(archive: &Path, stage_ref: &str) -> Result<StageData> {
-    let (stage, number) = crate::cli::parse_stage_ref(stage_ref)?;
+    let (stage, number) = crate::archive::parse_stage_ref(stage_ref)?;
     let archive = Archive::open_read(archive)?;
     let info = archive.version(&stage, number)?;
     // Figures are drawn only from a version whose stored hashes check out.

@@ -3,6 +3,23 @@
 use super::integrator::{EnergySample, TimeStepLimits};
 use crate::geometry::{bending_energy, radius_of_gyration};
 
+/// A column of the stored energy diagnostics: its name and its value in a record.
+pub type EnergyColumn = (&'static str, fn(&EnergySample) -> f64);
+
+/// The columns of a replicate's stored energy diagnostics (the laydown stage's
+/// `energy_diagnostics`, along its `diagnostic` dimension), in order: the time (s), the
+/// kinetic and elastic energy and the cumulative work of every source (J).
+pub const ENERGY_COLUMNS: &[EnergyColumn] = &[
+    ("time", |d| d.time),
+    ("kinetic", |d| d.kinetic),
+    ("elastic", |d| d.elastic),
+    ("work_drag", |d| d.work.drag),
+    ("work_friction", |d| d.work.friction),
+    ("work_gravity", |d| d.work.gravity),
+    ("work_oscillation", |d| d.work.oscillation),
+    ("work_damping", |d| d.work.damping),
+];
+
 /// Everything one replicate produces (a plain struct the pipeline stage stores).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LaydownResult {
@@ -65,6 +82,16 @@ pub struct LaydownResult {
 }
 
 impl LaydownResult {
+    /// One line with the outcome, shape measures and cost of the replicate (for tools and
+    /// test output).
+    pub fn summary(&self) -> String {
+        format!(
+            "err={:?} valid={} lift={:.2e} reason={:?} landed={} laid={:.4} S={:.5} e={:.1} S_rm={:.5} e_rm={:.1} steps={} rej={} dt={:.3e} mindt={:.2e} wall={:.2}s pen={:.2e} cons={:.1e}",
+            self.error, self.valid, self.max_lift_after_landing, self.invalid_reason, self.landed_nodes, self.laid_length, self.radius_of_gyration,
+            self.bending_energy, self.radius_of_gyration_belt_removed, self.bending_energy_belt_removed, self.steps, self.rejected_steps, self.time_step,
+            self.min_time_step, self.wall_seconds, self.max_penetration, self.max_constraint_error
+        )
+    }
     /// A result for a run that could not start.
     pub fn failed(error: String) -> Self {
         LaydownResult {

@@ -120,6 +120,8 @@ pub mod scene;
 pub mod state;
 
 #[cfg(test)]
+mod energy_tests;
+#[cfg(test)]
 mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};

@@ -7,7 +7,7 @@ use super::metrics::{laid_polyline, shape_measures, LaydownResult};
 use super::params::{BounceCheck, Integrator, LaydownParams};
 use super::state::{Rod, Workspace};
 use crate::geometry::arc_length;
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
@@ -312,12 +312,13 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     }
 }
 
-/// The random stream of one replicate: ChaCha8 seeded with `seed`, stream `replicate`.
-/// Independent of thread count and order of execution.
+/// The random stream of replicate `replicate` of a laydown seeded with `seed`: item 0 of
+/// the crate's one scheme ([`crate::rng::stream_rng`]`(seed, replicate, 0)`), the stream
+/// the laydown stage gives that replicate, so `simulate(&p, &mut replicate_rng(seed, r))`
+/// is replicate r of a laydown stage with seed `seed` and the same scene. Independent of
+/// thread count and order of execution.
 pub fn replicate_rng(seed: u64, replicate: u64) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(replicate);
-    rng
+    crate::rng::stream_rng(seed, replicate, 0)
 }
 
 /// One (parameter point, replicate) job.

@@ -10,9 +10,7 @@ use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec, ParamValue};
 use anyhow::Result;
 use ndarray::ArrayD;
-use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 
 pub mod accuracy;
 pub mod grid;
@@ -20,6 +18,8 @@ pub mod image;
 pub mod laid_web;
 pub mod laydown;
 pub use crate::param_table;
+/// The stages' random streams are the crate's one scheme ([`crate::rng`]).
+pub use crate::rng::stream_rng;
 pub mod spectra;
 pub mod web;
 
@@ -61,11 +61,8 @@ pub struct DeclaredFibres {
     pub length: f64,
 }
 
-/// A problem with the user's input found while running (exit code 2), as opposed to
-/// a runtime failure (exit code 1).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct BadInput(pub String);
+/// A stage's bad input is the crate's ([`crate::error`]).
+pub use crate::error::BadInput;
 
 pub trait Stage: Send + Sync {
     /// The `kind:` that selects this stage in a pipeline.
@@ -115,7 +112,7 @@ pub trait Stage: Send + Sync {
     /// global point and replicate in the i64 variables `unit_point` and
     /// `unit_replicate`), and whose other variables and attributes do not depend on the
     /// range. The rows of consecutive ranges concatenated along [`UNIT_DIM`] (ragged
-    /// trailing dimensions NaN-padded, [`crate::executor::partial::gather`]) equal the
+    /// trailing dimensions NaN-padded, [`crate::archive::gather::gather`]) equal the
     /// rows of the whole range.
     fn run_units(&self, _ctx: &RunContext, _range: std::ops::Range<usize>) -> Result<Output> {
         anyhow::bail!("stage kind `{}` cannot be run by units", self.kind())
@@ -314,8 +311,8 @@ pub struct RunContext {
 }
 
 impl RunContext {
-    /// The random stream of `item` within `replicate` (see provenance::RNG_SCHEME):
-    /// independent of thread count and of the order in which items are computed.
+    /// The random stream of `item` within `replicate` ([`crate::rng`]): independent of
+    /// thread count and of the order in which items are computed.
     pub fn rng(&self, replicate: usize, item: u64) -> ChaCha8Rng {
         stream_rng(self.seed, replicate as u64, item)
     }
@@ -324,33 +321,13 @@ impl RunContext {
         &self.inputs[index]
     }
 
-    /// Run `f(point, replicate)` for every unit in parallel; results come back in
-    /// (point, replicate) order whatever the thread count.
-    pub fn par_units<T: Send>(&self, f: impl Fn(usize, usize) -> T + Sync + Send) -> Vec<T> {
-        let n = self.points.len() * self.replicates;
-        let bar = crate::progress::bar(self.progress, n as u64, &format!("{} units", self.stage_name));
-        let out = (0..n)
-            .into_par_iter()
-            .map(|u| {
-                let r = f(u / self.replicates, u % self.replicates);
-                bar.inc(1);
-                r
-            })
-            .collect();
-        bar.finish_and_clear();
-        out
+    /// Run `f(point, replicate)` for the units `range` of (point, replicate) units
+    /// (`replicates` per point) in parallel, counted on a progress bar; results come back
+    /// in unit order whatever the thread count.
+    pub fn par_units<T: Send>(&self, range: std::ops::Range<usize>, f: impl Fn(usize, usize) -> T + Sync + Send) -> Vec<T> {
+        let reps = self.replicates;
+        crate::progress::par_map_shown(self.progress, &format!("{} units", self.stage_name), range, |u| f(u / reps, u % reps))
     }
-}
-
-/// ChaCha8Rng keyed by blake3("laydown-rng-v1" | seed | replicate), on stream `item`.
-pub fn stream_rng(seed: u64, replicate: u64, item: u64) -> ChaCha8Rng {
-    let mut h = blake3::Hasher::new();
-    h.update(b"laydown-rng-v1");
-    h.update(&seed.to_le_bytes());
-    h.update(&replicate.to_le_bytes());
-    let mut rng = ChaCha8Rng::from_seed(*h.finalize().as_bytes());
-    rng.set_stream(item);
-    rng
 }
 
 /// Every stage kind the pipeline knows.

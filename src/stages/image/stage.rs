@@ -507,7 +507,7 @@ fn stack_points(mut parts: Vec<Output>, swept: bool) -> Result<Output> {
             };
         }
     }
-    crate::executor::partial::gather(&parts, &["point"])
+    crate::archive::gather::gather(&parts, &["point"])
 }
 
 /// Drops the large arrays of an analysis that is not stored.
@@ -641,7 +641,7 @@ fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
         .map(|k| Sample {
             group: kind.to_string(),
             file: String::new(),
-            source: Source::Synthetic(rand::RngCore::next_u64(&mut crate::stages::stream_rng(ctx.seed, k as u64, 0))),
+            source: Source::Synthetic(rand::RngCore::next_u64(&mut ctx.rng(k, 0))),
             pixel,
             pixel_source: ip.pixel_source(),
             grid_point: -1,

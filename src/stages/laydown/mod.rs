@@ -118,10 +118,8 @@
 //! is not quite met: 1.02-1.10 s on a lightly loaded core.
 //!
 //! Tests: `cargo test --release --lib stages::laydown` runs 17 tests in about 13-16 s
-//! on this VM (about 25 s with the build of the test binary). Manual benches:
-//! `... stages::laydown::tests::smoke -- --ignored --nocapture` (one baseline replicate,
-//! env INTEG, N, SEED) and `... tests::ensemble -- --ignored --nocapture` (env INTEG,
-//! SEEDS, THREADS, SET="name=value,...", T_LATE).
+//! on this VM (about 25 s with the build of the test binary). Manual runs of replicates
+//! and ensembles: `cargo run --release --example laydown_ensemble` (see its docs).
 
 #[cfg(test)]
 mod tests;

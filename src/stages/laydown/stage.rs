@@ -25,6 +25,7 @@
 //! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
 //! (one record per `diagnostic_stride` steps) are not counted.
 use super::params::{BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
+use super::metrics::ENERGY_COLUMNS;
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
@@ -33,7 +34,6 @@ use crate::stages::rows::place;
 use crate::stages::{concurrent, Declared, DeclaredFibres, InputRule, RunContext, Stage, Units};
 use anyhow::{bail, Result};
 use ndarray::{Array1, Array2, Array3};
-use rayon::prelude::*;
 
 /// Stage-level parameters (not scene parameters): the valid-replicate target and its cap.
 const TARGET: &str = "valid_replicates_target";
@@ -188,18 +188,7 @@ impl Stage for LaydownStage {
             let results = run_until_valid(&scenes[a..b], &targets, ctx.replicates, ctx.progress, &ctx.stage_name, |p, r| sim(a + p, r));
             results.into_iter().enumerate().flat_map(|(p, rs)| rs.into_iter().enumerate().map(move |(r, res)| (a + p, r, res))).collect()
         } else {
-            let jobs: Vec<(usize, usize)> = range.map(|u| units.split(u)).collect();
-            let bar = crate::progress::bar(ctx.progress, jobs.len() as u64, &format!("{} units", ctx.stage_name));
-            let out = jobs
-                .par_iter()
-                .map(|&(p, r)| {
-                    let res = sim(p, r);
-                    bar.inc(1);
-                    (p, r, res)
-                })
-                .collect();
-            bar.finish_and_clear();
-            out
+            ctx.par_units(range, |p, r| (p, r, sim(p, r)))
         };
         unit_rows(&scenes, &rows)
     }
@@ -229,16 +218,7 @@ pub(crate) fn run_until_valid(
     let mut round = 0;
     while !jobs.is_empty() {
         let label = if round == 0 { format!("{stage_name} units") } else { format!("{stage_name} extra {round}") };
-        let bar = crate::progress::bar(progress, jobs.len() as u64, &label);
-        let out: Vec<LaydownResult> = jobs
-            .par_iter()
-            .map(|&(p, r)| {
-                let res = sim(p, r);
-                bar.inc(1);
-                res
-            })
-            .collect();
-        bar.finish_and_clear();
+        let out: Vec<LaydownResult> = crate::progress::par_map_shown(progress, &label, &jobs, |&(p, r)| sim(p, r));
         for (&(p, _), res) in jobs.iter().zip(out) {
             results[p].push(res);
         }
@@ -287,7 +267,7 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
     let mut laid = crate::memory::try_array((n, nodes, 3), nan, what)?;
     let mut laid_removed = crate::memory::try_array((n, nodes, 3), nan, what)?;
     let mut landing = crate::memory::try_array((n, nodes), nan, what)?;
-    let mut diag = Array3::from_elem((n, ndiag, 8), nan);
+    let mut diag = Array3::from_elem((n, ndiag, ENERGY_COLUMNS.len()), nan);
     let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
     let ok = |r: &LaydownResult, v: f64| if r.error.is_none() { v } else { f64::NAN };
     // Row u of an (unit, node, xyz) array from a polyline (the rest stays NaN).
@@ -304,10 +284,8 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
         put(&mut laid, u, &laid_polyline(&res.positions, &res.landing_time, None));
         put(&mut laid_removed, u, &laid_polyline(&res.positions, &res.landing_time, Some((scenes[*p].belt_speed, res.end_time))));
         for (i, d) in res.diagnostics.iter().enumerate() {
-            let w = &d.work;
-            let row = [d.time, d.kinetic, d.elastic, w.drag, w.friction, w.gravity, w.oscillation, w.damping];
-            for (k, v) in row.iter().enumerate() {
-                diag[[u, i, k]] = *v;
+            for (k, (_, value)) in ENERGY_COLUMNS.iter().enumerate() {
+                diag[[u, i, k]] = value(d);
             }
         }
     }
@@ -450,7 +428,7 @@ fn assemble(rows: &Output, targets: &[(usize, usize)]) -> Result<Output> {
     out.strings(
         "diagnostic",
         "diagnostic",
-        ["time", "kinetic", "elastic", "work_drag", "work_friction", "work_gravity", "work_oscillation", "work_damping"].iter().map(|s| s.to_string()).collect(),
+        ENERGY_COLUMNS.iter().map(|c| c.0.to_string()).collect(),
         "energy diagnostic: time (s), energies and cumulative work (J)",
     );
     out.f64("energy_diagnostics", &["point", "replicate", "record", "diagnostic"], diag, "J", "energy diagnostics every diagnostic_stride steps (the `time` column is in s)");

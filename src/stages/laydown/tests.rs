@@ -1,91 +1,6 @@
 //! Physics verification tests (run with `cargo test --release --lib stages::laydown`).
 use super::*;
 
-fn summary(r: &LaydownResult) -> String {
-    format!(
-        "err={:?} valid={} lift={:.2e} reason={:?} landed={} laid={:.4} S={:.5} e={:.1} S_rm={:.5} e_rm={:.1} steps={} rej={} dt={:.3e} mindt={:.2e} wall={:.2}s pen={:.2e} cons={:.1e}",
-        r.error, r.valid, r.max_lift_after_landing, r.invalid_reason, r.landed_nodes, r.laid_length, r.radius_of_gyration, r.bending_energy,
-        r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed, r.steps, r.rejected_steps, r.time_step, r.min_time_step, r.wall_seconds,
-        r.max_penetration, r.max_constraint_error
-    )
-}
-
-/// Manual: `cargo test --release --lib stages::laydown::tests::smoke -- --ignored --nocapture`
-#[test]
-#[ignore]
-fn smoke() {
-    let integ = std::env::var("INTEG").unwrap_or(Integrator::default().name().into());
-    let n: usize = std::env::var("N").ok().and_then(|s| s.parse().ok()).unwrap_or(1000);
-    let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
-    let mut p = LaydownParams::default();
-    p.integrator = Integrator::from_name(&integ).unwrap();
-    p.elements = n;
-    p.coil_resolution = 0.0;
-    let r = simulate(&p, &mut replicate_rng(seed, 0));
-    println!("{}", summary(&r));
-    for d in r.diagnostics.iter().step_by((r.diagnostics.len() / 10).max(1)) {
-        println!("{:?}", d);
-    }
-}
-
-#[test]
-#[ignore]
-fn ensemble() {
-    let mut p = LaydownParams::default();
-    if let Ok(i) = std::env::var("INTEG") {
-        p.integrator = Integrator::from_name(&i).unwrap();
-    }
-    if let Ok(set) = std::env::var("SET") {
-        for kv in set.split(',').filter(|s| !s.is_empty()) {
-            let (k, v) = kv.split_once('=').unwrap();
-            p.set(k, v.parse().unwrap()).unwrap();
-        }
-    }
-    let seeds: u64 = std::env::var("SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(4);
-    let threads: usize = std::env::var("THREADS").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
-    let jobs: Vec<LaydownJob> = (0..seeds).map(|r| LaydownJob { params: p.clone(), seed: 2024, replicate: r }).collect();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    let t0 = std::time::Instant::now();
-    let res = pool.install(|| run_jobs(&jobs));
-    let wall = t0.elapsed().as_secs_f64();
-    let mut acc = [Vec::new(), Vec::new(), Vec::new(), Vec::new()];
-    let t_late: f64 = std::env::var("T_LATE").ok().and_then(|s| s.parse().ok()).unwrap_or(0.03);
-    let mut late = (Vec::new(), Vec::new());
-    for r in &res {
-        println!("{}", summary(r));
-        if r.error.is_none() {
-            let lt: Vec<f64> = r.landing_time.iter().map(|&t| if t > t_late { t } else { f64::NAN }).collect();
-            let (s, e) = shape_measures(&laid_polyline(&r.positions, &lt, None));
-            late.0.push(s);
-            late.1.push(e);
-        }
-        if r.error.is_none() {
-            acc[0].push(r.radius_of_gyration);
-            acc[1].push(r.bending_energy);
-            acc[2].push(r.radius_of_gyration_belt_removed);
-            acc[3].push(r.bending_energy_belt_removed);
-        }
-    }
-    let ms = |v: &Vec<f64>| {
-        let n = v.len() as f64;
-        let m = v.iter().sum::<f64>() / n;
-        let sd = (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
-        (m, sd / n.sqrt())
-    };
-    let (s, se) = ms(&acc[0]);
-    let (e, ee) = ms(&acc[1]);
-    let (sr, sre) = ms(&acc[2]);
-    let (er, ere) = ms(&acc[3]);
-    let valid = res.iter().filter(|r| r.valid).count();
-    let (ls, lse) = ms(&late.0);
-    let (le, lee) = ms(&late.1);
-    println!("LATE (landed after {t_late} s) S={ls:.5}±{lse:.5} e={le:.0}±{lee:.0}");
-    println!(
-        "ENSEMBLE {} n={} valid={} S={:.5}±{:.5} e={:.0}±{:.0} S_rm={:.5}±{:.5} e_rm={:.0}±{:.0} wall={:.1}s",
-        p.integrator.name(), acc[0].len(), valid, s, se, e, ee, sr, sre, er, ere, wall
-    );
-}
-
 // ---------------------------------------------------------------- helpers
 
 use super::integrator::Simulator;
@@ -352,7 +267,7 @@ fn disabled_imperfections_leave_the_rng_alone_and_y_exactly_zero() {
 }
 
 fn check_replicate(name: &str, r: &LaydownResult, p: &LaydownParams) {
-    println!("{name}: {}", summary(r));
+    println!("{name}: {}", r.summary());
     assert!(!r.positions.is_empty());
     for x in &r.positions {
         assert!(x.iter().all(|c| c.is_finite()), "{name}: non-finite position");
@@ -492,12 +407,6 @@ fn mesh_convergence_reduced() {
     let d2 = (c[1] - b[1]).abs();
     assert!(d2 < 0.7 * d1, "e not converging: {} {} {}", a[1], b[1], c[1]);
     assert!((c[0] - b[0]).abs() < 0.05 * b[0], "S: {} vs {}", b[0], c[0]);
-}
-
-#[test]
-#[ignore]
-fn print_parameter_table() {
-    println!("{}", parameter_table_markdown());
 }
 
 #[test]

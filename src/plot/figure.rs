@@ -118,12 +118,7 @@ impl Figure {
         ensure_font()?;
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join(format!("{}.{}", self.name, format.extension()));
-        let rows = self.panels.len().div_ceil(self.columns.min(self.panels.len().max(1))) as u32;
-        let (pw, ph) = self.panel_size;
-        // Wide enough for the title (about 11 px a character at 22 px).
-        let columns = self.columns.min(self.panels.len().max(1)) as u32;
-        let width = (pw * columns).max(self.title.chars().count() as u32 * 11 + 40);
-        let size = (width, ph * rows + TITLE_HEIGHT);
+        let size = self.canvas_size();
         match format {
             Format::Png => {
                 let mut buffer = vec![255u8; size.0 as usize * size.1 as usize * 3];
@@ -142,6 +137,21 @@ impl Figure {
             }
         }
         Ok(path)
+    }
+
+    fn canvas_size(&self) -> (u32, u32) {
+        let rows = self.panels.len().div_ceil(self.columns.min(self.panels.len().max(1))) as u32;
+        let (pw, ph) = self.panel_size;
+        // Wide enough for the title (about 11 px a character at 22 px).
+        let columns = self.columns.min(self.panels.len().max(1)) as u32;
+        let width = (pw * columns).max(self.title.chars().count() as u32 * 11 + 40);
+        (width, ph * rows + TITLE_HEIGHT)
+    }
+
+    /// Draw onto a recording backend and return where everything went (for layout checks).
+    pub fn inspect(&self) -> Result<super::inspect::Record> {
+        ensure_font()?;
+        super::inspect::record(self.canvas_size(), |root| self.draw(root, Format::Png))
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, format: Format) -> Result<()> {
@@ -221,6 +231,12 @@ fn ensure_font() -> Result<()> {
         })
         .clone()
         .map_err(|e| anyhow!(e))
+}
+
+/// The label font, registered (unit tests).
+#[cfg(test)]
+pub fn ensure_font_for_tests() {
+    ensure_font().unwrap()
 }
 
 /// Finite range of `values` padded by 5 % (or ±1 around a single value).

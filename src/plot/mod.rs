@@ -11,6 +11,7 @@
 //! for p in paths { println!("{}", p.display()); }
 //! ```
 pub mod figure;
+pub mod inspect;
 mod accuracy;
 mod grid;
 mod image;

@@ -5,6 +5,7 @@
 //! each primitive's extent and each text's box as the bitmap backend would fill it.
 mod common;
 use common::*;
+use laydown::plot::figure::RenderOptions;
 
 /// One archive with every stage kind, including two-parameter sweeps (whose panel titles
 /// and legends are the longest), an image that is not square, and an accuracy stage.
@@ -82,7 +83,7 @@ fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels() 
         kinds.insert(data.kind().to_string());
         for fig in laydown::plot::figures(&data).unwrap() {
             figures += 1;
-            let record = fig.inspect().unwrap();
+            let record = fig.inspect(&RenderOptions::default()).unwrap();
             assert!(record.texts.len() > 5, "{stage}/{}: only {} texts drawn", fig.name, record.texts.len());
             problems.extend(record.problems().into_iter().map(|p| format!("{stage}/{}: {p}", fig.name)));
         }

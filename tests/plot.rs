@@ -110,7 +110,9 @@ fn figures_carry_print_size_and_provenance_in_every_format() {
     assert!(texts.contains(&archive) && texts.contains("ideal@v1"), "{texts}");
 
     let svg = std::fs::read_to_string(dir.path().join("f/energy_spectrum.svg")).unwrap();
-    assert!(svg.starts_with("<svg width=\"240.94pt\""), "{}", &svg[..200]);
+    // 85 mm = 240.9 pt (to the canvas' half-point grid)
+    let width: f64 = svg.strip_prefix("<svg width=\"").and_then(|s| s.split("pt\"").next()).and_then(|w| w.parse().ok()).unwrap_or(0.0);
+    assert!((width - 85.0 / 25.4 * 72.0).abs() <= 0.5, "{}", &svg[..200]);
     assert!(svg.contains("<metadata>") && svg.contains(&archive) && svg.contains("ideal@v1"));
     // text of at least 7 pt at the page width: 2 units a point in the SVG
     let smallest = svg.split("font-size=\"").skip(1).filter_map(|s| s.split('"').next()?.parse::<f64>().ok()).fold(f64::INFINITY, f64::min);

@@ -329,13 +329,17 @@ impl Scale {
             Format::Png => opts.dpi / 72.0,
             Format::Svg | Format::Pdf => 2.0,
         };
-        let font = opts.font_pt * u;
+        // plotters sizes text by its line height and writes SVG font-size as size / 1.24
+        // (DejaVu's line height is 1.16 em): size at 1.24 × the point size makes the SVG's
+        // em exactly `font_pt` (PNG glyphs come out about 6 % larger)
+        // (plotters' axis styles take whole units: sizes are rounded up, never down)
+        let font = (opts.font_pt * PLOTTERS_EM * u).ceil();
         Scale {
             u,
             width: opts.width_mm / 25.4 * 72.0 * u,
             font,
-            tick_font: 0.9 * font,
-            title: 1.15 * font,
+            tick_font: (0.9 * font).ceil(),
+            title: (1.15 * font).ceil(),
             m: 0.6 * font,
             tick_len: 0.35 * font,
             max_map_cells: if format == Format::Png { usize::MAX } else { 200 },
@@ -590,6 +594,8 @@ fn draw_caption<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, lines: &[Stri
 }
 
 const FONT: &str = "sans-serif";
+/// Ratio of a plotters font size to the em size it writes into SVG.
+const PLOTTERS_EM: f64 = 1.24;
 
 /// Colours for series (matplotlib's tab10, so figures look familiar).
 const PALETTE: [RGBColor; 10] = [
@@ -700,6 +706,8 @@ where
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
     let (fx, fy) = (|v: &f64| x.label_of(*v), |v: &f64| y.label_of(*v));
+    let (px, py) = chart.plotting_area().get_pixel_range();
+    let (x_label, y_label) = (fit_axis_label(x_label, (px.end - px.start) as f64, sc), fit_axis_label(y_label, (py.end - py.start) as f64, sc));
     let mut mesh = chart.configure_mesh();
     mesh.x_desc(x_label)
         .y_desc(y_label)
@@ -715,6 +723,21 @@ where
         mesh.disable_mesh();
     }
     mesh.draw().map_err(plot_err)
+}
+
+/// An axis title that fits along an axis `length` long: as it is, or without its
+/// description when too long (`y, cross direction (mm)` → `y (mm)`).
+fn fit_axis_label(label: &str, length: f64, sc: &Scale) -> String {
+    if text_width(label, sc.font) <= length {
+        return label.to_string();
+    }
+    match label.split_once(", ") {
+        Some((symbol, rest)) => match rest.rfind(" (") {
+            Some(i) if rest.ends_with(')') => format!("{symbol}{}", &rest[i..]),
+            _ => symbol.to_string(),
+        },
+        None => label.to_string(),
+    }
 }
 
 /// Draw the series of a line panel into a chart of any (linear or log) f64 axes.
@@ -802,6 +825,8 @@ struct MapLayout {
     x: Axis,
     y: Axis,
     colour: Option<Axis>,
+    /// The colour bar's title in lines (rotated, side by side).
+    colour_title: Vec<String>,
     y_area: f64,
     plot: (f64, f64),
     height: f64,
@@ -815,30 +840,39 @@ impl MapLayout {
         let (x0, x1, y0, y1) = p.extent;
         let aspect = ((y1 - y0) / (x1 - x0)).abs();
         let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
-        let colour = range.map(|r| Axis::new(r, false, false, 0.6 * cw, false, sc));
-        let bar_w = colour.as_ref().map_or(0.0, |c| colour_bar_width(c, sc));
         let provisional = Axis::new((y0, y1), false, false, 0.5 * cw, false, sc);
         let y_area = sc.y_area(provisional.widest(sc));
-        let avail_w = (cw - y_area - 2.0 * sc.m - bar_w).max(10.0);
         let avail_h = match height {
             Some(h) => (h - caption_h - sc.x_area() - sc.m - sc.bottom()).max(10.0),
             None => 1.1 * cw,
         };
-        // the largest plot of the extent's aspect ratio that fits
-        let plot_w = avail_w.min(avail_h / aspect);
-        let plot = (plot_w, plot_w * aspect);
+        // the largest plot of the extent's aspect ratio that fits beside its colour bar,
+        // whose title wraps to the bar's height (a flat map has a short bar)
+        let fit = |label_lines: usize| {
+            let colour = range.map(|r| Axis::new(r, false, false, 0.6 * cw, false, sc));
+            let bar_w = colour.as_ref().map_or(0.0, |c| colour_bar_width(c, label_lines, sc));
+            let avail_w = (cw - y_area - 2.0 * sc.m - bar_w).max(10.0);
+            let plot_w = avail_w.min(avail_h / aspect);
+            (plot_w, plot_w * aspect)
+        };
+        let mut plot = fit(1);
+        let mut colour_title = wrap(&p.colour_label, sc.font, plot.1);
+        if colour_title.len() > 1 {
+            plot = fit(colour_title.len());
+            colour_title = wrap(&p.colour_label, sc.font, plot.1);
+        }
         let x = Axis::new((x0, x1), false, false, plot.0, true, sc);
         let y = Axis::new((y0, y1), false, false, plot.1, false, sc);
         let colour = range.map(|r| Axis::new(r, false, false, plot.1, false, sc));
         let y_area = sc.y_area(y.widest(sc));
         let height = height.unwrap_or(caption_h + sc.m + plot.1 + sc.x_area() + sc.bottom());
-        MapLayout { caption, caption_h, x, y, colour, y_area, plot, height }
+        MapLayout { caption, caption_h, x, y, colour, colour_title, y_area, plot, height }
     }
 }
 
 /// Room a colour bar takes right of its map: gap, bar, ticks, labels, title.
-fn colour_bar_width(c: &Axis, sc: &Scale) -> f64 {
-    0.8 * sc.font + 0.9 * sc.font + 2.0 * sc.tick_len + c.widest(sc) + 0.5 * sc.font + 1.25 * sc.font + sc.m
+fn colour_bar_width(c: &Axis, label_lines: usize, sc: &Scale) -> f64 {
+    0.8 * sc.font + 0.9 * sc.font + 2.0 * sc.tick_len + c.widest(sc) + 0.5 * sc.font + 1.25 * sc.font * label_lines as f64 + sc.m
 }
 
 /// Block-average `values` so neither side exceeds `max_side` cells.
@@ -927,7 +961,9 @@ fn draw_map<DB: DrawingBackend>(cell: &DrawingArea<DB, Shift>, p: &MapPanel, l: 
         draw_text(cell, label, sc.tick_font, (x_tick + 2.0 * sc.tick_len, y), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
     }
     let label_x = x_tick + 2.0 * sc.tick_len + colour.widest(sc) + 0.5 * sc.font;
-    draw_text(cell, &p.colour_label, sc.font, (label_x, (top + bottom) / 2.0), Pos::new(HPos::Center, VPos::Top), FontTransform::Rotate270)?;
+    for (k, line) in l.colour_title.iter().enumerate() {
+        draw_text(cell, line, sc.font, (label_x + k as f64 * 1.25 * sc.font, (top + bottom) / 2.0), Pos::new(HPos::Center, VPos::Top), FontTransform::Rotate270)?;
+    }
     Ok(())
 }
 
@@ -974,8 +1010,9 @@ mod tests {
         assert_eq!(r[2], Some((0.0, (61 + 86) as f64)));
         let sc = Scale::new(&RenderOptions::default(), Format::Png);
         let Panel::Map(p) = &fig.panels[0] else { unreachable!() };
-        for height in [None, Some(2000.0)] {
-            let l = MapLayout::new(p, &sc, 700.0, height, r[0]);
+        let tall = Row { height: 2000.0, caption_h: 40.0, legend_h: 0.0 };
+        for row in [None, Some(&tall)] {
+            let l = MapLayout::new(p, &sc, 700.0, row, r[0]);
             assert!((l.plot.1 / l.plot.0 - 617.0 / 871.0).abs() < 1e-9, "{:?}", l.plot);
         }
     }
@@ -985,8 +1022,17 @@ mod tests {
         let sc = Scale::new(&RenderOptions::default(), Format::Png);
         // 180 mm at 300 dpi, 8 pt at 300 dpi
         assert_eq!(sc.width.round(), (180.0 / 25.4 * 300.0f64).round());
-        assert!((sc.font - 8.0 * 300.0 / 72.0).abs() < 1e-9);
-        assert!(sc.tick_font / sc.u >= 7.0, "tick labels of at least 7 pt");
+        assert!((sc.font / PLOTTERS_EM - 8.0 * 300.0 / 72.0).abs() < 1.0);
+        assert!(sc.tick_font / PLOTTERS_EM / sc.u >= 7.0, "tick labels of at least 7 pt");
+    }
+
+    #[test]
+    fn axis_titles_lose_their_description_when_the_axis_is_short() {
+        ensure_font_for_tests();
+        let sc = Scale::new(&RenderOptions::default(), Format::Png);
+        assert_eq!(fit_axis_label("y, cross direction (mm)", 2000.0, &sc), "y, cross direction (mm)");
+        assert_eq!(fit_axis_label("y, cross direction (mm)", 100.0, &sc), "y (mm)");
+        assert_eq!(fit_axis_label("x, machine direction", 100.0, &sc), "x");
     }
 
     #[test]

@@ -201,7 +201,7 @@ mod tests {
     fn one_axis_one_notation() {
         assert_eq!(format(&[0.0, 0.5, 1.0]), ["0.0", "0.5", "1.0"]);
         assert_eq!(format(&[8000.0, 22000.0]), ["8000", "22000"]);
-        assert_eq!(format(&[8000.0, 220000.0]), ["8×10³", "2.2×10⁵"]);
+        assert_eq!(format(&[8000.0, 220000.0]), ["8.0×10³", "2.2×10⁵"], "one number of decimals");
         assert_eq!(format(&[1e-4, 1e-3, 1e-2]), ["10⁻⁴", "10⁻³", "10⁻²"]);
         assert_eq!(format(&[-0.1, 0.0, 0.1]), ["−0.1", "0.0", "0.1"]);
         assert_eq!(format_one(3e-5 * 1e6), "30");

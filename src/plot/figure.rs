@@ -117,7 +117,7 @@ pub struct LinePanel {
     pub equal_aspect: bool,
     /// x takes whole numbers only (replicate, fibre): integer ticks.
     pub integer_x: bool,
-    /// x is categorical: point i of a series is at x = i, labelled `categories[i]`.
+    /// x is categorical: x = i is labelled `categories[i]`.
     pub categories: Vec<String>,
     pub series: Vec<Series>,
 }
@@ -496,6 +496,9 @@ impl LineLayout {
         let y0 = Axis::new(yr, p.log_y, false, provisional_h, false, sc);
         let y_area = sc.y_area(y0.widest(sc));
         let plot_w = (cw - y_area - 2.0 * sc.m).max(10.0);
+        // the last x tick label is centred on the plot's right edge: room for its half
+        let overhang = if p.categories.is_empty() { Axis::new(xr, p.log_x, p.integer_x, plot_w, true, sc).widest(sc) / 2.0 - sc.m } else { 0.0 };
+        let plot_w = (plot_w - overhang.max(0.0)).max(10.0);
         let plot_h = match height {
             Some(h) => (h - caption_h - legend_h - x_area - sc.m).max(10.0),
             None if p.equal_aspect && !p.log_x && !p.log_y => (plot_w * (yr.1 - yr.0) / (xr.1 - xr.0)).clamp(0.25 * plot_w, 0.8 * plot_w),
@@ -749,14 +752,13 @@ where
 {
     draw_axes(&mut chart, &p.x_label, &p.y_label, x, y, true, sc)?;
     let usable = |v: f64, log: bool| v.is_finite() && (!log || v > 0.0);
-    let category = |i: usize, v: f64| if p.categories.is_empty() { v } else { i as f64 };
     for s in &p.series {
         let c = colour(s.colour);
         let style = ShapeStyle::from(&c).stroke_width(sc.stroke(if s.bold { 1.8 } else { 0.9 }));
-        let points: Vec<(f64, f64)> = s.points.iter().enumerate().map(|(i, &(a, b))| (category(i, a), b)).collect();
+        let points = &s.points;
         // Split at unusable points so gaps stay gaps.
         let mut runs: Vec<Vec<(f64, f64)>> = vec![vec![]];
-        for &(a, b) in &points {
+        for &(a, b) in points {
             if usable(a, p.log_x) && usable(b, p.log_y) {
                 runs.last_mut().unwrap().push((a, b));
             } else if !runs.last().unwrap().is_empty() {

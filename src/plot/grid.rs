@@ -2,7 +2,7 @@
 //! the random-line reference, ρ_av and CV against the swept parameters (Fig 10d,e) and,
 //! with `compare_with: table4`, against the paper's measured values (Fig 13).
 use super::figure::{Figure, LinePanel, MapPanel, Panel, Series, Style};
-use super::{axis_label, lines_along, StageData};
+use super::{lines_along, sweep_axis, StageData};
 use anyhow::Result;
 use ndarray::{Array2, ArrayD, Axis, Ix1, Ix3, Ix4};
 
@@ -105,7 +105,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             continue;
         }
         lines_seen.push(groups);
-        let x = axis_label(s);
+        let axis = sweep_axis(s);
+        let x = &axis.label;
         let series = |name: &str| -> Result<Vec<Series>> {
             let (m, sd): (ArrayD<f64>, ArrayD<f64>) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
             Ok(lines
@@ -113,7 +114,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 .enumerate()
                 .map(|(i, (key, ps))| {
                     let label = if key.is_empty() { "simulated" } else { key.as_str() };
-                    Series::new(Some(label), ps.iter().map(|&p| (s.values[p] * x.scale, m[[p]])).collect(), Style::LineMarkers, if i >= 3 { i + 1 } else { i })
+                    Series::new(Some(label), ps.iter().map(|&p| (axis.x[p], m[[p]])).collect(), Style::LineMarkers, if i >= 3 { i + 1 } else { i })
                         .with_error(ps.iter().map(|&p| sd[[p]]).collect())
                 })
                 .collect())
@@ -134,8 +135,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             &format!("uniformity_vs_{}", s.name),
             &format!("Areal density and CV against {} (mean ± std over realisations)", x.symbol),
             vec![
-                Panel::Lines(LinePanel { title: "ρ_av (eq 16)".into(), x_label: x.text.clone(), y_label: "ρ_av (g/m²)".into(), series: rho, ..Default::default() }),
-                Panel::Lines(LinePanel { title: "CV of cell densities".into(), x_label: x.text.clone(), y_label: "CV".into(), series: cv, ..Default::default() }),
+                Panel::Lines(LinePanel { title: "ρ_av (eq 16)".into(), x_label: x.text.clone(), y_label: "ρ_av (g/m²)".into(), series: rho, categories: axis.categories.clone(), ..Default::default() }),
+                Panel::Lines(LinePanel { title: "CV of cell densities".into(), x_label: x.text.clone(), y_label: "CV".into(), series: cv, categories: axis.categories.clone(), ..Default::default() }),
             ],
             2,
         ));

@@ -1,6 +1,7 @@
 //! Layout checks of a drawn figure: a drawing backend that draws nothing but records
-//! where everything would go, so tests (and `laydown plot` itself, in debug builds) can
-//! check that nothing is drawn outside the canvas and that no two text labels overlap.
+//! where everything would go, so tests can check that nothing is drawn outside the
+//! canvas and that no two text labels overlap (`tests/figures.rs`, through
+//! [`crate::plot::figure::Figure::inspect`]).
 //!
 //! Text boxes are the ones the bitmap backend fills: the font's layout box of the
 //! string, placed by its anchor and rotated as drawn.

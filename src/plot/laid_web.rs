@@ -6,7 +6,7 @@
 // NaN-safe checks are written as negated comparisons on purpose (`!(x < limit)`).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 use super::figure::{Figure, LinePanel, MapPanel, Panel, Series, Style};
-use super::{axis_label, lines_along, StageData};
+use super::{lines_along, sweep_axis, StageData};
 use anyhow::Result;
 use ndarray::{Array2, ArrayD, Ix3, Ix4};
 
@@ -91,13 +91,13 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     for (name, title, label, scale) in quantities {
         let series = if let Some(s) = swept.first() {
             let (mean, std): (ArrayD<f64>, ArrayD<f64>) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
-            let x = axis_label(s);
+            let axis = sweep_axis(s);
             lines_along(&swept, s)
                 .into_iter()
                 .enumerate()
                 .map(|(i, (key, ps))| {
                     let lab = if key.is_empty() { "mean over valid fibres".to_string() } else { format!("mean over valid fibres, {key}") };
-                    Series::new(Some(&lab), ps.iter().map(|&p| (s.values[p] * x.scale, mean[[p]] * scale)).collect(), Style::LineMarkers, i)
+                    Series::new(Some(&lab), ps.iter().map(|&p| (axis.x[p], mean[[p]] * scale)).collect(), Style::LineMarkers, i)
                         .with_error(ps.iter().map(|&p| std[[p]] * scale).collect())
                 })
                 .collect()
@@ -111,8 +111,10 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 })
                 .collect()
         };
-        let x_label = swept.first().map(|s| axis_label(s).text).unwrap_or_else(|| "fibre".into());
-        metric_panels.push(Panel::Lines(LinePanel { title: title.into(), x_label, y_label: label.into(), series, integer_x: swept.is_empty(), ..Default::default() }));
+        let axis = swept.first().map(sweep_axis);
+        let x_label = axis.as_ref().map_or_else(|| "fibre".into(), |a| a.label.text.clone());
+        let categories = axis.map(|a| a.categories).unwrap_or_default();
+        metric_panels.push(Panel::Lines(LinePanel { title: title.into(), x_label, y_label: label.into(), series, integer_x: swept.is_empty(), categories, ..Default::default() }));
     }
     figs.push(Figure::new("fibre_shapes", "Coil size and bending energy of the laid fibres (valid fibres)", metric_panels, 2));
     Ok(figs)

@@ -3,7 +3,7 @@
 //! standard-deviation bars and the belt-removed values dashed (Figs 5, 6), and the
 //! energy diagnostics over time.
 use super::figure::{Figure, LinePanel, Panel, Series, Style};
-use super::{axis_label, labels, lines_along, StageData};
+use super::{labels, lines_along, sweep_axis, StageData};
 use anyhow::Result;
 use ndarray::{ArrayD, Axis, Ix4};
 
@@ -109,7 +109,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         }
     } else {
         for s in &swept {
-            let x = axis_label(s);
+            let axis = sweep_axis(s);
+            let x = &axis.label;
             // one colour per line of the other swept parameters; belt-removed dashed
             let lines = lines_along(&swept, s);
             for (name, label, scale) in quantities {
@@ -119,7 +120,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 for (i, (key, ps)) in lines.iter().enumerate() {
                     let line = |m: &ArrayD<f64>, sd: &ArrayD<f64>, what: &str, style| {
                         let lab = if key.is_empty() { what.to_string() } else { format!("{what}, {key}") };
-                        Series::new(Some(&lab), ps.iter().map(|&p| (s.values[p] * x.scale, m[[p]] * scale)).collect(), style, i)
+                        Series::new(Some(&lab), ps.iter().map(|&p| (axis.x[p], m[[p]] * scale)).collect(), style, i)
                             .with_error(ps.iter().map(|&p| sd[[p]] * scale).collect())
                     };
                     series.push(line(&mean, &std, "on the belt", Style::LineMarkers));
@@ -129,6 +130,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                     title: format!("{label} against {}", x.symbol),
                     x_label: x.text.clone(),
                     y_label: label.into(),
+                    categories: axis.categories.clone(),
                     series,
                     ..Default::default()
                 }));

@@ -112,6 +112,22 @@ pub fn point_label(swept: &[Swept], p: usize) -> String {
     hdf::point_label(&physical, p)
 }
 
+/// A swept parameter as an x axis: its label, each point's x, and for a parameter with
+/// text values (`preset`, `integrator`) the categories x = 0, 1, ... stand for.
+pub struct SweepAxis {
+    pub label: labels::Label,
+    pub x: Vec<f64>,
+    pub categories: Vec<String>,
+}
+
+pub fn sweep_axis(s: &Swept) -> SweepAxis {
+    let label = axis_label(s);
+    let categories = categories(s);
+    let scale = if categories.is_empty() { label.scale } else { 1.0 };
+    let x = (0..s.labels.len()).map(|p| position(s, p) * scale).collect();
+    SweepAxis { label, x, categories }
+}
+
 /// The physical axis label of a swept parameter and the factor to its display unit.
 pub fn axis_label(s: &Swept) -> labels::Label {
     labels::label(&s.parameter, &s.units, &s.values)
@@ -122,8 +138,9 @@ pub fn axis_label(s: &Swept) -> labels::Label {
 /// (a cartesian sweep), named by their values (`""` when there are none); parameters
 /// swept together with `s` (zip) are no separate lines.
 pub fn lines_along(swept: &[Swept], s: &Swept) -> Vec<(String, Vec<usize>)> {
-    let mut order: Vec<usize> = (0..s.values.len()).filter(|&p| s.values[p].is_finite()).collect();
-    order.sort_by(|&a, &b| s.values[a].total_cmp(&s.values[b]));
+    // numeric values in order; text values (a categorical parameter) in order of appearance
+    let mut order: Vec<usize> = (0..s.labels.len()).collect();
+    order.sort_by(|&a, &b| position(s, a).total_cmp(&position(s, b)));
     let others: Vec<&Swept> = swept.iter().filter(|t| t.name != s.name && !determined_by(s, t)).collect();
     let mut lines: Vec<(String, Vec<usize>)> = vec![];
     for &p in &order {
@@ -138,6 +155,30 @@ pub fn lines_along(swept: &[Swept], s: &Swept) -> Vec<(String, Vec<usize>)> {
         }
     }
     lines
+}
+
+/// Where point `p` sits along swept parameter `s`: its value, or for a parameter with
+/// text values (`preset`) the index of its value among the distinct ones ([`categories`]).
+pub fn position(s: &Swept, p: usize) -> f64 {
+    match s.values.get(p) {
+        Some(v) if v.is_finite() => *v,
+        _ => categories(s).iter().position(|c| *c == s.labels[p]).map_or(f64::NAN, |i| i as f64),
+    }
+}
+
+/// The distinct text values of a swept parameter in order of appearance (empty for a
+/// numeric parameter).
+pub fn categories(s: &Swept) -> Vec<String> {
+    if s.values.iter().all(|v| v.is_finite()) {
+        return vec![];
+    }
+    let mut out: Vec<String> = vec![];
+    for l in &s.labels {
+        if !out.contains(l) {
+            out.push(l.clone());
+        }
+    }
+    out
 }
 
 /// Whether `t`'s value at every point follows from `s`'s (swept together, `zip`).
@@ -210,6 +251,10 @@ mod tests {
         assert!(determined_by(&preset, &swept("n", &["1", "1", "2", "2"])));
         let lines = lines_along(&[c.clone(), preset.clone(), zipped], &c);
         assert_eq!(lines, vec![("spectrum = s1".to_string(), vec![0, 1]), ("spectrum = s2".to_string(), vec![2, 3])]);
-        assert_eq!(point_label(&[c, preset], 2), "v_b/v_f = 0.02, spectrum = s2");
+        assert_eq!(point_label(&[c.clone(), preset.clone()], 2), "v_b/v_f = 0.02, spectrum = s2");
+        // a parameter with text values: its categories in order of appearance
+        assert_eq!(categories(&preset), ["s1", "s2"]);
+        assert_eq!((position(&preset, 2), position(&c, 1)), (1.0, 0.05));
+        assert_eq!(lines_along(&[c.clone(), preset.clone()], &preset), vec![("v_b/v_f = 0.02".to_string(), vec![0, 2]), ("v_b/v_f = 0.05".to_string(), vec![1, 3])]);
     }
 }

@@ -83,9 +83,12 @@ fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels() 
         kinds.insert(data.kind().to_string());
         for fig in laydown::plot::figures(&data).unwrap() {
             figures += 1;
-            let record = fig.inspect(&RenderOptions::default()).unwrap();
-            assert!(record.texts.len() > 5, "{stage}/{}: only {} texts drawn", fig.name, record.texts.len());
-            problems.extend(record.problems().into_iter().map(|p| format!("{stage}/{}: {p}", fig.name)));
+            // a two-column page (default) and one journal column at 7 pt
+            for opts in [RenderOptions::default(), RenderOptions { width_mm: 85.0, font_pt: 7.0, ..Default::default() }] {
+                let record = fig.inspect(&opts).unwrap();
+                assert!(record.texts.len() > 5, "{stage}/{}: only {} texts drawn", fig.name, record.texts.len());
+                problems.extend(record.problems().into_iter().map(|p| format!("{stage}/{} at {} mm: {p}", fig.name, opts.width_mm)));
+            }
         }
     }
     assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["accuracy", "grid", "image", "laid_web", "laydown", "spectra", "web"]);

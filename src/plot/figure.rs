@@ -205,15 +205,19 @@ impl Figure {
         inspect::record(layout.size, |root| self.draw(root, &layout, &sc))
     }
 
-    fn grid(&self) -> (usize, usize) {
-        let columns = self.columns.min(self.panels.len()).max(1);
+    /// Rows and columns of panels: the figure's columns, fewer when the page is too
+    /// narrow for panels of at least [`MIN_PANEL_EMS`] label sizes (one journal column
+    /// stacks the panels).
+    fn grid(&self, sc: &Scale) -> (usize, usize) {
+        let fit = ((sc.width / (MIN_PANEL_EMS * sc.font)).floor() as usize).max(1);
+        let columns = self.columns.min(fit).min(self.panels.len()).max(1);
         (self.panels.len().div_ceil(columns), columns)
     }
 
     /// Canvas size, title lines, row heights and colour ranges.
     fn layout(&self, sc: &Scale) -> Layout {
         let width = sc.width;
-        let (rows, columns) = self.grid();
+        let (rows, columns) = self.grid(sc);
         let cell_w = width / columns as f64;
         let title_lines = wrap(&self.title, sc.title, width - 2.0 * sc.m);
         let title_h = title_lines.len() as f64 * sc.title * 1.3 + sc.m;
@@ -269,7 +273,7 @@ impl Figure {
             let y = sc.m + (k as f64 + 0.5) * sc.title * 1.3;
             draw_text(root, line, sc.title, (w as f64 / 2.0, y), Pos::new(HPos::Center, VPos::Center), FontTransform::None)?;
         }
-        let (_, columns) = self.grid();
+        let (_, columns) = self.grid(sc);
         let mut y = layout.title_h;
         for (r, row) in layout.rows.iter().enumerate() {
             let h = row.height;
@@ -597,6 +601,8 @@ fn draw_caption<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, lines: &[Stri
 }
 
 const FONT: &str = "sans-serif";
+/// Narrowest panel, in label font sizes (about 60 mm at 8 pt).
+const MIN_PANEL_EMS: f64 = 17.0;
 /// Ratio of a plotters font size to the em size it writes into SVG.
 const PLOTTERS_EM: f64 = 1.24;
 

@@ -50,6 +50,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         (mean, std)
     };
     let mut cv_series = vec![];
+    // each point's random-line reference dashed in its colour, after the points in the legend
+    let mut random_series = vec![];
     let mut nf_series = vec![];
     for p in 0..points.min(8) {
         let name = match d.point_label(p) {
@@ -60,7 +62,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         let (m, s) = over_realisations(&cv_zone, p);
         cv_series.push(Series::new(Some(&name), xs.iter().copied().zip(m).collect(), Style::LineMarkers, p).with_error(s));
         let (r, _) = over_realisations(&random, p);
-        cv_series.push(Series::new(if p == 0 { Some("random lines") } else { None }, xs.iter().copied().zip(r).collect(), Style::Dashed, p));
+        random_series.push(Series::new(if p == 0 { Some("random lines (dashed, each in its colour)") } else { None }, xs.iter().copied().zip(r).collect(), Style::Dashed, p));
         let (f, fs) = over_realisations(&formation, p);
         nf_series.push(Series::new(Some(&name), xs.iter().copied().zip(f).collect(), Style::LineMarkers, p).with_error(fs));
     }
@@ -75,7 +77,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 y_label: "CV".into(),
                 log_x: true,
                 log_y: true,
-                series: cv_series,
+                series: cv_series.into_iter().chain(random_series).collect(),
                 ..Default::default()
             }),
             Panel::Lines(LinePanel {

@@ -15,6 +15,15 @@ fn at(a: &ndarray::ArrayD<f64>, swept: bool, p: usize) -> ndarray::ArrayD<f64> {
     }
 }
 
+/// A group label in physical terms: `belt_speed_ratio=0.05` (an image of a grid's sweep
+/// point) reads `v_b/v_f = 0.05`; any other label as it is.
+fn group_text(group: &str) -> String {
+    match group.split_once('=').map(|(k, v)| (k.trim(), v.trim(), v.trim().parse::<f64>())) {
+        Some((name, text, Ok(v))) if !name.is_empty() && !name.contains(' ') => super::labels::value_text(name, "1", v, text, &[v]),
+        _ => group.to_string(),
+    }
+}
+
 pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let mut figs = vec![];
     // A sweep of the analysis (notch width, threshold, bonds...) adds a leading point dimension.
@@ -69,7 +78,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                     .collect();
                 figs.push(Figure::new(
                     &format!("{prefix}sample{sample:03}"),
-                    &format!("Sample {sample} ({}{title_suffix})", groups[sample]),
+                    &format!("Sample {sample} ({}{title_suffix})", group_text(&groups[sample])),
                     panels,
                     2,
                 ));
@@ -172,4 +181,14 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         2,
     ));
     Ok(figs)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn group_labels_of_sweep_points_read_physically() {
+        assert_eq!(super::group_text("belt_speed_ratio=0.05"), "v_b/v_f = 0.05");
+        assert_eq!(super::group_text("v020"), "v020");
+        assert_eq!(super::group_text("a b=1"), "a b=1");
+    }
 }

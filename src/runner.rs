@@ -625,11 +625,30 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         let v = archive.version(&name, Some(number)).map_err(RunError::Runtime)?;
         crate::executor::committed(&executor, &job);
         println!("{name}: wrote v{number} in {wall:.2} s");
+        write_files(&pipeline.archive, &name, number, &out.files).map_err(RunError::Runtime)?;
         verified.insert(v.group_path());
         chosen.insert(name.clone(), v);
         reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });
     }
     Ok(reports)
+}
+
+/// Write the files a stage handed over ([`Output::files`]) into the figure folder of
+/// its committed version `number`, each through a temporary file renamed into place.
+fn write_files(archive: &std::path::Path, stage: &str, number: u32, files: &[(String, Vec<u8>)]) -> anyhow::Result<()> {
+    if files.is_empty() {
+        return Ok(());
+    }
+    let dir = crate::archive::figure_dir(archive, stage, number);
+    let fail = |e: std::io::Error, what: &std::path::Path| anyhow!("{stage}: v{number} is committed, but writing {} failed: {e}; `laydown plot` draws its figures again", what.display());
+    std::fs::create_dir_all(&dir).map_err(|e| fail(e, &dir))?;
+    for (name, bytes) in files {
+        let path = dir.join(name);
+        let tmp = dir.join(format!(".{name}.tmp"));
+        std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, &path)).map_err(|e| fail(e, &path))?;
+        eprintln!("{stage}: {}", path.display());
+    }
+    Ok(())
 }
 
 /// What a dry run finds for a selected stage.

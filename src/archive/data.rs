@@ -85,11 +85,21 @@ pub struct Output {
     pub variables: Vec<Variable>,
     /// Extra attributes on the version group (stage-specific summaries, notes).
     pub attrs: BTreeMap<String, Attr>,
+    /// Files (name, bytes) the runner writes beside the version once it is committed,
+    /// in its figure folder `<archive stem>_figures/<stage>/v<N>/` (figures, tables): a
+    /// stage writes no file itself, and a version that fails leaves none.
+    pub files: Vec<(String, Vec<u8>)>,
 }
 
 impl Output {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Hand over a file to be written beside the version once it is committed (see
+    /// [`Output::files`]).
+    pub fn file(&mut self, name: impl Into<String>, bytes: Vec<u8>) {
+        self.files.push((name.into(), bytes));
     }
 
     fn push(&mut self, name: &str, dims: &[&str], values: Values, units: &str, long_name: &str) -> &mut Variable {

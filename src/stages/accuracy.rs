@@ -272,10 +272,7 @@ impl Stage for AccuracyStage {
 
         let md = table(&metrics, &reference_metrics, &reference_values, reference_wall, &cands);
         eprint!("{}", md.lines().map(|l| format!("{}: {l}\n", ctx.stage_name)).collect::<String>());
-        std::fs::create_dir_all(&ctx.figure_dir)?;
-        let path = ctx.figure_dir.join("accuracy_cost.md");
-        std::fs::write(&path, format!("# What accuracy costs: `{}` against `{}`\n\n{md}", ctx.stage_name, reference.name))?;
-        eprintln!("{}: table {}", ctx.stage_name, path.display());
+        out.file("accuracy_cost.md", format!("# What accuracy costs: `{}` against `{}`\n\n{md}", ctx.stage_name, reference.name).into_bytes());
         out.set_attr("table_markdown", md);
         out.set_attr("reference", reference.name.clone());
         Ok(out)

@@ -303,8 +303,9 @@ pub struct RunContext {
     pub progress: bool,
     /// Directory of the pipeline file: relative paths in parameters are relative to it.
     pub pipeline_dir: std::path::PathBuf,
-    /// Where this run may write figures: `<archive dir>/<archive stem>_figures/<stage>/v<N>`
-    /// with N the version this run will become. Not created by the runner.
+    /// Where the files the stage hands over ([`Output::file`]) will be written once its
+    /// version is committed: `<archive dir>/<archive stem>_figures/<stage>/v<N>`, N the
+    /// version this run will become. A stage writes no file itself.
     pub figure_dir: std::path::PathBuf,
 }
 

@@ -301,24 +301,32 @@ pub fn expand_inputs(specs: &[InputSpec]) -> Result<Vec<(PathBuf, String)>, Imag
 /// Writes `img` as a greyscale PNG, mapping `lo..=hi` linearly to black..white (values
 /// outside are clipped; NaN is written black). `bits` is 8 or 16.
 pub fn write_grey_png(path: &Path, img: &Array2<f64>, lo: f64, hi: f64, bits: u8) -> Result<(), ImageError> {
+    encode_grey_png(img, lo, hi, bits)
+        .and_then(|bytes| std::fs::write(path, bytes).map_err(|e| e.to_string()))
+        .map_err(|message| ImageError::Write { path: path.to_path_buf(), message })
+}
+
+/// [`write_grey_png`]'s PNG as bytes.
+pub fn encode_grey_png(img: &Array2<f64>, lo: f64, hi: f64, bits: u8) -> Result<Vec<u8>, String> {
     let (h, w) = img.dim();
     let span = if hi > lo { hi - lo } else { 1.0 };
     let norm = |v: f64| if v.is_finite() { ((v - lo) / span).clamp(0.0, 1.0) } else { 0.0 };
+    let mut bytes = std::io::Cursor::new(Vec::new());
     let res = match bits {
         16 => {
             let buf = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w as u32, h as u32, |x, y| {
                 image::Luma([(norm(img[[y as usize, x as usize]]) * 65535.0).round() as u16])
             });
-            buf.save_with_format(path, image::ImageFormat::Png)
+            buf.write_to(&mut bytes, image::ImageFormat::Png)
         }
         _ => {
             let buf = image::GrayImage::from_fn(w as u32, h as u32, |x, y| {
                 image::Luma([(norm(img[[y as usize, x as usize]]) * 255.0).round() as u8])
             });
-            buf.save_with_format(path, image::ImageFormat::Png)
+            buf.write_to(&mut bytes, image::ImageFormat::Png)
         }
     };
-    res.map_err(|e| ImageError::Write { path: path.to_path_buf(), message: e.to_string() })
+    res.map(|_| bytes.into_inner()).map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

@@ -64,3 +64,8 @@ pub fn panel_array(a: &ImageAnalysis, decades: f64) -> Array2<f64> {
 pub fn write_panel_png(path: &Path, a: &ImageAnalysis, decades: f64) -> Result<(), ImageError> {
     super::io::write_grey_png(path, &panel_array(a, decades), 0.0, 1.0, 8)
 }
+
+/// The 2×2 panel's PNG as bytes (see [`write_panel_png`]).
+pub fn panel_png(a: &ImageAnalysis, decades: f64) -> Result<Vec<u8>, String> {
+    super::io::encode_grey_png(&panel_array(a, decades), 0.0, 1.0, 8)
+}

@@ -345,13 +345,11 @@ impl Stage for ImageStage {
             .collect();
         let mut out = stack_points(parts, !ctx.sweep.is_empty())?;
         if p.bool("panels") && per_point.iter().flatten().any(|k| k.store) {
-            std::fs::create_dir_all(&ctx.figure_dir).map_err(|e| anyhow!("creating {}: {e}", ctx.figure_dir.display()))?;
             for (k, kept) in per_point.iter().enumerate() {
                 let prefix = if ctx.sweep.is_empty() { String::new() } else { format!("point{:03}_", k) };
                 for (i, (smp, kp)) in samples.iter().zip(kept).enumerate().filter(|(_, (_, kp))| kp.store) {
-                    let path = ctx.figure_dir.join(format!("{prefix}sample{i:03}_{}.png", sanitise(&smp.group)));
-                    super::panel::write_panel_png(&path, &kp.a, PANEL_DECADES).map_err(|e| anyhow!("{e}"))?;
-                    eprintln!("{}: panel {}", ctx.stage_name, path.display());
+                    let png = super::panel::panel_png(&kp.a, PANEL_DECADES).map_err(|e| anyhow!("panel of {}: {e}", smp.file))?;
+                    out.file(format!("{prefix}sample{i:03}_{}.png", sanitise(&smp.group)), png);
                 }
             }
             out.set_attr("figure_dir", ctx.figure_dir.display().to_string());

@@ -94,7 +94,13 @@ fn grid_input_with_bonds_recovers_the_web_cv() {
         other => panic!("{other:?}"),
     }
     assert_eq!(out.get("raw_image").unwrap().values.shape(), vec![1, 128, 160]);
-    assert!(dir.path().join("figures").join("sample000_belt_speed_ratio_0.02.png").is_file());
+    // the panel is handed to the runner, written only once the version is committed
+    assert!(!dir.path().join("figures").exists(), "the stage wrote into an uncommitted version's folder");
+    let names: Vec<&str> = out.files.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["sample000_belt_speed_ratio_0.02.png"]);
+    let panel = image::load_from_memory(&out.files[0].1).unwrap();
+    let gap = crate::stages::image::panel::GAP as u32;
+    assert_eq!((panel.width(), panel.height()), (2 * 160 + 3 * gap, 2 * 128 + 3 * gap));
 }
 
 #[test]

@@ -8,3 +8,19 @@
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct BadInput(pub String);
+
+/// A parameter that fails a stage's or a pipeline's check: its key as written in the
+/// pipeline file (dotted, or e.g. `files[1]`) and why, with what is allowed. The checker
+/// adds the file, line and column of the key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{key}: {message}")]
+pub struct InvalidParam {
+    pub key: String,
+    pub message: String,
+}
+
+impl InvalidParam {
+    pub fn new(key: String, message: String) -> Self {
+        InvalidParam { key, message }
+    }
+}

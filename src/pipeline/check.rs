@@ -2,6 +2,7 @@
 //! sweep against the stage kinds' parameter tables, and collects [`Diagnostic`]s with
 //! file, line, column and key (all of them, not just the first). [`super::parse`] runs it.
 
+use crate::error::InvalidParam;
 use super::yaml::{self, Kind, Node, Pos, Scalar};
 use super::*;
 
@@ -302,7 +303,7 @@ impl Checker {
     /// else at the stage's `input:`, else at the stage.
     fn declared_checks(&mut self, items: &[Node], all: &[&StageDecl]) {
         for (i, d) in all.iter().enumerate() {
-            let Err((param, msg)) = inputs::check(d, &declared(all, d, &self.dir)) else { continue };
+            let Err(InvalidParam { key: param, message: msg }) = inputs::check(d, &declared(all, d, &self.dir)) else { continue };
             let node = &items[i];
             let (pos, path) = match param_or_key_pos(node, &param) {
                 Some((pos, path)) => (pos, path),
@@ -452,7 +453,7 @@ impl Checker {
         // Cross-parameter checks on every sweep point.
         let (points, _) = decl.points();
         for p in &points {
-            if let Err((param, msg)) = stage.check(p) {
+            if let Err(InvalidParam { key: param, message: msg }) = stage.check(p) {
                 let pos = find_param_pos(entries, &param).unwrap_or(node.pos);
                 self.err(pos, &format!("{key}.params.{param}"), msg);
                 return None;
@@ -460,7 +461,7 @@ impl Checker {
         }
         // Files outside the archive (image scans) exist now, not only at run time.
         for p in &points {
-            if let Err((param, msg)) = stage.check_files(p, &self.dir) {
+            if let Err(InvalidParam { key: param, message: msg }) = stage.check_files(p, &self.dir) {
                 let pos = find_param_pos(entries, &param).unwrap_or(node.pos);
                 self.err(pos, &format!("{key}.params.{param}"), msg);
                 return None;

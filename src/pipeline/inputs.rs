@@ -7,13 +7,14 @@
 //! stages, not a stage's results: the stage modules are part of their kinds' code hash
 //! ([`crate::code_hash`]), and a check added there would rerun every stored version once.
 //! The stages' run-time checks stay as they are (a pipeline checked here passes them).
+use crate::error::InvalidParam;
 use super::StageDecl;
 use crate::params::ParamValue;
 use crate::stages::{spectra::declared_spectra, Declared};
 
-/// `Err((parameter or stage key, message))` for the first problem of `decl` (declared
+/// `Err(InvalidParam::new(parameter or stage key, message))` for the first problem of `decl` (declared
 /// with its inputs as `stage`) with its inputs.
-pub fn check(decl: &StageDecl, stage: &Declared) -> Result<(), (String, String)> {
+pub fn check(decl: &StageDecl, stage: &Declared) -> Result<(), InvalidParam> {
     match stage.kind.as_str() {
         "web" => web_source(stage).and_then(|()| web_input_point(stage)),
         "spectra" => spectra_own_sweep(decl, stage),
@@ -24,9 +25,9 @@ pub fn check(decl: &StageDecl, stage: &Declared) -> Result<(), (String, String)>
 }
 
 /// A grid of a swept web (or laid web) takes the input's points, so no sweep of its own.
-fn grid_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), (String, String)> {
+fn grid_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), InvalidParam> {
     match stage.inputs.first() {
-        Some(input) if input.points.len() > 1 && !decl.sweep.is_empty() => Err((
+        Some(input) if input.points.len() > 1 && !decl.sweep.is_empty() => Err(InvalidParam::new(
             "sweep".into(),
             format!(
                 "the input {} `{}` has {} points; a grid reading it takes those points and cannot have a sweep of its own; allowed: one grid stage per setting",
@@ -40,15 +41,15 @@ fn grid_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), (String, Str
 }
 
 /// A web's spectrum comes from an input spectra stage or a preset: one of them, not both.
-fn web_source(stage: &Declared) -> Result<(), (String, String)> {
+fn web_source(stage: &Declared) -> Result<(), InvalidParam> {
     for p in &stage.points {
         let preset = p.text("preset");
         match stage.inputs.first() {
             None if preset == "none" => {
-                return Err(("preset".into(), "a web needs a spectrum; allowed: `input: <spectra stage>` or `preset: spectrum1|spectrum2|spectrum3`".into()));
+                return Err(InvalidParam::new("preset".into(), "a web needs a spectrum; allowed: `input: <spectra stage>` or `preset: spectrum1|spectrum2|spectrum3`".into()));
             }
             Some(input) if preset != "none" => {
-                return Err(("preset".into(), format!("give either an input spectra stage or `preset`, not both (input `{}`, preset {preset}); allowed with an input: none", input.name)));
+                return Err(InvalidParam::new("preset".into(), format!("give either an input spectra stage or `preset`, not both (input `{}`, preset {preset}); allowed with an input: none", input.name)));
             }
             _ => {}
         }
@@ -58,28 +59,28 @@ fn web_source(stage: &Declared) -> Result<(), (String, String)> {
 
 /// An image stage reads one source: image files, a grid input (whose cell size is the
 /// pixel size) or a synthetic image; and it is deterministic (one replicate).
-fn image_source(stage: &Declared) -> Result<(), (String, String)> {
+fn image_source(stage: &Declared) -> Result<(), InvalidParam> {
     if stage.replicates != 1 {
-        return Err(("replicates".into(), format!("an image stage is deterministic; allowed: 1, not {}", stage.replicates)));
+        return Err(InvalidParam::new("replicates".into(), format!("an image stage is deterministic; allowed: 1, not {}", stage.replicates)));
     }
     for p in &stage.points {
         let (files, synthetic) = (!p.text_list("files").is_empty(), p.text("synthetic.kind") != "none");
         match stage.inputs.first() {
             Some(input) => {
                 if files {
-                    return Err(("files".into(), format!("give `files` or a grid `input`, not both (input `{}`)", input.name)));
+                    return Err(InvalidParam::new("files".into(), format!("give `files` or a grid `input`, not both (input `{}`)", input.name)));
                 }
                 for size in ["pixel_size", "dpi"] {
                     if p.f64_or_auto(size).is_some() {
-                        return Err((size.into(), format!("with a grid input the pixel size is the grid's cell_size (input `{}`); allowed: no {size}", input.name)));
+                        return Err(InvalidParam::new(size.into(), format!("with a grid input the pixel size is the grid's cell_size (input `{}`); allowed: no {size}", input.name)));
                     }
                 }
                 if synthetic {
-                    return Err(("synthetic.kind".into(), format!("give a grid `input` or a synthetic source, not both (input `{}`); allowed with an input: none", input.name)));
+                    return Err(InvalidParam::new("synthetic.kind".into(), format!("give a grid `input` or a synthetic source, not both (input `{}`); allowed with an input: none", input.name)));
                 }
             }
             None if !files && !synthetic => {
-                return Err(("files".into(), "an image stage needs `files` (paths or globs), an `input` grid stage or a synthetic source (synthetic.kind)".into()));
+                return Err(InvalidParam::new("files".into(), "an image stage needs `files` (paths or globs), an `input` grid stage or a synthetic source (synthetic.kind)".into()));
             }
             None => {}
         }
@@ -89,9 +90,9 @@ fn image_source(stage: &Declared) -> Result<(), (String, String)> {
 
 /// A spectra stage reading laid fibres has one point per point of its input, so no
 /// sweep of its own (refused by the stage at run time).
-fn spectra_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), (String, String)> {
+fn spectra_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), InvalidParam> {
     match stage.inputs.first() {
-        Some(input) if !decl.sweep.is_empty() => Err((
+        Some(input) if !decl.sweep.is_empty() => Err(InvalidParam::new(
             "sweep".into(),
             format!("a spectra stage reading laid fibres takes the sweep points of its input `{}`; it cannot have a sweep of its own; allowed: a sweep of the input stage", input.name),
         )),
@@ -101,17 +102,17 @@ fn spectra_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), (String, 
 
 /// A web's `input_point` names one point of its input spectra stage: needed when that
 /// stage has several points (as the web stage requires at run time), and within them.
-fn web_input_point(stage: &Declared) -> Result<(), (String, String)> {
+fn web_input_point(stage: &Declared) -> Result<(), InvalidParam> {
     let Some(input) = stage.inputs.first() else { return Ok(()) };
     let n = declared_spectra(input).len();
     for p in &stage.points {
         match p.0.get("input_point") {
             Some(ParamValue::Int(i)) if *i as usize >= n => {
-                return Err(("input_point".into(), format!("input_point {i} is beyond the {n} point(s) of input `{}`; allowed: 0 to {}", input.name, n - 1)));
+                return Err(InvalidParam::new("input_point".into(), format!("input_point {i} is beyond the {n} point(s) of input `{}`; allowed: 0 to {}", input.name, n - 1)));
             }
             Some(ParamValue::Int(_)) => {}
             _ if n > 1 => {
-                return Err((
+                return Err(InvalidParam::new(
                     "input_point".into(),
                     format!("input `{}` has {n} points; choose one with `input_point`; allowed: 0 to {} (one web stage per spectrum, or a sweep of input_point)", input.name, n - 1),
                 ));

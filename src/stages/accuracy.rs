@@ -19,6 +19,7 @@
 //! below the replicate scatter (`<metric>_std / sqrt(n)`) as "converged".
 //! It reads only per-point values, so it makes no memory estimate
 //! ([`Stage::estimate_memory`]).
+use crate::error::InvalidParam;
 use super::{BadInput, Input, InputRule, RunContext, Stage};
 use crate::archive::data::Output;
 use crate::archive::hdf;
@@ -200,10 +201,10 @@ impl Stage for AccuracyStage {
     fn inputs(&self) -> InputRule {
         InputRule { kinds: &["laydown", "laid_web", "grid", "spectra", "web", "image"], min: 2, max: 64 }
     }
-    fn check(&self, p: &ParamSet) -> std::result::Result<(), (String, String)> {
+    fn check(&self, p: &ParamSet) -> std::result::Result<(), InvalidParam> {
         let (m, r) = (p.text_list("metrics"), p.text_list("reference_metrics"));
         if !r.is_empty() && r.len() != m.len() {
-            return Err((
+            return Err(InvalidParam::new(
                 "reference_metrics".into(),
                 format!("{} reference metrics for {} metrics; allowed: one per metric (list the metrics too), or none", r.len(), m.len()),
             ));

@@ -4,6 +4,7 @@
 //! inputs it takes, and turns a [`RunContext`] (resolved parameters of every sweep
 //! point, replicate count, seed, input versions) into an [`Output`]. It knows nothing
 //! of YAML, files or versions: the pipeline runner and the archive do that.
+use crate::error::InvalidParam;
 use crate::archive::data::Output;
 use crate::archive::{hdf, VersionInfo};
 use crate::memory::Estimate;
@@ -73,8 +74,8 @@ pub trait Stage: Send + Sync {
     fn params(&self) -> Vec<ParamSpec>;
     fn inputs(&self) -> InputRule;
     /// Checks that involve several parameters of one resolved point:
-    /// `Err((parameter, message))`.
-    fn check(&self, _params: &ParamSet) -> std::result::Result<(), (String, String)> {
+    /// `Err(InvalidParam::new(parameter, message))`.
+    fn check(&self, _params: &ParamSet) -> std::result::Result<(), InvalidParam> {
         Ok(())
     }
     /// The peak memory of a run of `stage` (its resolved sweep points and replicates,
@@ -93,8 +94,8 @@ pub trait Stage: Send + Sync {
         Ok(vec![])
     }
     /// Check, when the pipeline is validated, that the files named by the parameters
-    /// exist (relative to `pipeline_dir`): `Err((parameter such as files[1], message))`.
-    fn check_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<(), (String, String)> {
+    /// exist (relative to `pipeline_dir`): `Err(InvalidParam::new(parameter such as files[1], message))`.
+    fn check_files(&self, _params: &ParamSet, _pipeline_dir: &std::path::Path) -> Result<(), InvalidParam> {
         Ok(())
     }
     /// How the stage's work splits into units that can be computed apart (e.g. in

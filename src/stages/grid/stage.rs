@@ -28,6 +28,7 @@
 //!   ([`crate::stages::web::SCRATCH_BYTES_PER_NODE`] per node); and what is read of the
 //!   input: the web's stored fibres (regeneration check) or the laid web's nodes
 //!   ([`LAID_BYTES_PER_NODE`]).
+use crate::error::InvalidParam;
 use super::laid::{read_laid_web, LaidPoint};
 use super::{grid_realisation, Boundary, Deposit, GridParams, GridResult, GRID_PARAMS};
 use crate::archive::data::{Attr, Output};
@@ -74,14 +75,14 @@ impl Stage for GridStage {
         v.push(ParamSpec::choice("compare_with", &["none", "table4"], "none", "table4: store the paper's measured Table 4 values as reference_* datasets"));
         v
     }
-    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
+    fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
         grid_params(p).validate().map(|_| ()).map_err(|e| {
             let name = match &e {
                 super::GridError::Param(pe) => pe.name.to_string(),
                 super::GridError::ZoneRange { .. } => "zone_size_min".into(),
                 _ => "cell_size".into(),
             };
-            (name, e.to_string())
+            InvalidParam::new(name, e.to_string())
         })
     }
 

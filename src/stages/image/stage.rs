@@ -43,6 +43,7 @@
 //! images of every point are kept until written ([`STORED_BYTES_PER_PIXEL`]); a grid
 //! input's density maps are read whole. Image files count with the size in their
 //! header (one that cannot be read there counts nothing; reading it is checked later).
+use crate::error::InvalidParam;
 use super::render::{render, render_with_coverage, BondPattern, BondShape, RenderParams};
 use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PixelSource, PARAMETERS};
 use crate::archive::data::{Attr, Output, Values};
@@ -196,28 +197,28 @@ impl Stage for ImageStage {
         }
         v
     }
-    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
+    fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
         if p.f64_or_auto("pixel_size").is_some() && p.f64_or_auto("dpi").is_some() {
-            return Err(("dpi".into(), "give pixel_size or dpi, not both".into()));
+            return Err(InvalidParam::new("dpi".into(), "give pixel_size or dpi, not both".into()));
         }
         let (files, groups) = (p.text_list("files"), p.text_list("groups"));
         if !groups.is_empty() && groups.len() != files.len() {
-            return Err((
+            return Err(InvalidParam::new(
                 "groups".into(),
                 format!("{} group labels for {} `files` entries; allowed: one label per entry, or none", groups.len(), files.len()),
             ));
         }
         if !files.is_empty() && p.text("synthetic.kind") != "none" {
-            return Err(("synthetic.kind".into(), "give `files` or a synthetic source, not both; allowed with `files`: none".into()));
+            return Err(InvalidParam::new("synthetic.kind".into(), "give `files` or a synthetic source, not both; allowed with `files`: none".into()));
         }
         if !files.is_empty() && p.text("bonds.shape") != "none" {
-            return Err((
+            return Err(InvalidParam::new(
                 "bonds.shape".into(),
                 "bonds.* overlay the images rendered from a grid input; image files are analysed as they are; allowed with `files`: none".into(),
             ));
         }
         if p.f64("zone_max") < p.f64("zone_min") {
-            return Err(("zone_max".into(), format!("zone_max is below zone_min = {}", p.f64("zone_min"))));
+            return Err(InvalidParam::new("zone_max".into(), format!("zone_max is below zone_min = {}", p.f64("zone_min"))));
         }
         Ok(())
     }
@@ -260,7 +261,7 @@ impl Stage for ImageStage {
         Ok(expand(p, dir)?.into_iter().map(|(f, _)| f).collect())
     }
 
-    fn check_files(&self, p: &ParamSet, dir: &Path) -> std::result::Result<(), (String, String)> {
+    fn check_files(&self, p: &ParamSet, dir: &Path) -> std::result::Result<(), InvalidParam> {
         const ALLOWED: &str = "allowed: existing image files or globs matching at least one, relative to the pipeline file";
         for (i, f) in p.text_list("files").iter().enumerate() {
             let path = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
@@ -273,7 +274,7 @@ impl Stage for ImageStage {
                 }
                 Err(e) => format!("`{f}`: {e}; {ALLOWED}"),
             };
-            return Err((format!("files[{i}]"), msg));
+            return Err(InvalidParam::new(format!("files[{i}]"), msg));
         }
         Ok(())
     }

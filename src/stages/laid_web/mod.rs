@@ -40,6 +40,7 @@ pub mod stage;
 
 pub use stage::LaidWebStage;
 
+use crate::error::InvalidParam;
 use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings};
 use crate::rod::{laid_polyline, shape_measures, LaydownParams};
 use crate::rng::stream_rng;
@@ -161,10 +162,10 @@ impl LaidWebParams {
         self.fibres_across as f64 * (self.fed_length() / self.resolved_element_length() + 1.0)
     }
 
-    /// Checks every parameter: `Err((parameter, message))`.
-    pub fn validate(&self) -> Result<(), (String, String)> {
+    /// Checks every parameter: `Err(InvalidParam::new(parameter, message))`.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
         if !(self.scene.belt_speed > 0.0) {
-            return Err(("belt_speed".into(), "a laid web needs a moving belt (belt_speed > 0): its length is the belt travel".into()));
+            return Err(InvalidParam::new("belt_speed".into(), "a laid web needs a moving belt (belt_speed > 0): its length is the belt travel".into()));
         }
         // the scene's own checks; its length and elements are the laid web's (fed
         // length, element length), checked below
@@ -174,10 +175,10 @@ impl LaidWebParams {
                 crate::rod::ParamError::OutOfRange { name, .. } | crate::rod::ParamError::NotFinite { name, .. } => name.to_string(),
                 _ => "belt_travel".to_string(),
             };
-            (name, e.to_string())
+            InvalidParam::new(name, e.to_string())
         })?;
         if self.fed_length() <= 2.0 * self.scene.laydown_height {
-            return Err(("belt_travel".into(), format!(
+            return Err(InvalidParam::new("belt_travel".into(), format!(
                 "belt_travel {} m feeds only {:.4} m of fibre at v_f/v_b = {:.1}, less than twice the laydown height {} m: nothing would be laid",
                 self.belt_travel,
                 self.fed_length(),
@@ -187,7 +188,7 @@ impl LaidWebParams {
         }
         let nodes = self.fed_length() / self.resolved_element_length();
         if !(nodes <= 1e9) {
-            return Err(("belt_travel".into(), format!(
+            return Err(InvalidParam::new("belt_travel".into(), format!(
                 "belt_travel {} m feeds {:.3e} m of fibre per hole in {:.3e} elements of {:.3e} m: more than 10⁹ elements per fibre",
                 self.belt_travel,
                 self.fed_length(),
@@ -196,7 +197,7 @@ impl LaidWebParams {
             )));
         }
         if !(self.frequency_jitter < 1.0 / 3.0) || !(self.amplitude_jitter < 1.0) {
-            return Err(("frequency_jitter".into(), "frequency_jitter must be below 1/3 (a fibre's frequency stays positive within ±3σ) and amplitude_jitter below 1".into()));
+            return Err(InvalidParam::new("frequency_jitter".into(), "frequency_jitter must be below 1/3 (a fibre's frequency stays positive within ±3σ) and amplitude_jitter below 1".into()));
         }
         Ok(())
     }

@@ -11,6 +11,7 @@
 //! - per web: `interior_md_min`/`interior_md_max` (the MD range free of start-up and
 //!   touchdown), `cd_period`, `spread`; per point: `expected_interior_density`,
 //!   `element_length`, `mass_per_length`, `feed_time`.
+use crate::error::InvalidParam;
 use super::{lay_web, LaidWeb, LaidWebParams, Turbulence};
 use crate::archive::data::Output;
 use crate::params::{ParamSet, ParamSpec};
@@ -110,8 +111,8 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a laid node must stay put on the belt (creep below 1 % of an element) before it may freeze"));
         v
     }
-    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
-        let lw = laid_web_params(p).map_err(|e| ("turbulence".to_string(), e))?;
+    fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
+        let lw = laid_web_params(p).map_err(|e| InvalidParam::new("turbulence".into(), e))?;
         lw.validate()
     }
     /// Every web of the run is held until the output is written

@@ -24,6 +24,7 @@
 //! output is written (result, per-replicate row, placed copy: [`KEPT_BYTES_PER_NODE`]),
 //! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
 //! (one record per `diagnostic_stride` steps) are not counted.
+use crate::error::InvalidParam;
 use super::params::{BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
 use super::metrics::ENERGY_COLUMNS;
 use super::{laid_polyline, simulate, LaydownResult};
@@ -128,18 +129,18 @@ impl Stage for LaydownStage {
         }
         v
     }
-    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
+    fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
         let (target, cap) = (p.int(TARGET), p.int(CAP));
         if target > 0 && cap < target {
-            return Err((CAP.to_string(), format!("max_replicates ({cap}) must be at least valid_replicates_target ({target})")));
+            return Err(InvalidParam::new(CAP.to_string(), format!("max_replicates ({cap}) must be at least valid_replicates_target ({target})")));
         }
-        let scene = scene(p).map_err(|e| ("integrator".to_string(), e))?;
+        let scene = scene(p).map_err(|e| InvalidParam::new("integrator".into(), e))?;
         scene.validate().map_err(|e| {
             let name = match &e {
                 super::ParamError::OutOfRange { name, .. } | super::ParamError::NotFinite { name, .. } => name.to_string(),
                 _ => "laydown_height".to_string(),
             };
-            (name, e.to_string())
+            InvalidParam::new(name, e.to_string())
         })
     }
 

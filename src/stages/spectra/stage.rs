@@ -7,6 +7,7 @@
 //! most spectra and the longest N ([`OUTPUT_BYTES_PER_SAMPLE`]); the input's laid nodes read whole
 //! ([`INPUT_BYTES_PER_NODE`]); N is `points_per_segment`, or at most the fibre length
 //! over `sample_spacing`.
+use crate::error::InvalidParam;
 use super::{analyse_fibres, CurvatureSpectrum, SpectraParams, SquareWaveParams, SPECTRA_PARAMS, SQUARE_WAVE_PARAMS};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
@@ -92,13 +93,13 @@ impl Stage for SpectraStage {
         }
         v
     }
-    fn check(&self, p: &ParamSet) -> Result<(), (String, String)> {
+    fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
         if p.text("preset") == "none" {
             let n = p.usize("points_per_segment");
             let n = if n == 0 { 1000 } else { n };
             let nc = p.usize("cutoff_number");
             if 2 * nc >= n {
-                return Err(("cutoff_number".into(), format!("n_c = {nc} is at or beyond the Nyquist bin N/2 = {} for N = {n}; allowed: 2·n_c < N", n / 2)));
+                return Err(InvalidParam::new("cutoff_number".into(), format!("n_c = {nc} is at or beyond the Nyquist bin N/2 = {} for N = {n}; allowed: 2·n_c < N", n / 2)));
             }
         }
         Ok(())

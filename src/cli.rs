@@ -17,6 +17,13 @@ Exit codes: 0 success, 1 runtime failure or damaged archive, 2 bad input.";
 #[derive(Parser, Debug)]
 #[command(name = "laydown", version, about = "Fibre laydown, curvature spectra, stochastic nonwoven webs and their uniformity, in one versioned HDF5 archive per study.", after_help = AFTER_HELP)]
 pub struct Cli {
+    /// Say nothing but warnings and errors: no progress bars, per-stage lines or stage
+    /// summaries (exit codes are unchanged).
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    pub quiet: bool,
+    /// Say more: per stage, why it was reused or rerun, its fingerprint and timings (on stderr).
+    #[arg(short, long, global = true)]
+    pub verbose: bool,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -68,6 +75,10 @@ pub enum Command {
         /// results are bit-identical with any number. Slurm array tasks use SLURM_CPUS_PER_TASK.
         #[arg(short = 'j', long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
         threads: Option<u32>,
+        /// Print a JSON summary of what ran on stdout (the per-stage lines go to stderr);
+        /// see the README's CLI section.
+        #[arg(long)]
+        json: bool,
     },
     /// Run one Slurm array task of a stage (used by `--executor slurm`).
     #[command(hide = true)]
@@ -150,8 +161,10 @@ pub enum Command {
 
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
+    crate::verbosity::set(crate::verbosity::from_flags(cli.quiet, cli.verbose));
     match cli.command {
-        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads } => {
+        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads, json } => {
+            crate::verbosity::set_json_stdout(json);
             // before the pipeline's memory estimates, which count the threads
             if let Some(n) = threads {
                 if let Err(e) = crate::executor::local::set_threads(n as usize) {
@@ -188,11 +201,16 @@ pub fn main_with(cli: Cli) -> i32 {
             if !sbatch_arg.is_empty() {
                 p.executor.sbatch_args = sbatch_arg;
             }
-            let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal(), executor: None, dry_run };
+            let opts = RunOptions { only, from, force, progress: crate::verbosity::progress_bars(), executor: None, dry_run };
             match runner::run(&p, &opts) {
+                Ok(reports) if json => {
+                    println!("{}", serde_json::to_string_pretty(&crate::run_summary::json(&p, &reports, dry_run)).expect("JSON of plain values"));
+                    0
+                }
                 Ok(reports) => {
                     // The results of every image stage that ran, on stdout (as `laydown table`).
-                    for r in reports.iter().filter(|r| r.ran_because.is_some() && !dry_run) {
+                    // (Not under -q, which prints only warnings and errors.)
+                    for r in reports.iter().filter(|r| r.outcome == runner::Outcome::Computed && !crate::verbosity::quiet()) {
                         if p.stage(&r.stage).is_some_and(|s| s.kind == "image") {
                             let stage_ref = format!("{}@v{}", r.stage, r.version);
                             match crate::table::read_table(&p.archive, &stage_ref, false) {
@@ -406,7 +424,7 @@ fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
 fn table(archive: &std::path::Path, stage_ref: &str, all: bool, format: crate::table::Format) -> Result<()> {
     let t = crate::table::read_table(archive, stage_ref, all)?;
     if let Some(note) = &t.note {
-        eprintln!("{}: {note}", t.group);
+        crate::info!("{}: {note}", t.group);
     }
     print!("{}", t.render(format));
     Ok(())

@@ -80,6 +80,11 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Print a shell completion script, e.g. `laydown completions bash > ~/.local/share/bash-completion/completions/laydown`.
+    Completions {
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
     /// Run one Slurm array task of a stage (used by `--executor slurm`).
     #[command(hide = true)]
     Worker {
@@ -163,6 +168,11 @@ pub enum Command {
 pub fn main_with(cli: Cli) -> i32 {
     crate::verbosity::set(crate::verbosity::from_flags(cli.quiet, cli.verbose));
     match cli.command {
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            clap_complete::generate(shell, &mut Cli::command(), "laydown", &mut std::io::stdout());
+            0
+        }
         Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads, json } => {
             crate::verbosity::set_json_stdout(json);
             // before the pipeline's memory estimates, which count the threads

@@ -118,6 +118,22 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Remove stage versions that are not current (keeping, per stage, the current version,
+    /// the N newest others and every version a kept one was computed from), in one atomic
+    /// commit; prints what it removes. HDF5 does not shrink the file: add --repack for that.
+    Prune {
+        archive: PathBuf,
+        /// Also keep the N newest non-current versions of each stage.
+        #[arg(long, value_name = "N", default_value_t = 0)]
+        keep: usize,
+        /// Print what would be removed; change nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Then rewrite the archive into a new file without the removed versions' space,
+        /// renamed over it atomically.
+        #[arg(long)]
+        repack: bool,
+    },
     /// Check every version of an archive against the hashes stored when it was
     /// committed (reading every value); names each damaged group and dataset. Exit 1 on damage.
     Verify { archive: PathBuf },
@@ -270,6 +286,7 @@ pub fn main_with(cli: Cli) -> i32 {
         },
         Command::Ls { archive, json } => report(ls(&archive, json)),
         Command::Verify { archive } => report(verify(&archive)),
+        Command::Prune { archive, keep, dry_run, repack } => report(prune(&archive, keep, dry_run, repack)),
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
         Command::Stages { kind, json } => report(describe_stages(kind.as_deref(), json)),
         Command::Plot { archive, stages, out, format } => report(plot(&archive, &stages, out.as_deref(), format)),
@@ -367,6 +384,36 @@ fn verify(path: &std::path::Path) -> Result<()> {
         groups.join(", "),
         fixes.join(", ")
     ))
+}
+
+/// `laydown prune`: the plan from [`crate::archive::prune`], printed; applied (and
+/// repacked) unless a dry run.
+fn prune(path: &std::path::Path, keep: usize, dry_run: bool, repack: bool) -> Result<()> {
+    use crate::archive::prune as p;
+    Archive::open_read(path)?;
+    let archive = if dry_run { Archive::open_if_exists(path)? } else { Archive::open_write(path)? };
+    let plan = p::plan(&archive, keep)?;
+    if !dry_run {
+        p::apply(&archive, &plan)?;
+    }
+    // Printed once everything is done: a failure prints nothing to stdout.
+    let mut lines = p::describe(&plan, dry_run);
+    let n = plan.removed.len();
+    let s = if n == 1 { "" } else { "s" };
+    if dry_run {
+        lines.push(format!("dry run: {n} version{s} would be removed{}", if repack { ", then the archive repacked" } else { "" }));
+    } else if repack {
+        let (before, after) = p::repack(&archive).with_context(|| format!("{n} version{s} removed, but repacking failed (the archive is pruned, not repacked)"))?;
+        lines.push(format!("removed {n} version{s}; repacked {}: {:.2} MB -> {:.2} MB", archive.path.display(), before as f64 / 1e6, after as f64 / 1e6));
+    } else {
+        lines.push(format!(
+            "removed {n} version{s} from {}; HDF5 does not give their space back: the file keeps its size until `laydown prune {} --repack`",
+            archive.path.display(),
+            path.display()
+        ));
+    }
+    println!("{}", lines.join("\n"));
+    Ok(())
 }
 
 fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {

@@ -595,7 +595,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             if input_versions.is_empty() { "none".to_string() } else { input_versions.iter().map(|(s, n)| format!("{s} v{n}")).collect::<Vec<_>>().join(", ") }
         );
 
-        let next_version = versions.last().map(|v| v.number + 1).unwrap_or(1);
+        let next_version = archive.next_version(&name).map_err(RunError::Runtime)?;
         let ctx = stage_context(pipeline, decl, &inputs, opts.progress, next_version);
         let sweep = ctx.sweep.clone();
         let executor = opts.executor.clone().unwrap_or_else(|| pipeline.executor.clone());

@@ -167,7 +167,7 @@ pub enum Command {
         #[arg(long, value_enum, default_value = "csv")]
         format: crate::table::Format,
     },
-    /// Draw a stage version's figures (PNG or SVG) and print their paths.
+    /// Draw a stage version's figures (PNG, SVG or PDF, at print size) and print their paths.
     Plot {
         archive: PathBuf,
         /// `STAGE` or `STAGE@vN`; several may be given. Default: every stage's current version.
@@ -175,8 +175,21 @@ pub enum Command {
         /// Directory for the figures (default: `<archive stem>_figures/<stage>/vN/` beside the archive).
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
-        #[arg(long, value_enum, default_value = "png")]
-        format: crate::plot::figure::Format,
+        /// One format or several, comma-separated (`png,pdf`).
+        #[arg(long, value_enum, value_delimiter = ',', default_value = "png")]
+        format: Vec<crate::plot::figure::Format>,
+        /// Figure width on the page (mm): 180 for two columns, 85 for one.
+        #[arg(long, value_name = "MM", default_value_t = 180.0, value_parser = positive)]
+        width: f64,
+        /// PNG resolution at that width.
+        #[arg(long, default_value_t = 300.0, value_parser = positive)]
+        dpi: f64,
+        /// Label size (pt); tick labels are 0.9 of it.
+        #[arg(long, value_name = "PT", default_value_t = 8.0, value_parser = positive)]
+        font_size: f64,
+        /// TrueType font for every label (default: LAYDOWN_FONT, else a system sans-serif).
+        #[arg(long, value_name = "TTF")]
+        font: Option<PathBuf>,
     },
 }
 
@@ -289,7 +302,10 @@ pub fn main_with(cli: Cli) -> i32 {
         Command::Prune { archive, keep, dry_run, repack } => report(prune(&archive, keep, dry_run, repack)),
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
         Command::Stages { kind, json } => report(describe_stages(kind.as_deref(), json)),
-        Command::Plot { archive, stages, out, format } => report(plot(&archive, &stages, out.as_deref(), format)),
+        Command::Plot { archive, stages, out, format, width, dpi, font_size, font } => {
+            let opts = crate::plot::figure::RenderOptions { width_mm: width, dpi, font_pt: font_size, font };
+            report(plot(&archive, &stages, out.as_deref(), &format, &opts))
+        }
         Command::Table { archive, stage, all, format } => report(table(&archive, &stage, all, format)),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&crate::schema::pipeline_schema()).unwrap());
@@ -487,19 +503,27 @@ fn table(archive: &std::path::Path, stage_ref: &str, all: bool, format: crate::t
     Ok(())
 }
 
-fn plot(archive: &std::path::Path, stage_refs: &[String], out: Option<&std::path::Path>, format: crate::plot::figure::Format) -> Result<()> {
+fn plot(archive: &std::path::Path, stage_refs: &[String], out: Option<&std::path::Path>, formats: &[crate::plot::figure::Format], opts: &crate::plot::figure::RenderOptions) -> Result<()> {
     let refs = if stage_refs.is_empty() { Archive::open_read(archive)?.stages()? } else { stage_refs.to_vec() };
     // Paths are printed once every figure is drawn: a failure prints nothing to stdout.
     let mut written = vec![];
     for r in &refs {
         // Each stage in its own subdirectory when several go to one --out.
         let dir = out.map(|o| if refs.len() > 1 { o.join(r.replace('@', "_")) } else { o.to_path_buf() });
-        written.extend(crate::plot::plot_stage(archive, r, dir.as_deref(), format).with_context(|| format!("plotting {r}"))?);
+        written.extend(crate::plot::plot_stage(archive, r, dir.as_deref(), formats, opts).with_context(|| format!("plotting {r}"))?);
     }
     for path in written {
         println!("{}", path.display());
     }
     Ok(())
+}
+
+/// A finite number above zero (figure width, dpi, font size).
+fn positive(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{s}` is not a number above 0")),
+    }
 }
 
 fn describe_stages(kind: Option<&str>, json: bool) -> Result<()> {

@@ -84,7 +84,43 @@ fn every_stage_plots_as_png_and_svg() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{err}");
     let svg = std::fs::read_to_string(dir.path().join("svg/radius_of_gyration_bending_energy.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("friction_coefficient") && svg.contains("<polyline"), "{out}");
+    // physical labels, not parameter names
+    assert!(svg.starts_with("<svg") && svg.contains("friction μ") && !svg.contains("friction_coefficient") && svg.contains("<polyline"), "{out}");
+}
+
+/// Print size, resolution and provenance: PNG pixels and pHYs from --width and --dpi,
+/// the archive and stage@version in every file's metadata, PDF beside PNG and SVG.
+#[test]
+fn figures_carry_print_size_and_provenance_in_every_format() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", PIPELINE);
+    assert!(run_in(dir.path(), &["run", "p.yaml", "--only", "ideal"]).status.success());
+    let o = run_in(dir.path(), &["plot", "plots.h5", "ideal", "--format", "png,svg,pdf", "--width", "85", "--dpi", "600", "--font-size", "7", "--out", "f"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(out.lines().count(), 6, "two figures in three formats: {out}");
+    let archive = std::fs::canonicalize(dir.path().join("plots.h5")).unwrap().display().to_string();
+
+    let png = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(dir.path().join("f/energy_spectrum.png")).unwrap())).read_info().unwrap();
+    let info = png.info();
+    assert_eq!(info.width, (85.0f64 / 25.4 * 600.0).ceil() as u32);
+    let dims = info.pixel_dims.unwrap();
+    assert_eq!(dims.xppu, (600.0f64 / 0.0254).round() as u32);
+    let texts: String = info.uncompressed_latin1_text.iter().map(|t| format!("{}={}\n", t.keyword, t.text)).collect();
+    assert!(texts.contains(&archive) && texts.contains("ideal@v1"), "{texts}");
+
+    let svg = std::fs::read_to_string(dir.path().join("f/energy_spectrum.svg")).unwrap();
+    // 85 mm = 240.9 pt (to the canvas' half-point grid)
+    let width: f64 = svg.strip_prefix("<svg width=\"").and_then(|s| s.split("pt\"").next()).and_then(|w| w.parse().ok()).unwrap_or(0.0);
+    assert!((width - 85.0 / 25.4 * 72.0).abs() <= 0.5, "{}", &svg[..200]);
+    assert!(svg.contains("<metadata>") && svg.contains(&archive) && svg.contains("ideal@v1"));
+    // text of at least 7 pt at the page width: 2 units a point in the SVG
+    let smallest = svg.split("font-size=\"").skip(1).filter_map(|s| s.split('"').next()?.parse::<f64>().ok()).fold(f64::INFINITY, f64::min);
+    assert!(smallest / 2.0 >= 0.9 * 7.0 - 1e-9, "{smallest}");
+
+    let pdf = std::fs::read(dir.path().join("f/energy_spectrum.pdf")).unwrap();
+    let pdf = String::from_utf8_lossy(&pdf);
+    assert!(pdf.starts_with("%PDF-") && pdf.contains("/Stage (ideal@v1)") && pdf.contains(&archive) && pdf.contains("/FontFile2"), "{}", &pdf[..400.min(pdf.len())]);
 }
 
 #[test]

@@ -38,9 +38,9 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 })
                 .collect();
             Panel::Lines(LinePanel {
-                title: format!("{metric}: error against cost"),
+                title: format!("{}: error against cost", super::labels::label(metric, "", &[]).symbol),
                 x_label: "wall time per unit (s)".into(),
-                y_label: "|relative error| (exact shown at 1e-6)".into(),
+                y_label: "|relative error| (exact: at 10⁻⁶)".into(),
                 log_x: true,
                 log_y: true,
                 series,

@@ -2,7 +2,7 @@
 //! the random-line reference, ρ_av and CV against the swept parameters (Fig 10d,e) and,
 //! with `compare_with: table4`, against the paper's measured values (Fig 13).
 use super::figure::{Figure, LinePanel, MapPanel, Panel, Series, Style};
-use super::{labelled, StageData, Swept};
+use super::{lines_along, sweep_axis, StageData};
 use anyhow::Result;
 use ndarray::{Array2, ArrayD, Axis, Ix1, Ix3, Ix4};
 
@@ -16,25 +16,25 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         let md = d.f64("md")?.into_dimensionality::<Ix1>()?;
         let cd = d.f64("cd")?.into_dimensionality::<Ix1>()?;
         let h = d.f64("cell_size")?.iter().next().copied().unwrap_or(0.0);
-        let extent = |c: &ndarray::Array1<f64>| (c[0] - h / 2.0, c[c.len() - 1] + h / 2.0);
+        // in mm
+        let extent = |c: &ndarray::Array1<f64>| ((c[0] - h / 2.0) * 1e3, (c[c.len() - 1] + h / 2.0) * 1e3);
         let ((x0, x1), (y0, y1)) = (extent(&md), extent(&cd));
         let mut maps = vec![];
         for p in 0..points.min(4) {
             // density is (md, cd); a map's rows run along y = CD.
             let map: Array2<f64> = density.index_axis(Axis(0), p).index_axis(Axis(0), 0).t().to_owned();
-            // The first swept parameter names the panel (zip sweeps would make long titles).
-            let label = swept.first().map(|s| format!("{} = {}", s.parameter, s.labels[p])).unwrap_or_default();
+            let label = d.point_label(p);
             maps.push(Panel::Map(MapPanel {
                 title: if label.is_empty() { "realisation 0".into() } else { format!("{label}, realisation 0") },
-                x_label: "x, machine direction, from the window edge (m)".into(),
-                y_label: "y, cross direction (m)".into(),
+                x_label: "x, machine direction (mm)".into(),
+                y_label: "y, cross direction (mm)".into(),
                 extent: (x0, x1, y0, y1),
                 values: map,
                 colour_label: "areal density (g/m²)".into(),
                 grey: false,
             }));
         }
-        figs.push(Figure::new("density", "Areal density on the grid", maps, 2));
+        figs.push(Figure::new("density", "Areal density on the grid (one colour scale)", maps, 2));
     }
 
     // CV and formation number against zone size, per point.
@@ -50,6 +50,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         (mean, std)
     };
     let mut cv_series = vec![];
+    // each point's random-line reference dashed in its colour, after the points in the legend
+    let mut random_series = vec![];
     let mut nf_series = vec![];
     for p in 0..points.min(8) {
         let name = match d.point_label(p) {
@@ -60,7 +62,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         let (m, s) = over_realisations(&cv_zone, p);
         cv_series.push(Series::new(Some(&name), xs.iter().copied().zip(m).collect(), Style::LineMarkers, p).with_error(s));
         let (r, _) = over_realisations(&random, p);
-        cv_series.push(Series::new(if p == 0 { Some("random lines") } else { None }, xs.iter().copied().zip(r).collect(), Style::Dashed, p));
+        random_series.push(Series::new(if p == 0 { Some("random lines (dashed, each in its colour)") } else { None }, xs.iter().copied().zip(r).collect(), Style::Dashed, p));
         let (f, fs) = over_realisations(&formation, p);
         nf_series.push(Series::new(Some(&name), xs.iter().copied().zip(f).collect(), Style::LineMarkers, p).with_error(fs));
     }
@@ -75,7 +77,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 y_label: "CV".into(),
                 log_x: true,
                 log_y: true,
-                series: cv_series,
+                series: cv_series.into_iter().chain(random_series).collect(),
                 ..Default::default()
             }),
             Panel::Lines(LinePanel {
@@ -92,30 +94,21 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
 
     // ρ_av and CV against each swept parameter (Fig 10d,e); measured Table 4 values (Fig 13).
     let reference = d.has("reference_belt_speed_ratio");
-    let mut orders_seen: Vec<Vec<usize>> = vec![];
+    let mut lines_seen: Vec<Vec<Vec<usize>>> = vec![];
     for s in &swept {
-        let mut order: Vec<usize> = (0..points).filter(|&p| s.values[p].is_finite()).collect();
-        if order.len() < 2 {
+        // One line per value of the other swept parameters (e.g. per spectrum in Fig 10d,e).
+        let lines = lines_along(&swept, s);
+        if lines.iter().all(|(_, ps)| ps.len() < 2) {
             continue;
         }
-        order.sort_by(|&a, &b| s.values[a].total_cmp(&s.values[b]));
-        // Parameters swept together (zip) in the same or reverse order: one figure is enough.
-        let reversed: Vec<usize> = order.iter().rev().copied().collect();
-        if orders_seen.iter().any(|o| *o == order || *o == reversed) {
+        // Parameters swept together (zip) give the same lines: one figure is enough.
+        let groups: Vec<Vec<usize>> = lines.iter().map(|(_, ps)| { let mut g = ps.clone(); g.sort(); g }).collect();
+        if lines_seen.contains(&groups) {
             continue;
         }
-        orders_seen.push(order.clone());
-        // One line per value of the other swept parameters (e.g. per spectrum in Fig 10d,e);
-        // parameters zipped with this one are not separate lines.
-        let others: Vec<&Swept> = swept.iter().filter(|t| t.name != s.name && !determined_by(s, t)).collect();
-        let mut lines: Vec<(String, Vec<usize>)> = vec![];
-        for &p in &order {
-            let key = others.iter().map(|t| format!("{} = {}", t.parameter, t.labels[p])).collect::<Vec<_>>().join(", ");
-            match lines.iter_mut().find(|(k, _)| *k == key) {
-                Some((_, ps)) => ps.push(p),
-                None => lines.push((key, vec![p])),
-            }
-        }
+        lines_seen.push(groups);
+        let axis = sweep_axis(s);
+        let x = &axis.label;
         let series = |name: &str| -> Result<Vec<Series>> {
             let (m, sd): (ArrayD<f64>, ArrayD<f64>) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
             Ok(lines
@@ -123,7 +116,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 .enumerate()
                 .map(|(i, (key, ps))| {
                     let label = if key.is_empty() { "simulated" } else { key.as_str() };
-                    Series::new(Some(label), ps.iter().map(|&p| (s.values[p], m[[p]])).collect(), Style::LineMarkers, if i >= 3 { i + 1 } else { i })
+                    Series::new(Some(label), ps.iter().map(|&p| (axis.x[p], m[[p]])).collect(), Style::LineMarkers, if i >= 3 { i + 1 } else { i })
                         .with_error(ps.iter().map(|&p| sd[[p]]).collect())
                 })
                 .collect())
@@ -135,46 +128,20 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             let r = d.f64("reference_areal_density")?;
             let cv_corr = d.f64("reference_cv_corr")?;
             let cv_raw = d.f64("reference_cv_raw")?;
-            let pts = |a: &ArrayD<f64>, scale: f64| c.iter().zip(a.iter()).map(|(&x, &y)| (x, y * scale)).collect();
+            let pts = |a: &ArrayD<f64>, scale: f64| c.iter().zip(a.iter()).map(|(&v, &y)| (v * x.scale, y * scale)).collect();
             rho.push(Series::new(Some("measured (Table 4)"), pts(&r, 1.0), Style::Markers, 3));
             cv.push(Series::new(Some("measured CV_corr (Table 4)"), pts(&cv_corr, 0.01), Style::Markers, 3));
             cv.push(Series::new(Some("measured CV raw (Table 4)"), pts(&cv_raw, 0.01), Style::Markers, 1));
         }
-        let x_label = labelled(&s.parameter, &s.units);
         figs.push(Figure::new(
             &format!("uniformity_vs_{}", s.name),
-            &format!("Areal density and CV against {} (mean ± std over realisations)", s.parameter),
+            &format!("Areal density and CV against {} (mean ± std over realisations)", x.symbol),
             vec![
-                Panel::Lines(LinePanel { title: "ρ_av (eq 16)".into(), x_label: x_label.clone(), y_label: "ρ_av (g/m²)".into(), series: rho, ..Default::default() }),
-                Panel::Lines(LinePanel { title: "CV of cell densities".into(), x_label, y_label: "CV".into(), series: cv, ..Default::default() }),
+                Panel::Lines(LinePanel { title: "ρ_av (eq 16)".into(), x_label: x.text.clone(), y_label: "ρ_av (g/m²)".into(), series: rho, categories: axis.categories.clone(), ..Default::default() }),
+                Panel::Lines(LinePanel { title: "CV of cell densities".into(), x_label: x.text.clone(), y_label: "CV".into(), series: cv, categories: axis.categories.clone(), ..Default::default() }),
             ],
             2,
         ));
     }
     Ok(figs)
-}
-
-/// Whether `t`'s value at every point follows from `s`'s (swept together, `zip`).
-fn determined_by(s: &Swept, t: &Swept) -> bool {
-    let n = s.labels.len().min(t.labels.len());
-    (0..n).all(|p| (0..n).all(|q| s.labels[p] != s.labels[q] || t.labels[p] == t.labels[q]))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn swept(name: &str, labels: &[&str]) -> Swept {
-        Swept { name: name.into(), parameter: name.into(), values: vec![], labels: labels.iter().map(|s| s.to_string()).collect(), units: String::new() }
-    }
-
-    #[test]
-    fn zipped_parameters_are_one_line_and_a_product_is_one_line_per_value() {
-        let c = swept("c", &["0.02", "0.05", "0.02", "0.05"]);
-        let preset = swept("preset", &["s1", "s1", "s2", "s2"]);
-        let zipped = swept("dw", &["1", "2", "1", "2"]);
-        assert!(!determined_by(&c, &preset), "a grid sweep: one line per preset");
-        assert!(determined_by(&c, &zipped), "swept together with c: not a separate line");
-        assert!(determined_by(&preset, &swept("n", &["1", "1", "2", "2"])));
-    }
 }

@@ -15,6 +15,15 @@ fn at(a: &ndarray::ArrayD<f64>, swept: bool, p: usize) -> ndarray::ArrayD<f64> {
     }
 }
 
+/// A group label in physical terms: `belt_speed_ratio=0.05` (an image of a grid's sweep
+/// point) reads `v_b/v_f = 0.05`; any other label as it is.
+fn group_text(group: &str) -> String {
+    match group.split_once('=').map(|(k, v)| (k.trim(), v.trim(), v.trim().parse::<f64>())) {
+        Some((name, text, Ok(v))) if !name.is_empty() && !name.contains(' ') => super::labels::value_text(name, "1", v, text, &[v]),
+        _ => group.to_string(),
+    }
+}
+
 pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let mut figs = vec![];
     // A sweep of the analysis (notch width, threshold, bonds...) adds a leading point dimension.
@@ -25,7 +34,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         let pixel = d.f64("pixel_size")?.into_dimensionality::<Ix1>()?;
         let groups = d.strings("group")?;
         let names = ["raw_image", "filtered_image", "log_spectrum_raw", "log_spectrum_notched"];
-        let titles = ["raw", "bond pattern removed", "log10 energy spectrum, raw", "log10 energy spectrum, notched"];
+        let titles = ["raw image", "bond pattern removed", "energy spectrum, raw", "energy spectrum, bond peaks notched"];
         let all: Vec<ndarray::ArrayD<f64>> = names.iter().map(|n| d.f64(n)).collect::<Result<_>>()?;
         for p in 0..points {
             let arrays: Vec<ndarray::Array3<f64>> = all.iter().map(|a| Ok(at(a, swept, p).into_dimensionality::<Ix3>()?)).collect::<Result<_>>()?;
@@ -46,24 +55,30 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                         // Image row 0 is the top: flip so the map's y axis runs upwards.
                         let values = values.slice(ndarray::s![..;-1, ..]).to_owned();
                         let spectrum = i >= 2;
+                        // A centred spectrum runs from −Nyquist to Nyquist (1/(2 pixel)) on
+                        // both axes: bins are 1/(cols·pixel) apart along x, 1/(rows·pixel) along y.
+                        // Row i holds row frequency i − rows/2; flipped like the image, so f_y
+                        // points up as y does.
+                        let (fx, fy) = (1.0 / (cols as f64 * mm), 1.0 / (rows as f64 * mm));
+                        let (cx, cy) = ((cols / 2) as f64, (rows / 2) as f64);
                         Panel::Map(MapPanel {
                             title: title.into(),
-                            x_label: if spectrum { "frequency bin (centred)".into() } else { "x (mm)".into() },
-                            y_label: if spectrum { "frequency bin (centred)".into() } else { "y (mm)".into() },
+                            x_label: if spectrum { "f_x (cycles/mm)".into() } else { "x (mm)".into() },
+                            y_label: if spectrum { "f_y (cycles/mm)".into() } else { "y (mm)".into() },
                             extent: if spectrum {
-                                (-(cols as f64) / 2.0, cols as f64 / 2.0, -(rows as f64) / 2.0, rows as f64 / 2.0)
+                                ((-cx - 0.5) * fx, (cols as f64 - cx - 0.5) * fx, -(rows as f64 - cy - 0.5) * fy, (cy + 0.5) * fy)
                             } else {
                                 (0.0, cols as f64 * mm, 0.0, rows as f64 * mm)
                             },
                             values,
-                            colour_label: if spectrum { "log10 energy".into() } else { "grey level".into() },
-                            grey: true,
+                            colour_label: if spectrum { "log₁₀ energy".into() } else { "grey level".into() },
+                            grey: !spectrum,
                         })
                     })
                     .collect();
                 figs.push(Figure::new(
                     &format!("{prefix}sample{sample:03}"),
-                    &format!("Sample {sample} ({}{title_suffix})", groups[sample]),
+                    &format!("Sample {sample} ({}{title_suffix})", group_text(&groups[sample])),
                     panels,
                     2,
                 ));
@@ -75,19 +90,30 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let metrics = [("cv_raw", "CV raw"), ("cv_corr", "CV_corr"), ("cv_corr_plain", "CV_corr plain (paper)"), ("cv_web", "CV of the web (truth)")];
     // The x values and one line per condition (swept: a line along the points for each
     // condition; unswept: one line across the conditions).
+    let mut categories = vec![];
     let (x, x_label, log_x, lines): (Vec<f64>, String, bool, Vec<(String, Option<usize>)>) = if swept {
         let sweep = d.swept();
         let first = sweep.iter().find(|s| s.values.iter().all(|v| v.is_finite()));
-        let x: Vec<f64> = first.map(|s| s.values.clone()).unwrap_or_else(|| (0..points).map(|p| p as f64).collect());
+        let label = first.map(super::axis_label);
+        let x: Vec<f64> = match (first, &label) {
+            (Some(s), Some(l)) => s.values.iter().map(|v| v * l.scale).collect(),
+            _ => (0..points).map(|p| p as f64).collect(),
+        };
         // A threshold swept over decades reads best on a log axis.
         let (lo, hi) = x.iter().fold((f64::INFINITY, 0.0f64), |(l, h), &v| (l.min(v), h.max(v)));
-        let label = first.map(|s| super::labelled(&s.parameter, &s.units)).unwrap_or_else(|| "sweep point".into());
         let lines = conditions.iter().enumerate().map(|(c, name)| (if conditions.len() > 1 { format!(", {name}") } else { String::new() }, Some(c))).collect();
-        (x, label, lo > 0.0 && hi / lo > 100.0, lines)
+        (x, label.map(|l| l.text).unwrap_or_else(|| "sweep point".into()), lo > 0.0 && hi / lo > 100.0, lines)
     } else {
         let (x, label) = match d.swept_conditions() {
-            Some((name, values)) => (values, name),
-            None => ((0..conditions.len()).map(|i| i as f64).collect(), format!("condition ({})", conditions.join(", "))),
+            Some((name, values)) => {
+                let l = super::labels::label(&name, "", &values);
+                (values.iter().map(|v| v * l.scale).collect(), l.text)
+            }
+            None => {
+                // conditions without a numeric value: labelled categories
+                categories = conditions.clone();
+                ((0..conditions.len()).map(|i| i as f64).collect(), "condition".into())
+            }
         };
         (x, label, false, vec![(String::new(), None)])
     };
@@ -141,7 +167,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         "cv",
         "Uniformity of the images (mean ± std per condition)",
         vec![
-            Panel::Lines(LinePanel { title: if swept { "CV against the swept parameter".into() } else { "CV per condition".into() }, x_label, y_label: "CV of grey levels".into(), series, log_x, ..Default::default() }),
+            Panel::Lines(LinePanel { title: if swept { "CV against the swept parameter".into() } else { "CV per condition".into() }, x_label, y_label: "CV of grey levels".into(), series, log_x, categories, ..Default::default() }),
             Panel::Lines(LinePanel {
                 title: "CV against zone size, mean over samples".into(),
                 x_label: "zone size (mm)".into(),
@@ -155,4 +181,14 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         2,
     ));
     Ok(figs)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn group_labels_of_sweep_points_read_physically() {
+        assert_eq!(super::group_text("belt_speed_ratio=0.05"), "v_b/v_f = 0.05");
+        assert_eq!(super::group_text("v020"), "v020");
+        assert_eq!(super::group_text("a b=1"), "a b=1");
+    }
 }

@@ -6,7 +6,7 @@
 // NaN-safe checks are written as negated comparisons on purpose (`!(x < limit)`).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 use super::figure::{Figure, LinePanel, MapPanel, Panel, Series, Style};
-use super::StageData;
+use super::{lines_along, sweep_axis, StageData};
 use anyhow::Result;
 use ndarray::{Array2, ArrayD, Ix3, Ix4};
 
@@ -70,9 +70,9 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         }
         panels.push(Panel::Map(MapPanel {
             title: format!("areal density, {label}"),
-            x_label: "x, machine direction on the belt (m)".into(),
-            y_label: "y, cross direction (m)".into(),
-            extent: (0.0, nx as f64 * MAP_CELL, -0.5 * w, 0.5 * w),
+            x_label: "x, machine direction on the belt (mm)".into(),
+            y_label: "y, cross direction (mm)".into(),
+            extent: (0.0, nx as f64 * MAP_CELL * 1e3, -0.5 * w * 1e3, 0.5 * w * 1e3),
             values: map,
             colour_label: "areal density (g/m²)".into(),
             grey: false,
@@ -83,15 +83,24 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     // S and e of the fibres (belt motion removed)
     let valid = d.f64("valid")?.into_dimensionality::<Ix3>()?;
     let swept = d.swept();
-    let quantities = [("radius_of_gyration_belt_removed", "S, belt motion removed (mm)", 1e3), ("bending_energy", "bending energy e", 1.0)];
+    let quantities = [
+        ("radius_of_gyration_belt_removed", "coil size: radius of gyration", "S, belt motion removed (mm)", 1e3),
+        ("bending_energy", "bending energy", "e = V_b L / EI", 1.0),
+    ];
     let mut metric_panels = vec![];
-    for (name, label, scale) in quantities {
+    for (name, title, label, scale) in quantities {
         let series = if let Some(s) = swept.first() {
             let (mean, std): (ArrayD<f64>, ArrayD<f64>) = (d.f64(&format!("{name}_mean"))?, d.f64(&format!("{name}_std"))?);
-            let mut order: Vec<usize> = (0..points).collect();
-            order.sort_by(|&a, &b| s.values[a].total_cmp(&s.values[b]));
-            vec![Series::new(Some("mean over valid fibres"), order.iter().map(|&p| (s.values[p], mean[[p]] * scale)).collect(), Style::LineMarkers, 0)
-                .with_error(order.iter().map(|&p| std[[p]] * scale).collect())]
+            let axis = sweep_axis(s);
+            lines_along(&swept, s)
+                .into_iter()
+                .enumerate()
+                .map(|(i, (key, ps))| {
+                    let lab = if key.is_empty() { "mean over valid fibres".to_string() } else { format!("mean over valid fibres, {key}") };
+                    Series::new(Some(&lab), ps.iter().map(|&p| (axis.x[p], mean[[p]] * scale)).collect(), Style::LineMarkers, i)
+                        .with_error(ps.iter().map(|&p| std[[p]] * scale).collect())
+                })
+                .collect()
         } else {
             let v = d.f64(name)?.into_dimensionality::<Ix3>()?;
             let reps = v.shape()[1];
@@ -102,8 +111,10 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 })
                 .collect()
         };
-        let x_label = swept.first().map(|s| super::labelled(&s.parameter, &s.units)).unwrap_or_else(|| "fibre".into());
-        metric_panels.push(Panel::Lines(LinePanel { title: label.into(), x_label, y_label: label.into(), series, ..Default::default() }));
+        let axis = swept.first().map(sweep_axis);
+        let x_label = axis.as_ref().map_or_else(|| "fibre".into(), |a| a.label.text.clone());
+        let categories = axis.map(|a| a.categories).unwrap_or_default();
+        metric_panels.push(Panel::Lines(LinePanel { title: title.into(), x_label, y_label: label.into(), series, integer_x: swept.is_empty(), categories, ..Default::default() }));
     }
     figs.push(Figure::new("fibre_shapes", "Coil size and bending energy of the laid fibres (valid fibres)", metric_panels, 2));
     Ok(figs)

@@ -1,9 +1,9 @@
 //! Laydown figures: a laid fibre from above and the side (Fig 4a), the laid fibres at
-//! the ends of each sweep (Fig 5 insets), S and e against each swept parameter with
+//! the ends of each sweep (Fig 5 insets; all points of a small sweep), S and e against each swept parameter with
 //! standard-deviation bars and the belt-removed values dashed (Figs 5, 6), and the
 //! energy diagnostics over time.
 use super::figure::{Figure, LinePanel, Panel, Series, Style};
-use super::StageData;
+use super::{labels, lines_along, sweep_axis, StageData};
 use anyhow::Result;
 use ndarray::{ArrayD, Axis, Ix4};
 
@@ -49,24 +49,32 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         3,
     ));
 
-    // Fig 5 insets: laid fibres at the lowest and highest value of each swept parameter.
+    // Fig 5 insets: laid fibres at the lowest and highest value of each swept parameter,
+    // each point once (in a cartesian sweep the ends of two parameters can be one point);
+    // a sweep of at most four points shows them all.
     let swept = d.swept();
-    let mut inset_panels = vec![];
-    for s in &swept {
-        let lo = (0..points).min_by(|&a, &b| s.values[a].total_cmp(&s.values[b])).unwrap_or(0);
-        let hi = (0..points).max_by(|&a, &b| s.values[a].total_cmp(&s.values[b])).unwrap_or(0);
-        for p in [lo, hi] {
-            let r = pick(p);
-            let pts = laid_removed.index_axis(Axis(0), p).index_axis(Axis(0), r).to_owned();
-            inset_panels.push(view(
-                &format!("{} = {}", s.parameter, super::labelled(&super::figure::tick(s.values[p]), &s.units).replace(['(', ')'], "")),
-                mm(pts.view(), 0, 1),
-                "y (mm)",
-            ));
+    let mut shown: Vec<usize> = vec![];
+    if !swept.is_empty() && points <= 4 {
+        shown = (0..points).collect();
+    } else {
+        for s in &swept {
+            let lo = (0..points).min_by(|&a, &b| s.values[a].total_cmp(&s.values[b])).unwrap_or(0);
+            let hi = (0..points).max_by(|&a, &b| s.values[a].total_cmp(&s.values[b])).unwrap_or(0);
+            for p in [lo, hi] {
+                if !shown.contains(&p) {
+                    shown.push(p);
+                }
+            }
         }
     }
+    let mut inset_panels = vec![];
+    for p in shown {
+        let r = pick(p);
+        let pts = laid_removed.index_axis(Axis(0), p).index_axis(Axis(0), r).to_owned();
+        inset_panels.push(view(&d.point_label(p), mm(pts.view(), 0, 1), "y (mm)"));
+    }
     if !inset_panels.is_empty() {
-        figs.push(Figure::new("sweep_fibres", "Laid fibres (belt motion removed) at the ends of each sweep", inset_panels, 2));
+        figs.push(Figure::new("sweep_fibres", "Laid fibres (belt motion removed) across the sweep", inset_panels, 2));
     }
 
     // Figs 5 and 6: S and e with standard deviations, belt-removed dashed.
@@ -94,29 +102,36 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 title: format!("{label}, valid replicates"),
                 x_label: "replicate".into(),
                 y_label: label.into(),
+                integer_x: true,
                 series: vec![series(&per, "on the belt", 0), series(&per_removed, "belt motion removed", 1)],
                 ..Default::default()
             }));
         }
     } else {
         for s in &swept {
+            let axis = sweep_axis(s);
+            let x = &axis.label;
+            // one colour per line of the other swept parameters; belt-removed dashed
+            let lines = lines_along(&swept, s);
             for (name, label, scale) in quantities {
                 let (mean, std) = metric(name)?;
                 let (mean_r, std_r) = metric(&format!("{name}_belt_removed"))?;
-                let mut order: Vec<usize> = (0..points).collect();
-                order.sort_by(|&a, &b| s.values[a].total_cmp(&s.values[b]));
-                let line = |m: &ArrayD<f64>, sd: &ArrayD<f64>, lab: &str, style| {
-                    Series::new(Some(lab), order.iter().map(|&p| (s.values[p], m[[p]] * scale)).collect(), style, 0)
-                        .with_error(order.iter().map(|&p| sd[[p]] * scale).collect())
-                };
+                let mut series = vec![];
+                for (i, (key, ps)) in lines.iter().enumerate() {
+                    let line = |m: &ArrayD<f64>, sd: &ArrayD<f64>, what: &str, style| {
+                        let lab = if key.is_empty() { what.to_string() } else { format!("{what}, {key}") };
+                        Series::new(Some(&lab), ps.iter().map(|&p| (axis.x[p], m[[p]] * scale)).collect(), style, i)
+                            .with_error(ps.iter().map(|&p| sd[[p]] * scale).collect())
+                    };
+                    series.push(line(&mean, &std, "on the belt", Style::LineMarkers));
+                    series.push(line(&mean_r, &std_r, "belt motion removed", Style::Dashed));
+                }
                 metric_panels.push(Panel::Lines(LinePanel {
-                    title: format!("{label} against {}", s.parameter),
-                    x_label: super::labelled(&s.parameter, &s.units),
+                    title: format!("{label} against {}", x.symbol),
+                    x_label: x.text.clone(),
                     y_label: label.into(),
-                    series: vec![
-                        line(&mean, &std, "on the belt", Style::LineMarkers),
-                        line(&mean_r, &std_r, "belt motion removed", Style::Dashed),
-                    ],
+                    categories: axis.categories.clone(),
+                    series,
                     ..Default::default()
                 }));
             }
@@ -141,7 +156,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 .filter(|&(i, _)| i != t)
                 .map(|(i, n)| {
                     let pts = rec.axis_iter(Axis(0)).map(|row| (row[t], row[i])).filter(|q| q.0.is_finite()).collect();
-                    Series::new(Some(n), pts, Style::Line, i)
+                    Series::new(Some(&labels::label(n, "J", &[]).symbol), pts, Style::Line, i)
                 })
                 .collect();
             figs.push(Figure::new(

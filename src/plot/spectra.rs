@@ -13,9 +13,11 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let arc = d.f64("arc_length")?.into_dimensionality::<Ix2>()?;
     let valid = d.f64("valid")?.into_dimensionality::<Ix2>()?;
     let points = omega.shape()[0];
+    // each point's curve named by its own values, never one shared text
     let label = |p: usize| match d.point_label(p) {
-        s if s.is_empty() => "mean over fibres".to_string(),
-        s => s,
+        s if s.is_empty() && points == 1 => "mean over fibres".to_string(),
+        s if s.is_empty() => format!("mean over fibres, point {p}"),
+        s => format!("mean, {s}"),
     };
     // Positive frequencies r = 1 .. N/2 (the spectrum of a real κ is symmetric; r = 0 is the mean curvature).
     let positive = |p: usize, values: ndarray::ArrayView1<f64>| -> Vec<(f64, f64)> {
@@ -45,8 +47,11 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let mut curv = vec![];
     for p in 0..points {
         if let Some(f) = (0..curvature.shape()[1]).find(|&f| valid[[p, f]] != 0.0) {
-            let pts = arc.row(p).iter().zip(curvature.index_axis(Axis(0), p).index_axis(Axis(0), f)).map(|(&s, &k)| (s, k)).collect();
-            let name = if points == 1 { format!("fibre {f}") } else { label(p) };
+            let pts = arc.row(p).iter().zip(curvature.index_axis(Axis(0), p).index_axis(Axis(0), f)).map(|(&s, &k)| (s * 1e3, k)).collect();
+            let name = match d.point_label(p) {
+                s if s.is_empty() => format!("fibre {f}"),
+                s => format!("fibre {f}, {s}"),
+            };
             curv.push(Series::new(Some(&name), pts, Style::Line, p));
         }
     }
@@ -57,7 +62,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             "Curvature along the fibre",
             vec![Panel::Lines(LinePanel {
                 title: "κ(s) of the first valid fibre".into(),
-                x_label: "arc length s (m)".into(),
+                x_label: "arc length s (mm)".into(),
                 y_label: "curvature κ (1/m)".into(),
                 series: curv,
                 ..Default::default()

@@ -25,7 +25,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             let pts: Vec<(f64, f64)> = (0..nodes)
                 .step_by(node_step)
                 .chain(std::iter::once(nodes - 1))
-                .map(|k| (web[[f, k, 0]], web[[f, k, 1]]))
+                .map(|k| (web[[f, k, 0]] * 1e3, web[[f, k, 1]] * 1e3))
                 .collect();
             if Some(f) == highlight {
                 continue;
@@ -33,7 +33,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             series.push(Series::new(None, pts, Style::Line, 7));
         }
         if let Some(f) = highlight {
-            let pts = (0..nodes).map(|k| (web[[f, k, 0]], web[[f, k, 1]])).collect();
+            let pts = (0..nodes).map(|k| (web[[f, k, 0]] * 1e3, web[[f, k, 1]] * 1e3)).collect();
             series.push(Series::new(Some(&format!("fibre {}", index[[p, f]])), pts, Style::Line, 3).bold());
         }
         let label = d.point_label(p);
@@ -44,8 +44,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 drawn.len(),
                 present.len()
             ),
-            x_label: "x, machine direction (m)".into(),
-            y_label: "y, cross direction (m)".into(),
+            x_label: "x, machine direction (mm)".into(),
+            y_label: "y, cross direction (mm)".into(),
             equal_aspect: true,
             series,
             ..Default::default()

@@ -18,8 +18,6 @@ pub mod image;
 pub mod laid_web;
 pub mod laydown;
 pub use crate::param_table;
-/// The stages' random streams are the crate's one scheme ([`crate::rng`]).
-pub use crate::rng::stream_rng;
 pub mod spectra;
 pub mod web;
 
@@ -314,7 +312,7 @@ impl RunContext {
     /// The random stream of `item` within `replicate` ([`crate::rng`]): independent of
     /// thread count and of the order in which items are computed.
     pub fn rng(&self, replicate: usize, item: u64) -> ChaCha8Rng {
-        stream_rng(self.seed, replicate as u64, item)
+        crate::rng::stream_rng(self.seed, replicate as u64, item)
     }
 
     pub fn input(&self, index: usize) -> &Input {

@@ -42,10 +42,9 @@ pub use stage::LaidWebStage;
 
 use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings};
 use crate::rod::{laid_polyline, shape_measures, LaydownParams};
-use crate::stages::stream_rng;
+use crate::rng::stream_rng;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
-use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// How the oscillation phases of the fibres of one web relate.
@@ -240,21 +239,16 @@ pub struct LaidWeb {
 pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::ProgressBar) -> LaidWeb {
     let t_end = p.feed_time();
     let shared = draw_turbulence(p, &mut stream_rng(seed, replicate as u64, 0));
-    let fibres: Vec<LaidFibre> = (0..p.fibres_across)
-        .into_par_iter()
-        .map(|j| {
-            let mut rng = stream_rng(seed, replicate as u64, j as u64 + 1);
-            let (phase, fs, fa) = match p.turbulence {
-                Turbulence::Independent => draw_turbulence(p, &mut rng),
-                Turbulence::Coherent => shared,
-            };
-            let scene = p.fibre_scene(fs, fa);
-            let fed = feed_fibre(&scene, phase, t_end, &p.feed, &mut rng);
-            let fibre = finish_fibre(p, &scene, j, fed, (phase, fs, fa));
-            bar.inc(1);
-            fibre
-        })
-        .collect();
+    let fibres: Vec<LaidFibre> = crate::progress::par_map(bar, 0..p.fibres_across, |j| {
+        let mut rng = stream_rng(seed, replicate as u64, j as u64 + 1);
+        let (phase, fs, fa) = match p.turbulence {
+            Turbulence::Independent => draw_turbulence(p, &mut rng),
+            Turbulence::Coherent => shared,
+        };
+        let scene = p.fibre_scene(fs, fa);
+        let fed = feed_fibre(&scene, phase, t_end, &p.feed, &mut rng);
+        finish_fibre(p, &scene, j, fed, (phase, fs, fa))
+    });
     let valid: Vec<f64> = fibres.iter().filter(|f| f.valid).map(|f| f.radius_of_gyration_belt_removed).collect();
     let spread = if valid.is_empty() { f64::NAN } else { (valid.iter().map(|s| s * s).sum::<f64>() / valid.len() as f64).sqrt() };
     let margin = p.edge_margin_spreads * spread;

@@ -42,28 +42,16 @@
 //! cancellation of the array when the driver is killed.
 //!
 //! # Running on a real multi-node cluster
-//! - The archive's directory must be on a file system shared by the login node and
-//!   every compute node (the partials and logs are written next to the archive, in
-//!   `<archive>.slurm/`), and so must the pipeline file; paths are made absolute.
-//! - The `laydown` binary is run on the compute nodes by the absolute path of the
-//!   binary that submitted (`std::env::current_exe`): install or build it on the shared
-//!   file system, for the compute nodes' architecture and libraries (libhdf5).
-//! - Run `laydown run` on a login node (or in a long, cheap allocation, e.g. in tmux): it
-//!   holds the archive's lock and waits for each array. Ctrl-C cancels the running array.
-//! - Set `--partition`, `--max-parallel` (array throttle) and whatever the site needs
-//!   through `--sbatch-arg`, e.g. `--sbatch-arg=--time=04:00:00 --sbatch-arg=--mem=4G
-//!   --sbatch-arg=--account=proj --sbatch-arg=--cpus-per-task=8`; or in the pipeline:
-//!   `executor: {kind: slurm, partition: compute, max_parallel: 50, units_per_task: 8,
-//!   sbatch_args: [--time=04:00:00]}`. A task uses `SLURM_CPUS_PER_TASK` threads and
-//!   computes its units in parallel: with `--cpus-per-task=C` set `--units-per-task` to
-//!   C (laydown) so that every core has a replicate; a grid realisation is itself
-//!   parallel, so one per task uses the cores.
-//! - At most [`MAX_TASKS`] tasks per stage (sites often cap MaxArraySize at 1001); a
-//!   stage with more units puts several in each task.
-//! - Where the shared file system has no POSIX locks (some NFS, Lustre mounts), set
-//!   `HDF5_USE_FILE_LOCKING=FALSE` in the environment of `laydown run` (it is passed on).
-//! - The gathered datasets are bit-identical to `--executor local`'s (only measured
-//!   times differ); a failed or killed task is resubmitted alone by the next run.
+//! What the cluster needs (shared file system, the binary, where to run the driver,
+//! throttles, file locking) is in the README's "Running on a Slurm cluster".
+//!
+//! The driver is this module; [`signals`] lets Ctrl-C cancel the running array, and
+//! [`worker`] is what each array task runs.
+mod signals;
+mod worker;
+use signals::{wait_for_array, SignalGuard};
+pub use worker::worker;
+
 use super::{partial, ExecutorConfig, StageJob};
 use crate::archive::data::{Attr, Output};
 use crate::archive::{provenance, Archive};
@@ -74,8 +62,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::atomic::{AtomicI32, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// At most this many array tasks per stage (sites cap MaxArraySize, often at 1001).
 pub const MAX_TASKS: usize = 1000;
@@ -313,206 +300,8 @@ pub fn collect(stage: &dyn Stage, ctx: &RunContext, job: &StageJob, units: Units
     Ok((gathered, attrs))
 }
 
-/// The signal (SIGINT or SIGTERM) received while a [`SignalGuard`] was installed; 0: none.
-static INTERRUPTED: AtomicI32 = AtomicI32::new(0);
-
-extern "C" fn on_signal(sig: libc::c_int) {
-    // Only an atomic store: async-signal-safe. The waiting loop acts on it.
-    INTERRUPTED.store(sig, Ordering::SeqCst);
-}
-
-/// SIGINT and SIGTERM recorded in [`INTERRUPTED`] instead of ending the process, while
-/// the guard lives; the previous dispositions are restored when it is dropped.
-struct SignalGuard {
-    old: Vec<(libc::c_int, libc::sigaction)>,
-}
-
-impl SignalGuard {
-    fn install() -> Self {
-        INTERRUPTED.store(0, Ordering::SeqCst);
-        let mut old = vec![];
-        for sig in [libc::SIGINT, libc::SIGTERM] {
-            // SAFETY: a plain sigaction with a handler that only stores an atomic.
-            unsafe {
-                let mut act: libc::sigaction = std::mem::zeroed();
-                act.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-                act.sa_flags = libc::SA_RESTART;
-                libc::sigemptyset(&mut act.sa_mask);
-                let mut prev: libc::sigaction = std::mem::zeroed();
-                if libc::sigaction(sig, &act, &mut prev) == 0 {
-                    old.push((sig, prev));
-                }
-            }
-        }
-        SignalGuard { old }
-    }
-}
-
-impl Drop for SignalGuard {
-    fn drop(&mut self) {
-        for (sig, prev) in &self.old {
-            // SAFETY: restoring the disposition saved by `install`.
-            unsafe {
-                libc::sigaction(*sig, prev, std::ptr::null_mut());
-            }
-        }
-    }
-}
-
-/// Whether Slurm still has tasks of `job_id` pending or running: `Some(true/false)`, or
-/// `None` when `squeue` could not tell.
-fn in_queue(job_id: &str) -> Option<bool> {
-    let out = Command::new("squeue").args(["-h", "-j", job_id, "-o", "%i"]).output().ok()?;
-    if out.status.success() {
-        return Some(!String::from_utf8_lossy(&out.stdout).trim().is_empty());
-    }
-    // A job purged from slurmctld's memory (MinJobAge) is unknown: it has finished.
-    let err = String::from_utf8_lossy(&out.stderr);
-    if err.contains("Invalid job id") {
-        return Some(false);
-    }
-    None
-}
-
-/// Wait until the array `job_id` has left the queue (polling `squeue` every 0.5 s at
-/// first, backing off to 5 s). On SIGINT or SIGTERM, `scancel` it and die of the signal.
-fn wait_for_array(name: &str, job_id: &str, dir: &Path) -> Result<()> {
-    let mut delay = Duration::from_millis(500);
-    let mut failures = 0;
-    loop {
-        let until = Instant::now() + delay;
-        while Instant::now() < until {
-            let sig = INTERRUPTED.load(Ordering::SeqCst);
-            if sig != 0 {
-                cancel_and_die(name, job_id, dir, sig);
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        match in_queue(job_id) {
-            Some(false) => return Ok(()),
-            Some(true) => failures = 0,
-            None => {
-                failures += 1;
-                if failures == 20 {
-                    bail!("squeue cannot tell whether Slurm job {job_id} is still running (20 tries); its tasks may still run: rerun the same command later to gather them ({})", dir.display());
-                }
-            }
-        }
-        delay = (delay * 3 / 2).min(Duration::from_secs(5));
-    }
-}
-
-fn cancel_and_die(name: &str, job_id: &str, dir: &Path, sig: i32) -> ! {
-    let signame = if sig == libc::SIGINT { "SIGINT" } else { "SIGTERM" };
-    let status = Command::new("scancel").arg(job_id).status();
-    match status {
-        Ok(s) if s.success() => eprintln!(
-            "{name}: interrupted ({signame}): cancelled Slurm job {job_id} (scancel {job_id}); complete tasks are kept in {} and a rerun submits only the rest",
-            dir.display()
-        ),
-        Ok(s) => eprintln!("{name}: interrupted ({signame}): scancel {job_id} failed ({s}); cancel the array by hand"),
-        Err(e) => eprintln!("{name}: interrupted ({signame}): cannot run scancel {job_id} ({e}); cancel the array by hand"),
-    }
-    use std::io::Write;
-    let _ = std::io::stdout().flush();
-    let _ = std::io::stderr().flush();
-    // Die of the signal itself, so that the caller sees what happened.
-    // SAFETY: resetting the default disposition and raising the signal.
-    unsafe {
-        libc::signal(sig, libc::SIG_DFL);
-        libc::raise(sig);
-    }
-    std::process::exit(128 + sig)
-}
-
 fn shell_quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', "'\\''"))
-}
-
-/// `laydown worker --plan PLAN --task I`: run one array task and write its partial.
-pub fn worker(plan_path: &Path, task: usize) -> Result<()> {
-    let plan: Plan = serde_json::from_str(&std::fs::read_to_string(plan_path).with_context(|| format!("reading {}", plan_path.display()))?)
-        .with_context(|| format!("parsing {}", plan_path.display()))?;
-    let dir = plan_path.parent().unwrap_or(Path::new("."));
-    let &(a, b) = plan.tasks.get(task).ok_or_else(|| anyhow!("task {task} is not in {} ({} tasks)", plan_path.display(), plan.tasks.len()))?;
-    if std::env::var_os("RAYON_NUM_THREADS").is_none() {
-        if let Ok(n) = std::env::var("SLURM_CPUS_PER_TASK") {
-            std::env::set_var("RAYON_NUM_THREADS", n);
-        }
-    }
-    let env = |k: &str| std::env::var(k).unwrap_or_default();
-    println!(
-        "laydown worker: stage {} task {task} (units {a}..{b}) on {} as Slurm job {} (array {}_{})",
-        plan.stage,
-        provenance::hostname(),
-        env("SLURM_JOB_ID"),
-        env("SLURM_ARRAY_JOB_ID"),
-        env("SLURM_ARRAY_TASK_ID")
-    );
-    let hook = |k: &str| std::env::var(k).ok().and_then(|v| v.trim().parse::<usize>().ok()) == Some(task);
-    if hook("LAYDOWN_FAIL_TASK") {
-        bail!("LAYDOWN_FAIL_TASK={task}: failing this task on purpose (test hook)");
-    }
-    if hook("LAYDOWN_STALL_TASK") {
-        println!("LAYDOWN_STALL_TASK={task}: waiting to be killed (test hook)");
-        use std::io::Write;
-        let _ = std::io::stdout().flush();
-        std::thread::sleep(std::time::Duration::from_secs(600));
-        bail!("LAYDOWN_STALL_TASK={task}: not killed within 600 s");
-    }
-    // The driver checked the pipeline's memory; a task computes only its share.
-    let mut p = pipeline::load_with(&plan.pipeline, crate::memory::Limit::Unchecked).map_err(|d| anyhow!("{d}"))?;
-    p.archive = plan.archive.clone();
-    let decl = p.stage(&plan.stage).ok_or_else(|| anyhow!("{} has no stage `{}` any more", plan.pipeline.display(), plan.stage))?;
-    let stage = stages::find(&decl.kind).expect("validated kind");
-    let mut inputs = vec![];
-    if !plan.inputs.is_empty() {
-        let archive = Archive::open_read(&plan.archive)?;
-        for (name, n) in &plan.inputs {
-            inputs.push(archive.version(name, Some(*n))?);
-        }
-    }
-    let seed = decl.seed.unwrap_or(p.seed);
-    let hashes: Vec<(String, String)> = inputs.iter().map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string())).collect();
-    let fp = stage_run::fingerprint(decl, stage.cache_version(), seed, &hashes);
-    if fp != plan.fingerprint {
-        bail!("the stage `{}` in {} has changed since it was submitted (fingerprint {fp}, submitted {}); rerun laydown run", plan.stage, plan.pipeline.display(), plan.fingerprint);
-    }
-    let ctx = stage_run::stage_context(&p, decl, &inputs, false, 0);
-    let units = stage.units(&ctx)?.ok_or_else(|| anyhow!("stage `{}` cannot be split into units any more", plan.stage))?;
-    if (units.points, units.per_point) != (plan.points, plan.per_point) {
-        bail!(
-            "stage `{}` now has {} points × {} units per point, the plan {} × {}; rerun laydown run",
-            plan.stage,
-            units.points,
-            units.per_point,
-            plan.points,
-            plan.per_point
-        );
-    }
-    println!("laydown worker: {}", units.describe(a, b));
-    let start = provenance::utc_now();
-    let t0 = Instant::now();
-    let out = stage.run_units(&ctx, a..b).with_context(|| format!("stage `{}` task {task}", plan.stage))?;
-    let wall = t0.elapsed().as_secs_f64();
-    let mut attrs = BTreeMap::new();
-    let mut put = |k: &str, v: Attr| {
-        attrs.insert(k.to_string(), v);
-    };
-    put("stage", Attr::Str(plan.stage.clone()));
-    put("fingerprint", Attr::Str(plan.fingerprint.clone()));
-    put("task", Attr::I64(task as i64));
-    put("units_start", Attr::I64(a as i64));
-    put("units_end", Attr::I64(b as i64));
-    put("host", Attr::Str(provenance::hostname()));
-    put("slurm_job_id", Attr::Str(env("SLURM_JOB_ID")));
-    put("slurm_array_job_id", Attr::Str(env("SLURM_ARRAY_JOB_ID")));
-    put("slurm_array_task_id", Attr::Str(env("SLURM_ARRAY_TASK_ID")));
-    put("start_utc", Attr::Str(start));
-    put("wall_seconds", Attr::F64(wall));
-    partial::write(&task_file(dir, task), &out, &attrs)?;
-    println!("laydown worker: wrote {} in {wall:.2} s", task_file(dir, task).display());
-    Ok(())
 }
 
 #[cfg(test)]

@@ -1,0 +1,97 @@
+//! Every figure kind, drawn from small generated archives at print size, is laid out
+//! cleanly: nothing drawn outside its canvas, no two text labels overlapping.
+//!
+//! The figures are drawn onto a recording backend (`laydown::plot::inspect`) that keeps
+//! each primitive's extent and each text's box as the bitmap backend would fill it.
+mod common;
+use common::*;
+use laydown::plot::figure::RenderOptions;
+
+/// One archive with every stage kind, including two-parameter sweeps (whose panel titles
+/// and legends are the longest), an image that is not square, and an accuracy stage.
+const PIPELINE: &str = "\
+pipeline: figures
+archive: figures.h5
+seed: 5
+stages:
+  - name: fibre
+    kind: laydown
+    params: {length: 0.08, elements: 80, diagnostic_stride: 200}
+    replicates: 3
+  - name: fibres
+    kind: laydown
+    params: {length: 0.08, elements: 80}
+    sweep:
+      friction_coefficient: [0.5, 1.0]
+      diameter: [3.0e-5, 5.0e-5]
+    replicates: 2
+  - name: mesh
+    kind: laydown
+    params: {length: 0.08}
+    sweep: {elements: [40, 80]}
+    replicates: 3
+  - name: cost
+    kind: accuracy
+    input: [fibre, mesh]
+  - name: spectra
+    kind: spectra
+    input: fibre
+  - name: ideal
+    kind: spectra
+    sweep: {preset: [spectrum1, spectrum2]}
+  - name: web
+    kind: web
+    params: {points_per_segment: 250, fibres_across: 100, fibre_spacing: 0.001, segments_per_fibre: 5}
+    sweep:
+      preset: [spectrum1, spectrum2]
+      belt_speed_ratio: [0.05, 0.1]
+  - name: grid
+    kind: grid
+    input: web
+    params: {cell_size: 0.002, window_side: 0.1, boundary: periodic}
+    replicates: 2
+  - name: scans
+    kind: image
+    input: grid
+    params:
+      bonds: {shape: circle, size1: 0.003, period1: 0.009, period2: 0.009, angle: 45.0, angle_between: 90.0, contrast: 0.15, zero_mean: true}
+  - name: flat
+    kind: image
+    params:
+      synthetic: {kind: noise, count: 2, rows: 62, cols: 87}
+      bonds: {shape: circle, size1: 0.0015, period1: 0.0042, period2: 0.0042, angle: 45.0, contrast: 0.15}
+    sweep: {notch_sigma_bins: [1.5, 4.0]}
+  - name: laid
+    kind: laid_web
+    params: {fibres_across: 3, fibre_spacing: 0.004, belt_travel: 0.03}
+    sweep: {oscillation_amplitude: [0.005, 0.01]}
+";
+
+#[test]
+fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", PIPELINE);
+    let o = run_in(dir.path(), &["run", "p.yaml"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let archive = dir.path().join("figures.h5");
+
+    let mut kinds = std::collections::BTreeSet::new();
+    let mut problems = vec![];
+    let mut figures = 0;
+    for stage in ["fibre", "fibres", "mesh", "cost", "spectra", "ideal", "web", "grid", "scans", "flat", "laid"] {
+        let data = laydown::plot::open(&archive, stage).unwrap();
+        kinds.insert(data.kind().to_string());
+        for fig in laydown::plot::figures(&data).unwrap() {
+            figures += 1;
+            // a two-column page (default) and one journal column at 7 pt
+            for opts in [RenderOptions::default(), RenderOptions { width_mm: 85.0, font_pt: 7.0, ..Default::default() }] {
+                let record = fig.inspect(&opts).unwrap();
+                assert!(record.texts.len() > 5, "{stage}/{}: only {} texts drawn", fig.name, record.texts.len());
+                problems.extend(record.problems().into_iter().map(|p| format!("{stage}/{} at {} mm: {p}", fig.name, opts.width_mm)));
+            }
+        }
+    }
+    assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["accuracy", "grid", "image", "laid_web", "laydown", "spectra", "web"]);
+    assert!(figures >= 15, "{figures} figures");
+    assert!(problems.is_empty(), "{} layout problems:\n{}", problems.len(), problems.join("\n"));
+}

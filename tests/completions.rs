@@ -46,3 +46,11 @@ fn an_unknown_shell_is_bad_input() {
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out).1.contains("possible values"), "{:?}", text(&out));
 }
+
+/// clap checks a command definition (clashing short flags, a global flag shadowing a
+/// subcommand's) only in debug builds; the suite runs in release, so ask for it here.
+#[test]
+fn the_command_line_definition_is_consistent() {
+    use clap::CommandFactory;
+    laydown::cli::Cli::command().debug_assert();
+}

@@ -113,3 +113,27 @@ fn no_progress_bars_when_stderr_is_not_a_terminal() {
     assert_eq!(out.status.code(), Some(0), "{e}");
     assert!(!e.contains("[00:0") && !e.contains('\u{1b}'), "no bar, no escape codes: {e:?}");
 }
+
+#[test]
+fn on_a_terminal_bars_are_drawn_and_quiet_hides_them() {
+    // `script` (util-linux, Essential on Debian) runs laydown on a pseudo-terminal.
+    if std::process::Command::new("script").arg("--version").output().is_err() {
+        eprintln!("SKIPPED: no `script` to give laydown a terminal");
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    write_pipeline(d, "p.yaml", "pipeline: bars\narchive: out/study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60}\n    replicates: 2\n");
+    let on_tty = |args: &str| {
+        let cmd = format!("{} {args}", env!("CARGO_BIN_EXE_laydown"));
+        let out = std::process::Command::new("script").args(["-qec", &cmd, "/dev/null"]).current_dir(d).output().unwrap();
+        assert!(out.status.success(), "{cmd}: {:?}", text(&out));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let loud = on_tty("run p.yaml");
+    assert!(loud.contains("fibre units [00:0"), "a bar on a terminal: {loud:?}");
+    std::fs::remove_dir_all(d.join("out")).unwrap();
+    let quiet = on_tty("-q run p.yaml");
+    assert_eq!(quiet, "", "nothing at all under -q, bar included");
+    assert!(d.join("out/study.h5").is_file());
+}

@@ -17,6 +17,13 @@ Exit codes: 0 success, 1 runtime failure or damaged archive, 2 bad input.";
 #[derive(Parser, Debug)]
 #[command(name = "laydown", version, about = "Fibre laydown, curvature spectra, stochastic nonwoven webs and their uniformity, in one versioned HDF5 archive per study.", after_help = AFTER_HELP)]
 pub struct Cli {
+    /// Say nothing but warnings and errors: no progress bars, per-stage lines or stage
+    /// summaries (exit codes are unchanged).
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    pub quiet: bool,
+    /// Say more: per stage, why it was reused or rerun, its fingerprint and timings (on stderr).
+    #[arg(short, long, global = true)]
+    pub verbose: bool,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -68,6 +75,15 @@ pub enum Command {
         /// results are bit-identical with any number. Slurm array tasks use SLURM_CPUS_PER_TASK.
         #[arg(short = 'j', long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
         threads: Option<u32>,
+        /// Print a JSON summary of what ran on stdout (the per-stage lines go to stderr);
+        /// see the README's CLI section.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print a shell completion script, e.g. `laydown completions bash > ~/.local/share/bash-completion/completions/laydown`.
+    Completions {
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
     },
     /// Run one Slurm array task of a stage (used by `--executor slurm`).
     #[command(hide = true)]
@@ -101,6 +117,22 @@ pub enum Command {
         /// Machine-readable output (see the README's CLI section).
         #[arg(long)]
         json: bool,
+    },
+    /// Remove stage versions that are not current (keeping, per stage, the current version,
+    /// the N newest others and every version a kept one was computed from), in one atomic
+    /// commit; prints what it removes. HDF5 does not shrink the file: add --repack for that.
+    Prune {
+        archive: PathBuf,
+        /// Also keep the N newest non-current versions of each stage.
+        #[arg(long, value_name = "N", default_value_t = 0)]
+        keep: usize,
+        /// Print what would be removed; change nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Then rewrite the archive into a new file without the removed versions' space,
+        /// renamed over it atomically.
+        #[arg(long)]
+        repack: bool,
     },
     /// Check every version of an archive against the hashes stored when it was
     /// committed (reading every value); names each damaged group and dataset. Exit 1 on damage.
@@ -163,8 +195,15 @@ pub enum Command {
 
 /// Run the CLI; returns the process exit code.
 pub fn main_with(cli: Cli) -> i32 {
+    crate::verbosity::set(crate::verbosity::from_flags(cli.quiet, cli.verbose));
     match cli.command {
-        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads } => {
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            clap_complete::generate(shell, &mut Cli::command(), "laydown", &mut std::io::stdout());
+            0
+        }
+        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads, json } => {
+            crate::verbosity::set_json_stdout(json);
             // before the pipeline's memory estimates, which count the threads
             if let Some(n) = threads {
                 if let Err(e) = crate::executor::local::set_threads(n as usize) {
@@ -201,11 +240,16 @@ pub fn main_with(cli: Cli) -> i32 {
             if !sbatch_arg.is_empty() {
                 p.executor.sbatch_args = sbatch_arg;
             }
-            let opts = RunOptions { only, from, force, progress: crate::progress::stderr_is_terminal(), executor: None, dry_run };
+            let opts = RunOptions { only, from, force, progress: crate::verbosity::progress_bars(), executor: None, dry_run };
             match runner::run(&p, &opts) {
+                Ok(reports) if json => {
+                    println!("{}", serde_json::to_string_pretty(&crate::run_summary::json(&p, &reports, dry_run)).expect("JSON of plain values"));
+                    0
+                }
                 Ok(reports) => {
                     // The results of every image stage that ran, on stdout (as `laydown table`).
-                    for r in reports.iter().filter(|r| r.ran_because.is_some() && !dry_run) {
+                    // (Not under -q, which prints only warnings and errors.)
+                    for r in reports.iter().filter(|r| r.outcome == runner::Outcome::Computed && !crate::verbosity::quiet()) {
                         if p.stage(&r.stage).is_some_and(|s| s.kind == "image") {
                             let stage_ref = format!("{}@v{}", r.stage, r.version);
                             match crate::table::read_table(&p.archive, &stage_ref, false) {
@@ -255,6 +299,7 @@ pub fn main_with(cli: Cli) -> i32 {
         },
         Command::Ls { archive, json } => report(ls(&archive, json)),
         Command::Verify { archive } => report(verify(&archive)),
+        Command::Prune { archive, keep, dry_run, repack } => report(prune(&archive, keep, dry_run, repack)),
         Command::Show { archive, stage, json } => report(show(&archive, &stage, json)),
         Command::Stages { kind, json } => report(describe_stages(kind.as_deref(), json)),
         Command::Plot { archive, stages, out, format, width, dpi, font_size, font } => {
@@ -357,6 +402,36 @@ fn verify(path: &std::path::Path) -> Result<()> {
     ))
 }
 
+/// `laydown prune`: the plan from [`crate::archive::prune`], printed; applied (and
+/// repacked) unless a dry run.
+fn prune(path: &std::path::Path, keep: usize, dry_run: bool, repack: bool) -> Result<()> {
+    use crate::archive::prune as p;
+    Archive::open_read(path)?;
+    let archive = if dry_run { Archive::open_if_exists(path)? } else { Archive::open_write(path)? };
+    let plan = p::plan(&archive, keep)?;
+    if !dry_run {
+        p::apply(&archive, &plan)?;
+    }
+    // Printed once everything is done: a failure prints nothing to stdout.
+    let mut lines = p::describe(&plan, dry_run);
+    let n = plan.removed.len();
+    let s = if n == 1 { "" } else { "s" };
+    if dry_run {
+        lines.push(format!("dry run: {n} version{s} would be removed{}", if repack { ", then the archive repacked" } else { "" }));
+    } else if repack {
+        let (before, after) = p::repack(&archive).with_context(|| format!("{n} version{s} removed, but repacking failed (the archive is pruned, not repacked)"))?;
+        lines.push(format!("removed {n} version{s}; repacked {}: {:.2} MB -> {:.2} MB", archive.path.display(), before as f64 / 1e6, after as f64 / 1e6));
+    } else {
+        lines.push(format!(
+            "removed {n} version{s} from {}; HDF5 does not give their space back: the file keeps its size until `laydown prune {} --repack`",
+            archive.path.display(),
+            path.display()
+        ));
+    }
+    println!("{}", lines.join("\n"));
+    Ok(())
+}
+
 fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
     let archive = Archive::open_read(path)?;
     let (stage, number) = parse_stage_ref(stage_ref)?;
@@ -422,7 +497,7 @@ fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
 fn table(archive: &std::path::Path, stage_ref: &str, all: bool, format: crate::table::Format) -> Result<()> {
     let t = crate::table::read_table(archive, stage_ref, all)?;
     if let Some(note) = &t.note {
-        eprintln!("{}: {note}", t.group);
+        crate::info!("{}: {note}", t.group);
     }
     print!("{}", t.render(format));
     Ok(())

@@ -4,8 +4,10 @@
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
+/// A bar when `enabled` and [`crate::verbosity::progress_bars`] allows it (not under
+/// `-q`, and only on a terminal), else a hidden one.
 pub fn bar(enabled: bool, len: u64, message: &str) -> ProgressBar {
-    if !enabled {
+    if !enabled || !crate::verbosity::progress_bars() {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(len);
@@ -55,11 +57,6 @@ where
     out
 }
 
-/// Whether stderr is a terminal.
-pub fn stderr_is_terminal() -> bool {
-    use std::io::IsTerminal;
-    std::io::stderr().is_terminal()
-}
 
 #[cfg(test)]
 mod tests {

@@ -73,11 +73,64 @@ fn classify(e: anyhow::Error) -> RunError {
 #[derive(Debug, Clone)]
 pub struct StageReport {
     pub stage: String,
+    pub kind: String,
     /// The version used or written (0: a dry run's stage that would run).
     pub version: u32,
     /// `None` when up to date, otherwise why it ran (or would run).
     pub ran_because: Option<String>,
+    /// Wall time of the computation, as in provenance `wall_seconds` (0 for a stage not computed).
     pub wall_seconds: f64,
+    pub outcome: Outcome,
+    /// Sweep points and replicates per point, as declared.
+    pub points: usize,
+    pub replicates: usize,
+}
+
+impl StageReport {
+    fn new(decl: &StageDecl, version: u32, ran_because: Option<String>, wall_seconds: f64, outcome: Outcome) -> StageReport {
+        StageReport {
+            stage: decl.name.clone(),
+            kind: decl.kind.clone(),
+            version,
+            ran_because,
+            wall_seconds,
+            outcome,
+            points: decl.points().0.len(),
+            replicates: decl.replicates,
+        }
+    }
+
+    /// The version's group in the archive (`/grid/v2`), if it has one.
+    pub fn group(&self) -> Option<String> {
+        (self.version > 0).then(|| format!("/{}/v{}", self.stage, self.version))
+    }
+}
+
+/// What a run did with a stage (`run --json`'s `outcome`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Up to date: an existing version was used.
+    Reused,
+    /// Computed and written as a new version.
+    Computed,
+    /// Not selected (`--only`, `--from`): an existing version was used as it is.
+    NotSelected,
+    /// Dry run: would be computed.
+    WouldRun,
+    /// Dry run: cannot run (an input has no version).
+    CannotRun,
+}
+
+impl Outcome {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Outcome::Reused => "reused",
+            Outcome::Computed => "computed",
+            Outcome::NotSelected => "not_selected",
+            Outcome::WouldRun => "would_run",
+            Outcome::CannotRun => "cannot_run",
+        }
+    }
 }
 
 /// The reason when nothing that [`reason`] compares differs.
@@ -346,7 +399,7 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
     let archive = if opts.dry_run { Archive::open_if_exists(&pipeline.archive) } else { Archive::open_write(&pipeline.archive) }
         .map_err(RunError::Runtime)?;
     let mut marks = Marks { stored: archive.current_marks().map_err(RunError::Runtime)?, pending: BTreeMap::new() };
-    println!("archive: {}{}", archive.path.display(), if opts.dry_run { " (dry run: nothing is computed or written)" } else { "" });
+    crate::status!("archive: {}{}", archive.path.display(), if opts.dry_run { " (dry run: nothing is computed or written)" } else { "" });
     let result = run_stages(pipeline, opts, &archive, &selected, &mut marks);
     if opts.dry_run || marks.pending.is_empty() {
         return result;
@@ -436,18 +489,19 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
                     (v, Some(why))
                 }
                 (None, None) => {
-                    println!("{name}: not selected, no version yet");
+                    crate::status!("{name}: not selected, no version yet");
                     continue;
                 }
             };
             let mark = if cached.is_some() && !opts.dry_run { moved(&name, used.number, marks) } else { String::new() };
             match why_stale {
                 Some(why) => {
-                    println!("{name}: not selected, using v{} (out of date: {why}){mark}", used.number);
+                    crate::status!("{name}: not selected, using v{} (out of date: {why}){mark}", used.number);
                     stale.insert(name.clone(), why);
                 }
-                None => println!("{name}: not selected, using v{}{mark}", used.number),
+                None => crate::status!("{name}: not selected, using v{}{mark}", used.number),
             }
+            reports.push(StageReport::new(decl, used.number, None, 0.0, Outcome::NotSelected));
             chosen.insert(name.clone(), used.clone());
             continue;
         }
@@ -464,16 +518,20 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             let ctx = Decision { decl, cache_version: stage.cache_version(), seed, files: &files, current, cached, forced: forced.then_some(force_flag) };
             match ctx.dry_run(inputs.as_deref(), &upstream) {
                 Planned::UpToDate(v) => {
-                    println!("{name}: up to date (v{})", v.number);
+                    crate::status!("{name}: up to date (v{})", v.number);
+                    crate::detail!("{name}: fingerprint {} matches v{}", fp.as_deref().unwrap_or("?"), v.number);
                     chosen.insert(name.clone(), v.clone());
-                    reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
+                    reports.push(StageReport::new(decl, v.number, None, 0.0, Outcome::Reused));
                 }
                 Planned::Runs(why) => {
-                    println!("{name}: would run: {why}");
+                    crate::status!("{name}: would run: {why}");
                     would_run.insert(name.clone());
-                    reports.push(StageReport { stage: name.clone(), version: 0, ran_because: Some(why), wall_seconds: 0.0 });
+                    reports.push(StageReport::new(decl, 0, Some(why), 0.0, Outcome::WouldRun));
                 }
-                Planned::CannotRun(why) => println!("{name}: cannot run: {why}"),
+                Planned::CannotRun(why) => {
+                    crate::status!("{name}: cannot run: {why}");
+                    reports.push(StageReport::new(decl, 0, Some(why), 0.0, Outcome::CannotRun));
+                }
             }
             continue;
         }
@@ -493,10 +551,11 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
                     damaged = Some(format!("stored v{} is damaged ({}); computing it again", v.number, problems.join("; ")));
                 }
                 Integrity::Ok | Integrity::Unverifiable => {
-                    println!("{name}: up to date (v{}){}", v.number, moved(&name, v.number, marks));
+                    crate::status!("{name}: up to date (v{}){}", v.number, moved(&name, v.number, marks));
+                    crate::detail!("{name}: reused: fingerprint {fp} matches v{}, whose stored dataset hashes check out", v.number);
                     verified.insert(v.group_path());
                     chosen.insert(name.clone(), v.clone());
-                    reports.push(StageReport { stage: name.clone(), version: v.number, ran_because: None, wall_seconds: 0.0 });
+                    reports.push(StageReport::new(decl, v.number, None, 0.0, Outcome::Reused));
                     continue;
                 }
             }
@@ -508,7 +567,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
                     Integrity::Damaged(problems) => {
                         return Err(RunError::Runtime(anyhow!("stage `{name}` needs input {}: {}", v.group_path(), v.damage_message(&problems))));
                     }
-                    Integrity::Unverifiable => eprintln!(
+                    Integrity::Unverifiable => crate::info!(
                         "note: archive {}: input {} was written before laydown stored dataset hashes and cannot be verified; `laydown run {} --force {}` rewrites it",
                         v.file.display(),
                         v.group_path(),
@@ -528,9 +587,15 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         } else {
             reason(decl, stage.cache_version(), seed, &input_versions, &files, current)
         };
-        println!("{name}: runs: {why}");
+        crate::status!("{name}: runs: {why}");
+        crate::detail!(
+            "{name}: fingerprint {fp}; none of its {} complete versions has it{}; inputs: {}",
+            complete.len(),
+            current.map(|v| format!(" (compared with v{})", v.number)).unwrap_or_default(),
+            if input_versions.is_empty() { "none".to_string() } else { input_versions.iter().map(|(s, n)| format!("{s} v{n}")).collect::<Vec<_>>().join(", ") }
+        );
 
-        let next_version = versions.last().map(|v| v.number + 1).unwrap_or(1);
+        let next_version = archive.next_version(&name).map_err(RunError::Runtime)?;
         let ctx = stage_context(pipeline, decl, &inputs, opts.progress, next_version);
         let sweep = ctx.sweep.clone();
         let executor = opts.executor.clone().unwrap_or_else(|| pipeline.executor.clone());
@@ -560,6 +625,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         };
         let wall = t0.elapsed().as_secs_f64();
         let cpu = provenance::cpu_seconds() - cpu0;
+        let t_commit = Instant::now();
         add_sweep_coordinates(&mut out, &sweep).map_err(RunError::Runtime)?;
         units_of_sweep(&mut out, &sweep, &stage.params());
         let hashes = crate::archive::hdf::dataset_hashes(&out);
@@ -624,11 +690,16 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         marks.committed();
         let v = archive.version(&name, Some(number)).map_err(RunError::Runtime)?;
         crate::executor::committed(&executor, &job);
-        println!("{name}: wrote v{number} in {wall:.2} s");
+        crate::status!("{name}: wrote v{number} in {wall:.2} s");
+        crate::detail!(
+            "{name}: computed in {wall:.3} s wall, {cpu:.3} s CPU; hashed and committed v{number} in {:.3} s; content hash {}",
+            t_commit.elapsed().as_secs_f64(),
+            v.attr_str("content_hash").unwrap_or("?")
+        );
         write_files(&pipeline.archive, &name, number, &out.files).map_err(RunError::Runtime)?;
         verified.insert(v.group_path());
         chosen.insert(name.clone(), v);
-        reports.push(StageReport { stage: name, version: number, ran_because: Some(why), wall_seconds: wall });
+        reports.push(StageReport::new(decl, number, Some(why), wall, Outcome::Computed));
     }
     Ok(reports)
 }
@@ -646,7 +717,7 @@ fn write_files(archive: &std::path::Path, stage: &str, number: u32, files: &[(St
         let path = dir.join(name);
         let tmp = dir.join(format!(".{name}.tmp"));
         std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, &path)).map_err(|e| fail(e, &path))?;
-        eprintln!("{stage}: {}", path.display());
+        crate::info!("{stage}: {}", path.display());
     }
     Ok(())
 }

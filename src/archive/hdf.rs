@@ -317,6 +317,43 @@ pub fn dimension_names(group: &hdf5::Group) -> Result<BTreeMap<String, Vec<Strin
     Ok(out)
 }
 
+/// Attach the dimension scales of `group` anew, as `dims` ([`dimension_names`] of the
+/// group it was copied from) names them, dropping the references a copy left behind
+/// (`H5Ocopy` does not map the object references inside `DIMENSION_LIST` and
+/// `REFERENCE_LIST` to the copied objects).
+pub fn reattach_scales(group: &hdf5::Group, dims: &BTreeMap<String, Vec<String>>) -> Result<()> {
+    let scales: BTreeMap<&str, hdf5::Dataset> = dims
+        .iter()
+        .filter(|(name, d)| d.len() == 1 && &d[0] == *name)
+        .map(|(name, _)| Ok((name.as_str(), group.dataset(name)?)))
+        .collect::<Result<_>>()?;
+    let drop_attr = |ds: &hdf5::Dataset, attr: &str| -> Result<()> {
+        if ds.attr(attr).is_ok() {
+            ds.delete_attr(attr)?;
+        }
+        Ok(())
+    };
+    for scale in scales.values() {
+        drop_attr(scale, "REFERENCE_LIST")?;
+    }
+    for (name, d) in dims {
+        if scales.contains_key(name.as_str()) {
+            continue;
+        }
+        let ds = group.dataset(name)?;
+        drop_attr(&ds, "DIMENSION_LIST")?;
+        for (i, dim) in d.iter().enumerate() {
+            // `dim<i>`: no scale was attached there.
+            let Some(scale) = scales.get(dim.as_str()) else { continue };
+            let rc = hdf5::sync::sync(|| unsafe { ds::H5DSattach_scale(ds.id(), scale.id(), i as u32) });
+            if rc < 0 {
+                return Err(anyhow!("cannot attach dimension `{dim}` to `{name}`"));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A swept parameter of a stage version: a coordinate along `point` carrying a
 /// `parameter` attribute (written by the runner).
 #[derive(Debug, Clone)]

@@ -28,6 +28,7 @@ pub mod data;
 pub mod gather;
 pub mod hdf;
 pub mod provenance;
+pub mod prune;
 
 use crate::error::BadInput;
 use anyhow::{anyhow, bail, Context, Result};
@@ -42,6 +43,10 @@ pub const LAYOUT_VERSION: i64 = 2;
 
 /// The attribute of `/<stage>` naming its current version (`v3`).
 pub const CURRENT_ATTR: &str = "current";
+
+/// The attribute of `/<stage>` holding the highest version number ever written, set by
+/// `laydown prune` when it removes versions (see [`Archive::next_version`]).
+pub const HIGHEST_ATTR: &str = "highest_version";
 
 /// Parse a stage reference `STAGE` or `STAGE@vN` (the version number, when given).
 pub fn parse_stage_ref(s: &str) -> Result<(String, Option<u32>)> {
@@ -340,7 +345,7 @@ impl Archive {
         marks: &BTreeMap<String, u32>,
         history_line: &str,
     ) -> Result<u32> {
-        let number = self.versions(stage)?.last().map(|v| v.number + 1).unwrap_or(1);
+        let number = self.next_version(stage)?;
         let mut marks = marks.clone();
         marks.insert(stage.to_string(), number);
         self.transaction(title, history_line, out.byte_size(), |file| {
@@ -358,6 +363,22 @@ impl Archive {
             write_marks(file, &marks)
         })?;
         Ok(number)
+    }
+
+    /// The number the next version of `stage` gets: one past the highest ever written,
+    /// also when `laydown prune` removed it (attribute [`HIGHEST_ATTR`] of `/<stage>`), so
+    /// that a number never names two different results (figures, notes, other archives).
+    pub fn next_version(&self, stage: &str) -> Result<u32> {
+        let newest = self.versions(stage)?.last().map_or(0, |v| v.number);
+        let mut pruned = 0;
+        if self.path.exists() {
+            if let Ok(group) = open_hdf5(&self.path)?.group(stage) {
+                if let Some(Attr::I64(n)) = hdf::read_attrs(&group)?.remove(HIGHEST_ATTR) {
+                    pruned = n.max(0) as u32;
+                }
+            }
+        }
+        Ok(newest.max(pruned) + 1)
     }
 
     /// Mark versions current (stage -> number) without adding any, in one atomic commit

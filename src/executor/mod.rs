@@ -51,7 +51,7 @@ pub fn run_stage(
         ExecutorKind::Slurm => match stage.units(ctx)? {
             Some(units) if units.count() > 0 => slurm::run_stage(cfg, stage, ctx, job, units),
             _ => {
-                println!("{}: a {} stage cannot be split over Slurm tasks; running it here", job.stage_name, stage.kind());
+                crate::status!("{}: a {} stage cannot be split over Slurm tasks; running it here", job.stage_name, stage.kind());
                 let (out, mut attrs) = local::run_stage(stage, ctx)?;
                 attrs.insert("executor".into(), Attr::Str("local (stage cannot be split)".into()));
                 Ok((out, attrs))

@@ -272,7 +272,9 @@ impl Stage for AccuracyStage {
         out.f64("speedup", &["candidate"], Array1::from_iter(cands.iter().map(|c| reference_wall / c.wall_seconds)), "1", "reference wall time / candidate wall time");
 
         let md = table(&metrics, &reference_metrics, &reference_values, reference_wall, &cands);
-        eprint!("{}", md.lines().map(|l| format!("{}: {l}\n", ctx.stage_name)).collect::<String>());
+        for line in md.lines() {
+            crate::info!("{}: {line}", ctx.stage_name);
+        }
         out.file("accuracy_cost.md", format!("# What accuracy costs: `{}` against `{}`\n\n{md}", ctx.stage_name, reference.name).into_bytes());
         out.set_attr("table_markdown", md);
         out.set_attr("reference", reference.name.clone());

@@ -151,7 +151,7 @@ pub fn prepare(cfg: &ExecutorConfig, job: &StageJob, units: Units) -> Result<(Pa
     // --units-per-task says now, so that no complete task is lost.
     if let Some(old) = std::fs::read_to_string(dir.join("plan.json")).ok().and_then(|t| serde_json::from_str::<Plan>(&t).ok()) {
         if (old.points, old.per_point) == (units.points, units.per_point) && old.tasks != tasks && (0..old.tasks.len()).any(|i| task_file(&dir, i).exists()) {
-            println!("{name}: keeping the split of the earlier run ({} tasks) so that its complete tasks are kept", old.tasks.len());
+            crate::status!("{name}: keeping the split of the earlier run ({} tasks) so that its complete tasks are kept", old.tasks.len());
             tasks = old.tasks;
         }
     }
@@ -177,7 +177,7 @@ pub fn prepare(cfg: &ExecutorConfig, job: &StageJob, units: Units) -> Result<(Pa
         ),
     )?;
     if let Some(note) = units.note {
-        println!("{name}: {note}");
+        crate::status!("{name}: {note}");
     }
     Ok((dir, tasks))
 }
@@ -202,7 +202,7 @@ fn submit_missing(cfg: &ExecutorConfig, name: &str, dir: &Path, tasks: &[(usize,
         }
         cmd.args(&cfg.sbatch_args).arg(dir.join("task.sh"));
         let per = tasks[0].1 - tasks[0].0;
-        println!(
+        crate::status!(
             "{name}: submitting {} of {} Slurm array tasks ({what}, {per} per task){kept_note}; logs in {}",
             missing.len(),
             tasks.len(),
@@ -217,9 +217,9 @@ fn submit_missing(cfg: &ExecutorConfig, name: &str, dir: &Path, tasks: &[(usize,
         if job_id.is_empty() || !out.status.success() {
             bail!("sbatch submitted nothing ({}): {}", out.status, String::from_utf8_lossy(&out.stderr).trim());
         }
-        println!("{name}: Slurm job {job_id} submitted; waiting for its tasks");
+        crate::status!("{name}: Slurm job {job_id} submitted; waiting for its tasks");
         wait_for_array(name, &job_id, dir)?;
-        println!("{name}: Slurm job {job_id} finished");
+        crate::status!("{name}: Slurm job {job_id} finished");
     }
     Ok(())
 }

@@ -334,7 +334,7 @@ impl Stage for ImageStage {
             }
             let groups = group_stats(&samples, &kept);
             let label = if ctx.sweep.is_empty() { ctx.stage_name.clone() } else { format!("{} point {}", ctx.stage_name, k) };
-            eprint!("{}", table(&label, &groups, &kept));
+            crate::info!("{}", table(&label, &groups, &kept).trim_end());
             per_point.push(kept);
         }
         // One peak-table width for all points, so that the points stack.
@@ -413,7 +413,7 @@ fn report_pixel_sizes(stage: &str, samples: &[Sample], kept: &[Kept]) {
             PixelSource::Grid => "the grid's cell_size",
         };
         let list: Vec<String> = sizes.iter().map(|(s, n)| format!("{s} mm ({n} image{})", if *n == 1 { "" } else { "s" })).collect();
-        eprintln!("{stage}: pixel size {from}: {}", list.join(", "));
+        crate::info!("{stage}: pixel size {from}: {}", list.join(", "));
     }
     // 72 and 96 dpi are what many programs write when they know no resolution (within
     // 0.1 %: PNG stores whole pixels per metre, 2835 for 72 dpi).

@@ -198,17 +198,23 @@ pub fn open(archive: &Path, stage_ref: &str) -> Result<StageData> {
     Ok(StageData { info, group })
 }
 
+/// The figures of each stage kind, by the kind's name in [`crate::stages::registry`]
+/// (which it must cover: tested).
+const FIGURES: &[(&str, fn(&StageData) -> Result<Vec<Figure>>)] = &[
+    ("laydown", laydown::figures),
+    ("laid_web", laid_web::figures),
+    ("spectra", spectra::figures),
+    ("web", web::figures),
+    ("grid", grid::figures),
+    ("image", image::figures),
+    ("accuracy", accuracy::figures),
+];
+
 /// The figures of one stage version, without writing them.
 pub fn figures(data: &StageData) -> Result<Vec<Figure>> {
-    match data.kind() {
-        "laydown" => laydown::figures(data),
-        "laid_web" => laid_web::figures(data),
-        "spectra" => spectra::figures(data),
-        "web" => web::figures(data),
-        "grid" => grid::figures(data),
-        "image" => image::figures(data),
-        "accuracy" => accuracy::figures(data),
-        other => bail!("no plots for stage kind `{other}` yet"),
+    match FIGURES.iter().find(|(kind, _)| *kind == data.kind()) {
+        Some((_, draw)) => draw(data),
+        None => bail!("no plots for stage kind `{}` yet", data.kind()),
     }
 }
 
@@ -235,6 +241,15 @@ pub fn plot_stage(archive: &Path, stage_ref: &str, dir: Option<&Path>, formats: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_registered_stage_kind_has_figures_and_no_other_kind_does() {
+        let mut drawn: Vec<&str> = FIGURES.iter().map(|(kind, _)| *kind).collect();
+        let mut registered = crate::stages::kinds();
+        drawn.sort_unstable();
+        registered.sort_unstable();
+        assert_eq!(drawn, registered);
+    }
 
     fn swept(name: &str, labels: &[&str]) -> Swept {
         let values = labels.iter().map(|l| l.parse().unwrap_or(f64::NAN)).collect();

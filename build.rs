@@ -1,4 +1,5 @@
-//! Embeds the git commit, its dirty flag and the rustc version at build time, for provenance.
+//! Embeds the git commit, its dirty flag, the repository, the rustc version and the hash
+//! of Cargo.lock (the exact dependency versions) at build time, for provenance.
 use std::process::Command;
 
 mod code {
@@ -24,6 +25,11 @@ fn main() {
     println!("cargo:rustc-env=LAYDOWN_GIT_COMMIT={commit}");
     println!("cargo:rustc-env=LAYDOWN_GIT_DIRTY={dirty}");
     println!("cargo:rustc-env=LAYDOWN_RUSTC_VERSION={rustc_version}");
+    let remote = run("git", &["config", "--get", "remote.origin.url"]).unwrap_or_else(|| "unknown".into());
+    println!("cargo:rustc-env=LAYDOWN_GIT_REMOTE={remote}");
+    let manifest_dir = std::path::PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| ".".into()));
+    println!("cargo:rustc-env=LAYDOWN_CARGO_LOCK_HASH={}", code::code_hash(&manifest_dir, &["Cargo.lock"]));
+    println!("cargo:rerun-if-changed=Cargo.lock");
     // Rerun when HEAD moves or the index changes (commit / dirty flag).
     for p in [".git/HEAD", ".git/index"] {
         if std::path::Path::new(p).exists() {

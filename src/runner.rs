@@ -663,6 +663,11 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         put("dataset_hashes", Attr::Str(crate::archive::hdf::dataset_hashes_attr(&hashes)));
         put("pipeline_name", Attr::Str(pipeline.name.clone()));
         put("pipeline_file", Attr::Str(pipeline.file.display().to_string()));
+        if let Ok(text) = std::fs::read_to_string(&pipeline.file) {
+            put("pipeline_hash", Attr::Str(blake3::hash(text.as_bytes()).to_hex()[..16].to_string()));
+            put("pipeline_yaml", Attr::Str(text));
+        }
+        put("upstream", Attr::Str(upstream_chain(&inputs)));
         put("run_reason", Attr::Str(why.clone()));
         put("start_utc", Attr::Str(start_utc));
         put("end_utc", Attr::Str(provenance::utc_now()));
@@ -702,6 +707,23 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         reports.push(StageReport::new(decl, number, Some(why), wall, Outcome::Computed));
     }
     Ok(reports)
+}
+
+/// Every version upstream of a stage, one `group content_hash=…` line each, nearest
+/// first: its inputs, then their own stored chains (or, for versions written before
+/// chains were stored, their inputs), without repeats.
+fn upstream_chain(inputs: &[VersionInfo]) -> String {
+    let mut lines: Vec<String> = Vec::new();
+    for v in inputs {
+        lines.push(format!("{} content_hash={}", v.group_path(), v.attr_str("content_hash").unwrap_or("")));
+    }
+    for v in inputs {
+        let theirs = v.attr_str("upstream").or_else(|| v.attr_str("inputs")).unwrap_or("");
+        lines.extend(theirs.lines().filter(|l| !l.is_empty()).map(str::to_string));
+    }
+    let mut seen = std::collections::HashSet::new();
+    lines.retain(|l| seen.insert(l.clone()));
+    lines.join("\n")
 }
 
 /// Write the files a stage handed over ([`Output::files`]) into the figure folder of

@@ -124,3 +124,29 @@ fn threads_flag_sets_the_pool_and_results_stay_bit_identical() {
         assert_eq!(out.status.code(), Some(2), "-j {bad}: {:?}", text(&out));
     }
 }
+
+/// Provenance holds what is needed to rerun a stage and to know where it ran: the
+/// pipeline file's text and hash, the repository and Cargo.lock hash, OS, CPU and
+/// working directory, and the whole chain of versions upstream (not only the inputs).
+#[test]
+fn provenance_records_the_pipeline_machine_and_whole_upstream_chain() {
+    let tmp = tempfile::tempdir().unwrap();
+    let yaml = "pipeline: chain3\narchive: study.h5\nseed: 3\nstages:\n  - {name: spectrum, kind: spectra, params: {preset: spectrum1}}\n  - name: web\n    kind: web\n    input: spectrum\n    params: {fibres_across: 40, fibre_spacing: 0.00025, segments_per_fibre: 4, belt_speed_ratio: 0.028}\n  - name: grid\n    kind: grid\n    input: web\n    params: {cell_size: 0.001, window_side: 0.01, boundary: periodic}\n";
+    write_pipeline(tmp.path(), "p.yaml", yaml);
+    ok(tmp.path(), &["run", "p.yaml"]);
+    let doc = json(tmp.path(), &["show", "study.h5", "grid", "--json"]);
+    let p = &doc["provenance"];
+    assert_eq!(p["pipeline_yaml"].as_str(), Some(yaml));
+    let hash = p["pipeline_hash"].as_str().unwrap();
+    assert!(hash.len() == 16 && hash.chars().all(|c| c.is_ascii_hexdigit()), "{hash}");
+    let lock = p["cargo_lock_hash"].as_str().unwrap();
+    assert!(lock.len() == 32 && lock.chars().all(|c| c.is_ascii_hexdigit()), "{lock}");
+    assert!(p["os"].as_str().unwrap().starts_with(std::env::consts::OS.chars().next().unwrap().to_ascii_uppercase()), "{}", p["os"]);
+    assert!(p["cpu"].as_str().unwrap().contains("logical CPUs"), "{}", p["cpu"]);
+    assert!(std::path::Path::new(p["working_directory"].as_str().unwrap()).is_absolute());
+    assert!(p["repository"].as_str().is_some_and(|r| !r.is_empty()));
+    // the grid's chain reaches the spectrum through the web, nearest first
+    let chain: Vec<&str> = p["upstream"].as_str().unwrap().lines().map(|l| l.split(' ').next().unwrap()).collect();
+    assert_eq!(chain, ["/web/v1", "/spectrum/v1"]);
+    assert_eq!(p["inputs"].as_str().unwrap().lines().count(), 1);
+}

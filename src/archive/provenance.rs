@@ -12,7 +12,13 @@ pub fn environment() -> BTreeMap<String, Attr> {
     m.insert("git_dirty".into(), Attr::Str(env!("LAYDOWN_GIT_DIRTY").into()));
     m.insert("rustc_version".into(), Attr::Str(env!("LAYDOWN_RUSTC_VERSION").into()));
     m.insert("hdf5_version".into(), Attr::Str(format!("{a}.{b}.{c}")));
+    m.insert("repository".into(), Attr::Str(env!("LAYDOWN_GIT_REMOTE").into()));
+    m.insert("cargo_lock_hash".into(), Attr::Str(env!("LAYDOWN_CARGO_LOCK_HASH").into()));
     m.insert("host".into(), Attr::Str(hostname()));
+    m.insert("os".into(), Attr::Str(os()));
+    m.insert("cpu".into(), Attr::Str(cpu_model()));
+    let cwd = std::env::current_dir().map(|d| d.display().to_string()).unwrap_or_else(|_| "unknown".into());
+    m.insert("working_directory".into(), Attr::Str(cwd));
     m.insert("threads".into(), Attr::I64(rayon::current_num_threads() as i64));
     m.insert(
         "command_line".into(),
@@ -27,6 +33,30 @@ fn shell_quote(s: &str) -> String {
     } else {
         format!("'{}'", s.replace('\'', "'\\''"))
     }
+}
+
+/// Kernel name, release and machine (`uname -srm`).
+fn os() -> String {
+    // SAFETY: uname fills a zeroed struct of C strings.
+    let mut u: libc::utsname = unsafe { std::mem::zeroed() };
+    if unsafe { libc::uname(&mut u) } != 0 {
+        return std::env::consts::OS.to_string();
+    }
+    let field = |f: &[libc::c_char]| {
+        let bytes: Vec<u8> = f.iter().take_while(|&&c| c != 0).map(|&c| c as u8).collect();
+        String::from_utf8_lossy(&bytes).into_owned()
+    };
+    format!("{} {} {}", field(&u.sysname), field(&u.release), field(&u.machine))
+}
+
+/// The CPU model (`model name` in /proc/cpuinfo) and the logical CPUs available.
+fn cpu_model() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let cpus = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    format!("{model} ({cpus} logical CPUs available)")
 }
 
 pub fn hostname() -> String {

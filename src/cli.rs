@@ -167,6 +167,15 @@ pub enum Command {
         #[arg(long, value_enum, default_value = "csv")]
         format: crate::table::Format,
     },
+    /// Write a pipeline that computes a stage version again, with every version upstream
+    /// of it, from their provenance (stdout, or --output FILE).
+    Export {
+        archive: PathBuf,
+        /// `STAGE` or `STAGE@vN`.
+        stage: String,
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Draw a stage version's figures (PNG, SVG or PDF, at print size) and print their paths.
     Plot {
         archive: PathBuf,
@@ -307,6 +316,7 @@ pub fn main_with(cli: Cli) -> i32 {
             report(plot(&archive, &stages, out.as_deref(), &format, &opts))
         }
         Command::Table { archive, stage, all, format } => report(table(&archive, &stage, all, format)),
+        Command::Export { archive, stage, output } => report(export(&archive, &stage, output.as_deref())),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&crate::schema::pipeline_schema()).unwrap());
             0
@@ -490,6 +500,19 @@ fn show(path: &std::path::Path, stage_ref: &str, json: bool) -> Result<()> {
     println!("datasets:");
     for (n, shape, u, l) in datasets {
         println!("  {n:<36} {:<20} [{u}] {l}", format!("{shape:?}"));
+    }
+    Ok(())
+}
+
+fn export(archive: &std::path::Path, stage_ref: &str, output: Option<&std::path::Path>) -> Result<()> {
+    let (stage, number) = parse_stage_ref(stage_ref)?;
+    let text = crate::archive::export::export_pipeline(&Archive::open_read(archive)?, &stage, number)?;
+    match output {
+        Some(path) => {
+            std::fs::write(path, text).map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+            crate::info!("wrote {}", path.display());
+        }
+        None => print!("{text}"),
     }
     Ok(())
 }

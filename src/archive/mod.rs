@@ -25,6 +25,7 @@
 //! [`hdf::dataset_hashes`]) and `content_hash`, the hash of those. [`VersionInfo::verify`]
 //! reads every value back and names each dataset that no longer matches.
 pub mod data;
+pub mod export;
 pub mod gather;
 pub mod hdf;
 pub mod provenance;

@@ -187,9 +187,10 @@ pub enum Command {
         /// One format or several, comma-separated (`png,pdf`).
         #[arg(long, value_enum, value_delimiter = ',', default_value = "png")]
         format: Vec<crate::plot::figure::Format>,
-        /// Figure width on the page (mm): 180 for two columns, 85 for one.
-        #[arg(long, value_name = "MM", default_value_t = 180.0, value_parser = positive)]
-        width: f64,
+        /// Figure width on the page (mm), e.g. 180 for two columns, 85 for one. Default:
+        /// 85 for a figure of one panel, 180 for more.
+        #[arg(long, value_name = "MM", value_parser = positive)]
+        width: Option<f64>,
         /// PNG resolution at that width.
         #[arg(long, default_value_t = 300.0, value_parser = positive)]
         dpi: f64,

@@ -84,10 +84,10 @@ fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels() 
         for fig in laydown::plot::figures(&data).unwrap() {
             figures += 1;
             // a two-column page (default) and one journal column at 7 pt
-            for opts in [RenderOptions::default(), RenderOptions { width_mm: 85.0, font_pt: 7.0, ..Default::default() }] {
+            for opts in [RenderOptions::default(), RenderOptions { width_mm: Some(85.0), font_pt: 7.0, ..Default::default() }] {
                 let record = fig.inspect(&opts).unwrap();
                 assert!(record.texts.len() > 5, "{stage}/{}: only {} texts drawn", fig.name, record.texts.len());
-                problems.extend(record.problems().into_iter().map(|p| format!("{stage}/{} at {} mm: {p}", fig.name, opts.width_mm)));
+                problems.extend(record.problems().into_iter().map(|p| format!("{stage}/{} at {} mm: {p}", fig.name, opts.width_for(&fig))));
             }
         }
     }

@@ -43,8 +43,9 @@ impl Format {
 /// Print size and type of a figure.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
-    /// Width of the figure on the page (mm); 180 mm is a two-column journal page.
-    pub width_mm: f64,
+    /// Width of the figure on the page (mm); None: one journal column (85 mm) for a
+    /// figure of one panel, the two-column page (180 mm) for more.
+    pub width_mm: Option<f64>,
     /// PNG resolution at that width (dots per inch).
     pub dpi: f64,
     /// Size of axis labels, titles and legends (pt); tick labels are 0.9 of it.
@@ -53,9 +54,20 @@ pub struct RenderOptions {
     pub font: Option<PathBuf>,
 }
 
+/// Page widths (mm) of one journal column and of the two-column page.
+pub const ONE_COLUMN_MM: f64 = 85.0;
+pub const TWO_COLUMNS_MM: f64 = 180.0;
+
+impl RenderOptions {
+    /// The width `figure` is drawn at (mm): the one asked for, else by its panel count.
+    pub fn width_for(&self, figure: &Figure) -> f64 {
+        self.width_mm.unwrap_or(if figure.panels.len() == 1 { ONE_COLUMN_MM } else { TWO_COLUMNS_MM })
+    }
+}
+
 impl Default for RenderOptions {
     fn default() -> Self {
-        RenderOptions { width_mm: 180.0, dpi: 300.0, font_pt: 8.0, font: None }
+        RenderOptions { width_mm: None, dpi: 300.0, font_pt: 8.0, font: None }
     }
 }
 
@@ -163,7 +175,7 @@ impl Figure {
         let font = ensure_font(opts.font.as_deref())?;
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join(format!("{}.{}", self.name, format.extension()));
-        let sc = Scale::new(opts, format);
+        let sc = Scale::new(opts, format, opts.width_for(self));
         let layout = self.layout(&sc);
         let size = layout.size;
         let meta = super::output::Metadata { title: self.title.clone(), provenance: provenance.clone() };
@@ -200,7 +212,7 @@ impl Figure {
     /// everything went, for layout checks.
     pub fn inspect(&self, opts: &RenderOptions) -> Result<Record> {
         ensure_font(opts.font.as_deref())?;
-        let sc = Scale::new(opts, Format::Png);
+        let sc = Scale::new(opts, Format::Png, opts.width_for(self));
         let layout = self.layout(&sc);
         inspect::record(layout.size, |root| self.draw(root, &layout, &sc))
     }
@@ -327,7 +339,7 @@ struct Scale {
 }
 
 impl Scale {
-    fn new(opts: &RenderOptions, format: Format) -> Self {
+    fn new(opts: &RenderOptions, format: Format, width_mm: f64) -> Self {
         // PNG: pixels at `dpi`; SVG and PDF: two units a point (text and lines placed on a half-point grid).
         let u = match format {
             Format::Png => opts.dpi / 72.0,
@@ -340,7 +352,7 @@ impl Scale {
         let font = (opts.font_pt * PLOTTERS_EM * u).ceil();
         Scale {
             u,
-            width: opts.width_mm / 25.4 * 72.0 * u,
+            width: width_mm / 25.4 * 72.0 * u,
             font,
             tick_font: (0.9 * font).ceil(),
             title: (1.15 * font).ceil(),
@@ -1016,7 +1028,12 @@ mod tests {
         assert_eq!(r[0], r[1]);
         assert_eq!(r[0], Some((0.0, 2.0 * (61 + 86) as f64)));
         assert_eq!(r[2], Some((0.0, (61 + 86) as f64)));
-        let sc = Scale::new(&RenderOptions::default(), Format::Png);
+        // three panels: the two-column page unless a width is asked for; one panel: a column
+        let opts = RenderOptions::default();
+        assert_eq!(opts.width_for(&fig), TWO_COLUMNS_MM);
+        assert_eq!(opts.width_for(&Figure::new("g", "t", vec![map(1.0, "a")], 1)), ONE_COLUMN_MM);
+        assert_eq!(RenderOptions { width_mm: Some(120.0), ..opts }.width_for(&fig), 120.0);
+        let sc = Scale::new(&RenderOptions::default(), Format::Png, TWO_COLUMNS_MM);
         let Panel::Map(p) = &fig.panels[0] else { unreachable!() };
         let tall = Row { height: 2000.0, caption_h: 40.0, legend_h: 0.0 };
         for row in [None, Some(&tall)] {
@@ -1027,7 +1044,7 @@ mod tests {
 
     #[test]
     fn print_size_gives_the_dpi_and_the_font_asked_for() {
-        let sc = Scale::new(&RenderOptions::default(), Format::Png);
+        let sc = Scale::new(&RenderOptions::default(), Format::Png, TWO_COLUMNS_MM);
         // 180 mm at 300 dpi, 8 pt at 300 dpi
         assert_eq!(sc.width.round(), (180.0 / 25.4 * 300.0f64).round());
         assert!((sc.font / PLOTTERS_EM - 8.0 * 300.0 / 72.0).abs() < 1.0);
@@ -1037,7 +1054,7 @@ mod tests {
     #[test]
     fn axis_titles_lose_their_description_when_the_axis_is_short() {
         ensure_font_for_tests();
-        let sc = Scale::new(&RenderOptions::default(), Format::Png);
+        let sc = Scale::new(&RenderOptions::default(), Format::Png, TWO_COLUMNS_MM);
         assert_eq!(fit_axis_label("y, cross direction (mm)", 2000.0, &sc), "y, cross direction (mm)");
         assert_eq!(fit_axis_label("y, cross direction (mm)", 100.0, &sc), "y (mm)");
         assert_eq!(fit_axis_label("x, machine direction", 100.0, &sc), "x");

@@ -79,9 +79,13 @@ fn prune_keeps_current_versions_and_their_inputs_and_removes_the_rest_atomically
     assert!(o.contains("removed 1 version from") && o.contains("--repack"), "{o}");
     assert_eq!(versions(d).0, v(&[("fibre", &[1, 2]), ("spectra", &[2, 3])]));
 
-    // Default --keep 0.
+    // Default --keep 0; the figures of removed versions go with them, the kept ones' stay.
+    ok(d, &["plot", "out/study.h5", "spectra@v3", "spectra@v2"]);
+    let figures = |n: u32| d.join(format!("out/study_figures/spectra/v{n}"));
+    assert!(figures(3).is_dir() && figures(2).is_dir());
     let o = ok(d, &["prune", "out/study.h5"]);
     assert!(o.contains("removed /spectra/v3\n"), "{o}");
+    assert!(!figures(3).exists() && figures(2).is_dir(), "figures of the removed v3 left, or of the kept v2 removed");
     assert_eq!(versions(d), (v(&[("fibre", &[1, 2]), ("spectra", &[2])]), vec![("fibre".into(), 2), ("spectra".into(), 2)]));
     // Nothing left to prune.
     let o = ok(d, &["prune", "out/study.h5"]);

@@ -6,7 +6,9 @@
 //! stage with no `current` mark (an archive written before marks existed) is kept whole.
 //! Everything else is removed in one commit through the archive's own transaction (copy
 //! to `<archive>.partial`, unlink, fsync, rename): a prune killed at any moment leaves the
-//! archive as it was or pruned, never half pruned. The run lock is held throughout.
+//! archive as it was or pruned, never half pruned. The run lock is held throughout. The
+//! figure folders of removed versions (`<archive stem>_figures/<stage>/v<N>`) are
+//! deleted after the commit.
 //!
 //! HDF5 does not give back the space of unlinked groups: the file keeps its size (later
 //! commits copy it whole). [`repack`] writes the kept groups into a new file, group by
@@ -131,7 +133,15 @@ pub fn apply(archive: &Archive, plan: &Plan) -> Result<()> {
             file.group(stage)?.unlink(&format!("v{n}")).with_context(|| format!("removing /{stage}/v{n}"))?;
         }
         Ok(())
-    })
+    })?;
+    // Their figure folders go too, once the versions are gone (numbers are never reused).
+    for (stage, n) in &plan.removed {
+        let dir = super::figure_dir(&archive.path, stage, *n);
+        if dir.is_dir() {
+            fs::remove_dir_all(&dir).with_context(|| format!("/{stage}/v{n} is removed, but not its figures in {}", dir.display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// Rewrite the archive into a new file holding only what it links to (giving back the

@@ -78,6 +78,7 @@ pub mod rod;
 pub mod run_summary;
 pub mod runner;
 pub mod schema;
+pub mod signal_scope;
 pub mod stages;
 pub mod table;
 pub mod uniformity;

@@ -494,7 +494,7 @@ extern "C" fn remove_partial_and_die(sig: libc::c_int) {
 /// before the process dies of the signal (SIGKILL cannot be caught: the next run removes
 /// the file). Dropping the guard restores the previous handlers.
 struct PartialGuard {
-    old: Vec<(libc::c_int, libc::sigaction)>,
+    handlers: Option<crate::signal_scope::Handlers>,
 }
 
 impl PartialGuard {
@@ -505,31 +505,14 @@ impl PartialGuard {
         if let Ok(c) = std::ffi::CString::new(partial.as_os_str().as_bytes()) {
             PARTIAL_PATH.store(c.into_raw(), std::sync::atomic::Ordering::SeqCst);
         }
-        let mut old = vec![];
-        for sig in FATAL_SIGNALS {
-            // SAFETY: a plain sigaction whose handler makes only async-signal-safe calls.
-            unsafe {
-                let mut action: libc::sigaction = std::mem::zeroed();
-                action.sa_sigaction = remove_partial_and_die as *const () as libc::sighandler_t;
-                libc::sigemptyset(&mut action.sa_mask);
-                let mut previous: libc::sigaction = std::mem::zeroed();
-                if libc::sigaction(sig, &action, &mut previous) == 0 {
-                    old.push((sig, previous));
-                }
-            }
-        }
-        PartialGuard { old }
+        PartialGuard { handlers: Some(crate::signal_scope::Handlers::install(&FATAL_SIGNALS, remove_partial_and_die, 0)) }
     }
 }
 
 impl Drop for PartialGuard {
     fn drop(&mut self) {
-        for (sig, previous) in &self.old {
-            // SAFETY: restores the action saved by `install`.
-            unsafe {
-                libc::sigaction(*sig, previous, std::ptr::null_mut());
-            }
-        }
+        // the previous handlers first, then the path they read
+        drop(self.handlers.take());
         PARTIAL_PATH.store(std::ptr::null_mut(), std::sync::atomic::Ordering::SeqCst);
     }
 }

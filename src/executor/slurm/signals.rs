@@ -18,38 +18,13 @@ extern "C" fn on_signal(sig: libc::c_int) {
 /// SIGINT and SIGTERM recorded in [`INTERRUPTED`] instead of ending the process, while
 /// the guard lives; the previous dispositions are restored when it is dropped.
 pub(super) struct SignalGuard {
-    old: Vec<(libc::c_int, libc::sigaction)>,
+    _handlers: crate::signal_scope::Handlers,
 }
 
 impl SignalGuard {
     pub(super) fn install() -> Self {
         INTERRUPTED.store(0, Ordering::SeqCst);
-        let mut old = vec![];
-        for sig in [libc::SIGINT, libc::SIGTERM] {
-            // SAFETY: a plain sigaction with a handler that only stores an atomic.
-            unsafe {
-                let mut act: libc::sigaction = std::mem::zeroed();
-                act.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-                act.sa_flags = libc::SA_RESTART;
-                libc::sigemptyset(&mut act.sa_mask);
-                let mut prev: libc::sigaction = std::mem::zeroed();
-                if libc::sigaction(sig, &act, &mut prev) == 0 {
-                    old.push((sig, prev));
-                }
-            }
-        }
-        SignalGuard { old }
-    }
-}
-
-impl Drop for SignalGuard {
-    fn drop(&mut self) {
-        for (sig, prev) in &self.old {
-            // SAFETY: restoring the disposition saved by `install`.
-            unsafe {
-                libc::sigaction(*sig, prev, std::ptr::null_mut());
-            }
-        }
+        SignalGuard { _handlers: crate::signal_scope::Handlers::install(&[libc::SIGINT, libc::SIGTERM], on_signal, libc::SA_RESTART) }
     }
 }
 

@@ -40,16 +40,37 @@ fn grid_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), InvalidParam
     }
 }
 
-/// A web's spectrum comes from an input spectra stage or a preset: one of them, not both.
+/// What a web's fibres are made from, by generator: random_phase needs a spectrum (an
+/// input spectra stage or a preset, not both); laid_segments needs an input of laid
+/// fibres; lay_down_sde needs its two parameters or an input to calibrate them on.
 fn web_source(stage: &Declared) -> Result<(), InvalidParam> {
     for p in &stage.points {
         let preset = p.text("preset");
-        match stage.inputs.first() {
-            None if preset == "none" => {
+        let generator = p.text("generator");
+        let input = stage.inputs.first();
+        if generator != "random_phase" && preset != "none" {
+            return Err(InvalidParam::new("preset".into(), format!("a preset spectrum is for generator random_phase; generator {generator} does not use one; allowed: none")));
+        }
+        match (generator, input) {
+            ("random_phase", None) if preset == "none" => {
                 return Err(InvalidParam::new("preset".into(), "a web needs a spectrum; allowed: `input: <spectra stage>` or `preset: spectrum1|spectrum2|spectrum3`".into()));
             }
-            Some(input) if preset != "none" => {
+            ("random_phase", Some(input)) if preset != "none" => {
                 return Err(InvalidParam::new("preset".into(), format!("give either an input spectra stage or `preset`, not both (input `{}`, preset {preset}); allowed with an input: none", input.name)));
+            }
+            ("laid_segments", None) => {
+                return Err(InvalidParam::new("generator".into(), "generator laid_segments joins laid fibres; allowed: with `input: <spectra stage>` computed from a laydown or laid_web stage".into()));
+            }
+            ("lay_down_sde", input) => {
+                let given = (p.f64_or_auto("sde_potential_length").is_some(), p.f64_or_auto("sde_noise").is_some());
+                match (given, input) {
+                    ((true, false), _) => return Err(InvalidParam::new("sde_noise".into(), "lay_down_sde: sde_potential_length is given, sde_noise is not; allowed: both, or neither to calibrate them on the input".into())),
+                    ((false, true), _) => return Err(InvalidParam::new("sde_potential_length".into(), "lay_down_sde: sde_noise is given, sde_potential_length is not; allowed: both, or neither to calibrate them on the input".into())),
+                    ((false, false), None) => {
+                        return Err(InvalidParam::new("generator".into(), "generator lay_down_sde has nothing to calibrate its parameters on; allowed: give `sde_potential_length` and `sde_noise`, or an input spectra stage of laid fibres".into()))
+                    }
+                    _ => {}
+                }
             }
             _ => {}
         }

@@ -10,7 +10,8 @@ use rayon::prelude::*;
 use rustfft::{Fft, FftPlanner};
 
 use super::trig::{sin_cos, sin_cos_slices};
-use super::{SpectrumSelection, WebError, WebParams};
+use super::sde::{Draws, LayDownSde};
+use super::{Generator, SpectrumSelection, WebError, WebParams};
 use crate::stages::spectra::{check_compatible, CurvatureSpectrum};
 
 /// Domain tag in the ChaCha key, so other stages' streams from the same seed differ.
@@ -87,22 +88,38 @@ pub struct FibreScratch {
     cos: Vec<f64>,
 }
 
-/// A web definition: parameters plus the spectrum set, ready to generate any fibre
-/// of any realisation on demand.
+/// What the fibres are made from (one variant per [`Generator`]).
+#[derive(Clone)]
+enum Source {
+    /// Spectra with random phases (eqs 11-12).
+    Spectra { spectra: Vec<Prepared>, ifft: Arc<dyn Fft<f64>> },
+    /// Laid fibres' curvature samples, N each, joined as they are.
+    Templates(Vec<Vec<f64>>),
+    /// The ITWM lay-down SDE.
+    Sde(LayDownSde),
+}
+
+/// A web definition: parameters plus what its fibres are made from (a spectrum set,
+/// laid-fibre templates or the lay-down SDE), ready to generate any fibre of any
+/// realisation on demand.
 #[derive(Clone)]
 pub struct Web {
     params: WebParams,
-    spectra: Vec<Prepared>,
+    source: Source,
     points: usize,
     segment_length: f64,
-    ifft: Arc<dyn Fft<f64>>,
 }
 
 impl std::fmt::Debug for Web {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let source = match &self.source {
+            Source::Spectra { spectra, .. } => format!("{} spectra", spectra.len()),
+            Source::Templates(t) => format!("{} laid templates", t.len()),
+            Source::Sde(m) => format!("{m:?}"),
+        };
         f.debug_struct("Web")
             .field("params", &self.params)
-            .field("spectra", &self.spectra.len())
+            .field("source", &source)
             .field("points_per_segment", &self.points)
             .field("segment_length", &self.segment_length)
             .finish()
@@ -110,18 +127,73 @@ impl std::fmt::Debug for Web {
 }
 
 impl Web {
-    /// Validates the parameters and the spectrum set (non-empty, common N and L).
+    /// A `random_phase` web (the paper's surrogate). Validates the parameters and the
+    /// spectrum set (non-empty, common N and L).
     pub fn new(params: WebParams, spectra: Vec<CurvatureSpectrum>) -> Result<Self, WebError> {
         params.validate()?;
+        if params.generator != Generator::RandomPhase {
+            return Err(WebError::Generator(format!("a {} web is built with Web::{}", params.generator.name(), params.generator.name())));
+        }
         check_compatible(&spectra)?;
         let points = spectra[0].points();
         let segment_length = spectra[0].segment_length();
         let ifft = FftPlanner::new().plan_fft_inverse(points);
-        Ok(Self { params, spectra: spectra.iter().map(Prepared::new).collect(), points, segment_length, ifft })
+        Ok(Self { params, source: Source::Spectra { spectra: spectra.iter().map(Prepared::new).collect(), ifft }, points, segment_length })
+    }
+
+    /// A `laid_segments` web: every segment is one of `templates` (curvature samples of
+    /// laid fibres at arc-length spacing `spacing`, all of the same length N), joined by
+    /// eq 13 with its own phases.
+    pub fn laid_segments(params: WebParams, templates: Vec<Vec<f64>>, spacing: f64) -> Result<Self, WebError> {
+        params.validate()?;
+        let bad = |m: String| Err(WebError::Generator(m));
+        let points = match templates.first() {
+            None => return bad("laid_segments needs at least one laid fibre (template)".into()),
+            Some(t) => t.len(),
+        };
+        if points < 2 {
+            return bad(format!("laid_segments: templates of {points} samples are too short"));
+        }
+        if let Some(i) = templates.iter().position(|t| t.len() != points) {
+            return bad(format!("laid_segments: template {i} has {} samples, template 0 has {points}; all must share N", templates[i].len()));
+        }
+        if let Some(i) = templates.iter().position(|t| t.iter().any(|k| !k.is_finite())) {
+            return bad(format!("laid_segments: template {i} has a non-finite curvature sample"));
+        }
+        if !(spacing > 0.0 && spacing.is_finite()) {
+            return bad(format!("laid_segments: sample spacing must be positive, got {spacing}"));
+        }
+        Ok(Self { params: WebParams { generator: Generator::LaidSegments, ..params }, source: Source::Templates(templates), points, segment_length: spacing * points as f64 })
+    }
+
+    /// A `lay_down_sde` web: fibres of the ITWM model integrated at Δs = `spacing`, with
+    /// segments of `points` steps (the segment only counts the length: the SDE runs on
+    /// across segments).
+    pub fn lay_down_sde(params: WebParams, model: LayDownSde, spacing: f64, points: usize) -> Result<Self, WebError> {
+        params.validate()?;
+        model.validate().map_err(WebError::Generator)?;
+        if !(spacing > 0.0 && spacing.is_finite()) || points == 0 {
+            return Err(WebError::Generator(format!("lay_down_sde: need a positive step and segment, got Δs = {spacing}, N = {points}")));
+        }
+        Ok(Self { params: WebParams { generator: Generator::LayDownSde, ..params }, source: Source::Sde(model), points, segment_length: spacing * points as f64 })
     }
 
     pub fn params(&self) -> &WebParams {
         &self.params
+    }
+    /// The lay-down SDE's parameters, for a `lay_down_sde` web.
+    pub fn sde_model(&self) -> Option<LayDownSde> {
+        match &self.source {
+            Source::Sde(m) => Some(*m),
+            _ => None,
+        }
+    }
+    /// The laid-fibre templates' curvature samples, for a `laid_segments` web.
+    pub fn templates(&self) -> Option<&[Vec<f64>]> {
+        match &self.source {
+            Source::Templates(t) => Some(t),
+            _ => None,
+        }
     }
     /// N, samples per segment.
     pub fn points_per_segment(&self) -> usize {
@@ -152,11 +224,21 @@ impl Web {
         self.params.belt_speed_ratio * self.fibre_length()
     }
 
-    /// Start tangent angle and the n_l·N curvature samples of one fibre (eqs 11-12).
+    /// Start tangent angle and the n_l·N curvature samples of one fibre (eqs 11-12 for
+    /// `random_phase`, the joined templates for `laid_segments`; for `lay_down_sde` the
+    /// chord turning rates of its polyline, [`super::sde::chord_curvature`]).
     pub fn fibre_curvature(&self, realisation: u32, fibre: usize) -> (f64, Vec<f64>) {
         let mut scratch = FibreScratch::default();
-        let theta = self.curvature_into(realisation, fibre, &mut scratch);
-        (theta, scratch.curvature)
+        match &self.source {
+            Source::Sde(_) => {
+                self.tangent_angles_into(realisation, fibre, &mut scratch);
+                (scratch.theta[0], super::sde::chord_curvature(&scratch.theta, self.spacing()))
+            }
+            _ => {
+                let theta = self.curvature_into(realisation, fibre, &mut scratch);
+                (theta, scratch.curvature)
+            }
+        }
     }
 
     fn curvature_into(&self, realisation: u32, fibre: usize, scratch: &mut FibreScratch) -> f64 {
@@ -165,33 +247,76 @@ impl Web {
         let mut rng = fibre_rng(self.params.seed, realisation, fibre as u32);
         let theta_start = 2.0 * PI * uniform(&mut rng);
         scratch.curvature.resize(segments * n, 0.0);
-        scratch.spectrum.resize(n, Complex64::default());
-        scratch.fft.resize(self.ifft.get_inplace_scratch_len(), Complex64::default());
-        let choose = |rng: &mut ChaCha8Rng| match self.params.spectrum_selection {
-            SpectrumSelection::Single => &self.spectra[0],
-            SpectrumSelection::PerSegment => &self.spectra[index(rng, self.spectra.len())],
-        };
-        // Two real segments per complex inverse FFT: IDFT(A + iB) = a + ib.
-        for pair in (0..segments).step_by(2) {
-            let buf = &mut scratch.spectrum;
-            buf.fill(Complex64::default());
-            choose(&mut rng).add_random(&mut rng, Complex64::new(1.0, 0.0), buf);
-            let second = pair + 1 < segments;
-            if second {
-                choose(&mut rng).add_random(&mut rng, Complex64::new(0.0, 1.0), buf);
-            }
-            self.ifft.process_with_scratch(buf, &mut scratch.fft); // eq 12 (no 1/N)
-            let out = &mut scratch.curvature[pair * n..];
-            for m in 0..n {
-                out[m] = buf[m].re;
-            }
-            if second {
-                for m in 0..n {
-                    out[n + m] = buf[m].im;
+        match &self.source {
+            Source::Spectra { spectra, ifft } => {
+                scratch.spectrum.resize(n, Complex64::default());
+                scratch.fft.resize(ifft.get_inplace_scratch_len(), Complex64::default());
+                let choose = |rng: &mut ChaCha8Rng| match self.params.spectrum_selection {
+                    SpectrumSelection::Single => &spectra[0],
+                    SpectrumSelection::PerSegment => &spectra[index(rng, spectra.len())],
+                };
+                // Two real segments per complex inverse FFT: IDFT(A + iB) = a + ib.
+                for pair in (0..segments).step_by(2) {
+                    let buf = &mut scratch.spectrum;
+                    buf.fill(Complex64::default());
+                    choose(&mut rng).add_random(&mut rng, Complex64::new(1.0, 0.0), buf);
+                    let second = pair + 1 < segments;
+                    if second {
+                        choose(&mut rng).add_random(&mut rng, Complex64::new(0.0, 1.0), buf);
+                    }
+                    ifft.process_with_scratch(buf, &mut scratch.fft); // eq 12 (no 1/N)
+                    let out = &mut scratch.curvature[pair * n..];
+                    for m in 0..n {
+                        out[m] = buf[m].re;
+                    }
+                    if second {
+                        for m in 0..n {
+                            out[n + m] = buf[m].im;
+                        }
+                    }
                 }
             }
+            Source::Templates(templates) => {
+                // Per segment: the template index, then (with `mirror`) the mirror draw.
+                for out in scratch.curvature.chunks_exact_mut(n) {
+                    let template = &templates[index(&mut rng, templates.len())];
+                    if self.params.mirror && uniform(&mut rng) < 0.5 {
+                        for (o, k) in out.iter_mut().zip(template) {
+                            *o = -k;
+                        }
+                    } else {
+                        out.copy_from_slice(template);
+                    }
+                }
+            }
+            Source::Sde(_) => unreachable!("the lay-down SDE draws tangent angles, not curvature"),
         }
         theta_start
+    }
+
+    /// Fills `scratch.theta` with the fibre's n_l·N + 1 tangent angles and returns the
+    /// first node's offset from its starting point (non-zero only for the SDE, whose
+    /// fibre starts at η_0 from its deposition point).
+    fn tangent_angles_into(&self, realisation: u32, fibre: usize, scratch: &mut FibreScratch) -> [f64; 2] {
+        let total = self.params.segments_per_fibre * self.points;
+        if let Source::Sde(model) = &self.source {
+            let mut rng = fibre_rng(self.params.seed, realisation, fibre as u32);
+            return model.tangent_angles_into(&mut Draws::new(&mut rng), total, self.spacing(), &mut scratch.theta);
+        }
+        let theta_start = self.curvature_into(realisation, fibre, scratch);
+        let kappa = &scratch.curvature;
+        let closing = kappa[total - self.points]; // last segment's κ_0 (periodic close)
+        let half_ds = 0.5 * self.spacing();
+        let theta = &mut scratch.theta;
+        theta.resize(total + 1, 0.0);
+        let mut t = theta_start;
+        theta[0] = t;
+        for k in 0..total - 1 {
+            t += (kappa[k] + kappa[k + 1]) * half_ds; // eq 13
+            theta[k + 1] = t;
+        }
+        theta[total] = t + (kappa[total - 1] + closing) * half_ds;
+        [0.0, 0.0]
     }
 
     /// All n_l·N + 1 nodes [x (MD), y (CD)] of one fibre (m). Bit-identical to the
@@ -205,35 +330,33 @@ impl Web {
     /// As [`Self::generate_fibre`], reusing buffers.
     pub fn generate_fibre_into(&self, realisation: u32, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) {
         assert!(fibre < self.params.fibres_across, "fibre {fibre} of {}", self.params.fibres_across);
-        let theta_start = self.curvature_into(realisation, fibre, scratch);
-        let kappa = &scratch.curvature;
-        let total = kappa.len();
-        let closing = kappa[total - self.points]; // last segment's κ_0 (periodic close)
+        // Three passes so the sin/cos loop vectorises: θ (eq 13 or the SDE), (sin θ, cos θ), nodes.
+        let offset = self.tangent_angles_into(realisation, fibre, scratch);
+        let total = scratch.theta.len() - 1;
         let half_ds = 0.5 * self.spacing();
         let drift_ds = self.params.belt_speed_ratio * self.spacing();
-        // Three passes so the sin/cos loop vectorises: θ (eq 13), (sin θ, cos θ), nodes.
-        let theta = &mut scratch.theta;
-        theta.resize(total + 1, 0.0);
-        let mut t = theta_start;
-        theta[0] = t;
-        for k in 0..total - 1 {
-            t += (kappa[k] + kappa[k + 1]) * half_ds; // eq 13
-            theta[k + 1] = t;
-        }
-        theta[total] = t + (kappa[total - 1] + closing) * half_ds;
         scratch.sin.resize(total + 1, 0.0);
         scratch.cos.resize(total + 1, 0.0);
-        sin_cos_slices(theta, &mut scratch.sin, &mut scratch.cos);
+        sin_cos_slices(&scratch.theta, &mut scratch.sin, &mut scratch.cos);
         let (sin, cos) = (&scratch.sin[..], &scratch.cos[..]);
         nodes.clear();
         nodes.resize(total + 1, [0.0; 2]);
-        let mut p = [0.0, self.params.start_y(fibre)];
+        let mut p = [offset[0], self.params.start_y(fibre) + offset[1]];
         nodes[0] = p;
         for (((out, c), s), (c1, s1)) in nodes[1..].iter_mut().zip(cos).zip(sin).zip(cos[1..].iter().zip(&sin[1..])) {
             p[0] += (c + c1) * half_ds + drift_ds; // eqs 13-14
             p[1] += (s + s1) * half_ds;
             *out = p;
         }
+    }
+
+    /// S (eq 5) and e (eq 6) of each of one fibre's n_l segments, belt drift left out:
+    /// its curvature samples ([`Self::fibre_curvature`]) cut into segments and measured by
+    /// [`super::sde::window_shape`], as the input's laid fibres are. What a generator keeps
+    /// of its input's shape.
+    pub fn segment_shapes(&self, realisation: u32, fibre: usize) -> Vec<(f64, f64)> {
+        let (_, kappa) = self.fibre_curvature(realisation, fibre);
+        kappa.chunks_exact(self.points).map(|w| super::sde::window_shape(w, self.spacing())).collect()
     }
 
     /// Calls `visit(fibre, nodes)` for every fibre of a realisation, in parallel on

@@ -40,6 +40,7 @@
 //! assert_eq!(nodes.into_inner(), 4 * 3001);
 //! ```
 mod generate;
+pub mod sde;
 mod stage;
 pub mod trig;
 
@@ -49,6 +50,38 @@ pub use generate::{fibre_rng, FibreScratch, Web};
 
 use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
 use crate::stages::spectra::SpectraError;
+
+/// How a web's fibres are made (the `generator` parameter).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Generator {
+    /// The paper's surrogate (eqs 11-13): segments with the input's curvature spectrum
+    /// and random phases.
+    #[default]
+    RandomPhase,
+    /// Laid fibres (belt removed) joined end to end with their own curvature, hence
+    /// their own phases and shape; each segment a template drawn uniformly, optionally
+    /// mirrored (κ → −κ). Joins are continuous in position and tangent because the
+    /// curvature sequence is integrated across them (eq 13), which rotates each template
+    /// to continue its predecessor's last tangent; the first is rotated uniformly.
+    LaidSegments,
+    /// The ITWM stochastic lay-down model ([`sde`]), calibrated on the laid fibres or given.
+    LayDownSde,
+}
+
+impl Generator {
+    pub const CHOICES: &'static [&'static str] = &["random_phase", "laid_segments", "lay_down_sde"];
+    pub fn name(self) -> &'static str {
+        Self::CHOICES[self as usize]
+    }
+    pub fn from_name(name: &str) -> Result<Self, ParamError> {
+        match name {
+            "random_phase" => Ok(Self::RandomPhase),
+            "laid_segments" => Ok(Self::LaidSegments),
+            "lay_down_sde" => Ok(Self::LayDownSde),
+            _ => Err(spec(WEB_PARAMS, "generator").check_choice(name).unwrap_err()),
+        }
+    }
+}
 
 /// Which spectrum of the set each segment uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -97,6 +130,9 @@ pub struct WebParams {
     /// ρ (kg/m³).
     pub fibre_density: f64,
     pub spectrum_selection: SpectrumSelection,
+    pub generator: Generator,
+    /// `laid_segments`: mirror each template with probability ½.
+    pub mirror: bool,
     /// Master seed of the random streams.
     pub seed: u64,
 }
@@ -111,6 +147,8 @@ impl Default for WebParams {
             fibre_diameter: 20e-6,
             fibre_density: 950.0,
             spectrum_selection: SpectrumSelection::Single,
+            generator: Generator::RandomPhase,
+            mirror: false,
             seed: 0,
         }
     }
@@ -156,6 +194,8 @@ pub const WEB_PARAMS: &[ParamSpec] = &[
     ParamSpec { name: "fibre_diameter", unit: "m", default: ParamDefault::Real(20e-6), min: f64::MIN_POSITIVE, max: 1e-2, choices: &[], doc: "d, fibre diameter (point mass ρπd²/4·Δs)" },
     ParamSpec { name: "fibre_density", unit: "kg/m^3", default: ParamDefault::Real(950.0), min: f64::MIN_POSITIVE, max: 1e5, choices: &[], doc: "ρ, fibre material density" },
     ParamSpec { name: "spectrum_selection", unit: "", default: ParamDefault::Choice("single"), min: f64::NAN, max: f64::NAN, choices: SpectrumSelection::CHOICES, doc: "single: every segment uses the first spectrum; per_segment: each segment draws one of the set" },
+    ParamSpec { name: "generator", unit: "", default: ParamDefault::Choice("random_phase"), min: f64::NAN, max: f64::NAN, choices: Generator::CHOICES, doc: "random_phase: the paper's surrogate (eqs 11-13); laid_segments: the input's laid fibres joined with their own phases; lay_down_sde: the ITWM stochastic lay-down model" },
+    ParamSpec { name: "mirror", unit: "", default: ParamDefault::Bool(false), min: 0.0, max: 1.0, choices: &[], doc: "laid_segments: mirror each joined template (κ → −κ) with probability 1/2" },
     ParamSpec { name: "seed", unit: "1", default: ParamDefault::Integer(0), min: 0.0, max: 18446744073709551615.0, choices: &[], doc: "master seed; fibre j of realisation k uses ChaCha8 stream k·2³²+j" },
 ];
 
@@ -168,6 +208,8 @@ pub enum WebError {
     Spectra(#[from] SpectraError),
     #[error("realisation {0} is beyond 2³²−1")]
     Realisation(u64),
+    #[error("{0}")]
+    Generator(String),
 }
 
 #[cfg(test)]

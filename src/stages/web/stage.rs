@@ -24,7 +24,8 @@
 //! **Memory** ([`Stage::estimate_memory`]): the stored fibres' nodes, generated and
 //! placed (32 B each), every thread's fibre buffers ([`SCRATCH_BYTES_PER_NODE`] per node
 //! of a fibre being generated) and the spectrum set (read and prepared, 48 B per bin).
-use super::{SpectrumSelection, Web, WebParams, WEB_PARAMS};
+use super::sde::{calibrate, window_shape, Calibration, LayDownSde, ShapeTarget, RESOLUTION};
+use super::{Generator, SpectrumSelection, Web, WebParams, WEB_PARAMS};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
@@ -71,7 +72,7 @@ pub fn declared_webs(stage: &Declared) -> Vec<DeclaredWeb> {
                 Some(s) => s.iter().fold((0.0, 0.0), |a, b| (f64::max(a.0, b.0), f64::max(a.1, b.1))),
                 None => (1.0, p.usize("points_per_segment") as f64),
             };
-            let spectra = if p.text("spectrum_selection") == "per_segment" { count } else { 1.0 };
+            let spectra = if p.text("spectrum_selection") == "per_segment" || p.text("generator") == "laid_segments" { count } else { 1.0 };
             let n_w = p.usize("fibres_across") as f64;
             let nodes = p.usize("segments_per_fibre") as f64 * n + 1.0;
             let stored = if n_w * nodes <= p.int("store_all_max_points") as f64 { n_w } else { (p.usize("sample_fibres") as f64).min(n_w) };
@@ -88,10 +89,20 @@ pub fn stored_bytes(stage: &Declared) -> f64 {
 /// One sweep point's web with where its spectrum came from.
 struct PointWeb {
     web: Web,
+    /// The spectra a `random_phase` web uses (empty for the other generators).
     spectra: Vec<CurvatureSpectrum>,
     source: String,
     sample: Vec<usize>,
+    /// Mean S and e of the input's laid fibres (None without laid fibres).
+    input_shape: Option<ShapeTarget>,
+    /// Mean S and e of the generated fibres' segment windows (belt removed).
+    generated_shape: ShapeTarget,
+    /// How the SDE's parameters were set.
+    calibration: Option<Calibration>,
 }
+
+/// Fibres of realisation 0 whose segment windows give a point's generated S and e.
+const SHAPE_FIBRES: usize = 8;
 
 impl Stage for WebStage {
     fn kind(&self) -> &'static str {
@@ -117,6 +128,9 @@ impl Stage for WebStage {
                 v.push(p.into());
             }
         }
+        v.push(ParamSpec::float("sde_potential_length", "m", 5e-3, 1e-9, 10.0, "lay_down_sde: b of the potential V = |η|²/(2b²) (auto: calibrated so the input's laid fibres' S is met)").auto_default());
+        v.push(ParamSpec::float("sde_noise", "m^-1/2", 1.0, 0.0, 1e6, "lay_down_sde: A, the Brownian noise on the tangent angle (auto: calibrated so the input's e is met)").auto_default());
+        v.push(ParamSpec::float("segment_length", "m", 1.0, 1e-6, 1e3, "lay_down_sde without an input: L of a segment (Δs = L/points_per_segment)"));
         v.push(ParamSpec::int("store_all_max_points", "1", 2_000_000, 0, i64::MAX, "store every fibre when the web has at most this many nodes; otherwise a sample"));
         v.push(ParamSpec::int("sample_fibres", "1", 8, 1, 1_000_000, "fibres stored for a larger web, evenly spread across it"));
         v
@@ -163,8 +177,9 @@ impl Stage for WebStage {
 }
 
 fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
-    let selection = SpectrumSelection::from_name(p.text("spectrum_selection")).map_err(|e| BadInput(e.to_string()))?;
-    let (spectra, source) = spectra_for(ctx, p, selection)?;
+    let bad = |e: &dyn std::fmt::Display| BadInput(format!("point {index}: {e}"));
+    let selection = SpectrumSelection::from_name(p.text("spectrum_selection")).map_err(|e| bad(&e))?;
+    let generator = Generator::from_name(p.text("generator")).map_err(|e| bad(&e))?;
     let params = WebParams {
         fibres_across: p.usize("fibres_across"),
         segments_per_fibre: p.usize("segments_per_fibre"),
@@ -173,9 +188,53 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
         fibre_diameter: p.f64("fibre_diameter"),
         fibre_density: p.f64("fibre_density"),
         spectrum_selection: selection,
+        generator,
+        mirror: p.bool("mirror"),
         seed: ctx.seed,
     };
-    let web = Web::new(params, spectra.clone()).map_err(|e| BadInput(format!("point {index}: {e}")))?;
+    if generator != Generator::RandomPhase && p.text("preset") != "none" {
+        return Err(BadInput(format!("`preset` gives a spectrum for generator random_phase; generator {} does not use one", generator.name())).into());
+    }
+    let laid = if ctx.inputs.is_empty() { None } else { Some(laid_fibres(ctx, p)?) };
+    let input_shape = laid.as_ref().and_then(|l| l.shape());
+    let (web, spectra, source, calibration) = match generator {
+        Generator::RandomPhase => {
+            let (spectra, source) = spectra_for(ctx, p, selection)?;
+            let web = Web::new(params, spectra.clone()).map_err(|e| bad(&e))?;
+            (web, spectra, source, None)
+        }
+        Generator::LaidSegments => {
+            let laid = laid.ok_or_else(|| BadInput("generator laid_segments joins laid fibres: give `input: <spectra stage>` computed from a laydown or laid_web stage".into()))?;
+            let source = format!("{}: {} laid fibres (belt removed) joined{}", laid.source, laid.curvature.len(), if params.mirror { ", mirrored at random" } else { "" });
+            let web = Web::laid_segments(params, laid.curvature, laid.spacing).map_err(|e| bad(&e))?;
+            (web, vec![], source, None)
+        }
+        Generator::LayDownSde => {
+            let given = (p.f64_or_auto("sde_potential_length"), p.f64_or_auto("sde_noise"));
+            let (spacing, points) = match &laid {
+                Some(l) => (l.spacing, l.curvature[0].len()),
+                None => (p.f64("segment_length") / p.usize("points_per_segment") as f64, p.usize("points_per_segment")),
+            };
+            let (model, calibration, source) = match (given, input_shape) {
+                ((Some(b), Some(a)), _) => (LayDownSde { potential_length: b, noise: a }, None, "lay_down_sde: parameters given".to_string()),
+                ((None, None), Some(target)) => {
+                    let fit = calibrate(target, spacing, points, ctx.seed).map_err(|e| bad(&e))?;
+                    let l = laid.as_ref().expect("a shape comes from laid fibres");
+                    let source = format!("lay_down_sde calibrated on {}: {} laid fibres", l.source, l.curvature.len());
+                    (fit.model, Some(fit), source)
+                }
+                ((None, None), None) => {
+                    return Err(BadInput("generator lay_down_sde needs its two parameters (`sde_potential_length`, `sde_noise`) or an input spectra stage of laid fibres to calibrate them on".into()).into())
+                }
+                _ => return Err(BadInput("lay_down_sde: give both `sde_potential_length` and `sde_noise`, or neither (both calibrated on the input)".into()).into()),
+            };
+            let web = Web::lay_down_sde(params, model, spacing, points).map_err(|e| bad(&e))?;
+            if let Some(remark) = sde_remark(&web, calibration.as_ref()) {
+                crate::status!("warning: web point {index}: {remark}");
+            }
+            (web, vec![], source, calibration)
+        }
+    };
     let n_w = params.fibres_across;
     let total = n_w as u128 * web.nodes_per_fibre() as u128;
     let sample = if total <= p.int("store_all_max_points") as u128 {
@@ -184,7 +243,98 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
         let k = p.usize("sample_fibres").min(n_w);
         (0..k).map(|i| (2 * i + 1) * n_w / (2 * k)).collect()
     };
-    Ok(PointWeb { web, spectra, source, sample })
+    let generated_shape = generated_shape(&web);
+    Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration })
+}
+
+/// What a researcher must know about a lay-down SDE web's numerics, if anything: a step
+/// coarser than b/[`RESOLUTION`] or a calibration that did not converge.
+fn sde_remark(web: &Web, calibration: Option<&Calibration>) -> Option<String> {
+    let model = web.sde_model()?;
+    let mut remarks = vec![];
+    if web.spacing() * RESOLUTION > model.potential_length {
+        remarks.push(format!(
+            "the SDE step Δs = {:.3e} m is coarser than b/{RESOLUTION} = {:.3e} m: the scheme's stationary spread is biased (27 % at b/2); sample the input finer",
+            web.spacing(),
+            model.potential_length / RESOLUTION
+        ));
+    }
+    if let Some(c) = calibration.filter(|c| !c.converged) {
+        remarks.push(format!(
+            "calibration did not converge: S {:.4e} m for {:.4e} m, e {:.4e} for {:.4e}",
+            c.achieved.radius_of_gyration, c.target.radius_of_gyration, c.achieved.bending_energy, c.target.bending_energy
+        ));
+    }
+    (!remarks.is_empty()).then(|| remarks.join("; "))
+}
+
+/// Mean S and e over the segment windows of up to [`SHAPE_FIBRES`] fibres of realisation 0.
+fn generated_shape(web: &Web) -> ShapeTarget {
+    let n_w = web.params().fibres_across;
+    let k = SHAPE_FIBRES.min(n_w);
+    let shapes: Vec<(f64, f64)> = (0..k).into_par_iter().flat_map_iter(|i| web.segment_shapes(0, (2 * i + 1) * n_w / (2 * k))).collect();
+    let n = shapes.len() as f64;
+    ShapeTarget { radius_of_gyration: shapes.iter().map(|s| s.0).sum::<f64>() / n, bending_energy: shapes.iter().map(|s| s.1).sum::<f64>() / n }
+}
+
+/// The laid fibres of one point of an input spectra stage: their curvature samples.
+struct LaidFibres {
+    curvature: Vec<Vec<f64>>,
+    spacing: f64,
+    source: String,
+}
+
+impl LaidFibres {
+    /// Mean S and e of the fibres, measured by [`window_shape`].
+    fn shape(&self) -> Option<ShapeTarget> {
+        let shapes: Vec<(f64, f64)> = self.curvature.iter().map(|k| window_shape(k, self.spacing)).collect();
+        let n = shapes.len() as f64;
+        (n > 0.0).then(|| ShapeTarget { radius_of_gyration: shapes.iter().map(|s| s.0).sum::<f64>() / n, bending_energy: shapes.iter().map(|s| s.1).sum::<f64>() / n })
+    }
+}
+
+/// Which point of the input spectra stage a web uses (`input_point`, or its only point).
+fn input_point(ctx: &RunContext, p: &ParamSet) -> Result<usize> {
+    let input = ctx.input(0);
+    let npoints = input.read_f64("segment_length")?.len();
+    let point = match p.0.get("input_point") {
+        Some(crate::params::ParamValue::Int(i)) => *i as usize,
+        _ if npoints == 1 => 0,
+        _ => {
+            return Err(BadInput(format!(
+                "input {} has {npoints} points; choose one with `input_point: 0..{}` (one web stage per spectrum)",
+                input.version.group_path(),
+                npoints - 1
+            ))
+            .into())
+        }
+    };
+    if point >= npoints {
+        return Err(BadInput(format!("input_point {point} is beyond the {npoints} points of {}", input.version.group_path())).into());
+    }
+    Ok(point)
+}
+
+/// The valid fibres' curvature rows (`curvature`, N samples at `sample_spacing`) of the
+/// input spectra stage's point: the laid fibres, belt removed, as the spectra stage sampled them.
+fn laid_fibres(ctx: &RunContext, p: &ParamSet) -> Result<LaidFibres> {
+    let input = ctx.input(0);
+    let point = input_point(ctx, p)?;
+    let kappa = input.read_f64("curvature")?; // (point, fibre, sample)
+    let valid = input.read_u8("valid")?;
+    let spacing = input.read_f64("sample_spacing")?[[point]];
+    let kappa = kappa.index_axis(Axis(0), point);
+    let mut curvature = vec![];
+    for f in 0..kappa.shape()[0] {
+        if valid[[point, f]] == 0 {
+            continue;
+        }
+        curvature.push(kappa.index_axis(Axis(0), f).iter().copied().take_while(|k| k.is_finite()).collect::<Vec<f64>>());
+    }
+    if curvature.is_empty() {
+        return Err(BadInput(format!("{} point {point} has no valid fibre", input.version.group_path())).into());
+    }
+    Ok(LaidFibres { curvature, spacing, source: format!("{} point {point}", input.version.group_path()) })
 }
 
 fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> Result<(Vec<CurvatureSpectrum>, String)> {
@@ -202,22 +352,7 @@ fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> 
     }
     let input = ctx.input(0);
     let lengths = input.read_f64("segment_length")?;
-    let npoints = lengths.len();
-    let point = match p.0.get("input_point") {
-        Some(crate::params::ParamValue::Int(i)) => *i as usize,
-        _ if npoints == 1 => 0,
-        _ => {
-            return Err(BadInput(format!(
-                "input {} has {npoints} points; choose one with `input_point: 0..{}` (one web stage per spectrum)",
-                input.version.group_path(),
-                npoints - 1
-            ))
-            .into())
-        }
-    };
-    if point >= npoints {
-        return Err(BadInput(format!("input_point {point} is beyond the {npoints} points of {}", input.version.group_path())).into());
-    }
+    let point = input_point(ctx, p)?;
     let length = lengths[[point]];
     let row = |re: &ndarray::ArrayViewD<f64>, im: &ndarray::ArrayViewD<f64>| -> Vec<Complex64> {
         re.iter().zip(im.iter()).take_while(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| Complex64::new(*a, *b)).collect()
@@ -257,7 +392,7 @@ fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> 
 fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibres: &[Vec<[f64; 2]>]) -> Result<Output> {
     let np = webs.len();
     let nan = f64::NAN;
-    let nspec = webs.iter().map(|w| w.spectra.len()).max().unwrap_or(0);
+    let nspec = webs.iter().map(|w| w.spectra.len()).max().unwrap_or(0).max(1);
     let nbins = webs.iter().map(|w| w.web.points_per_segment()).max().unwrap_or(0);
     let nsample = webs.iter().map(|w| w.sample.len()).max().unwrap_or(0);
     let nnodes = webs.iter().map(|w| w.web.nodes_per_fibre()).max().unwrap_or(0);
@@ -307,6 +442,43 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
     out.i64("sample_fibre_index", &["point", "sample_fibre"], index, "1", "index j of each stored fibre (-1: padding)");
     out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis: x machine direction (belt motion), y cross direction");
     out.f64("fibre_positions", &["point", "realisation", "sample_fibre", "node", "xy"], positions, "m", "nodes of the stored fibres (realisation = replicate), s = node·Δs; NaN padding");
+    out.strings("generator", "point", webs.iter().map(|w| w.web.params().generator.name().to_string()).collect(), "how the fibres are made: random_phase (eqs 11-13), laid_segments (laid fibres joined), lay_down_sde (ITWM stochastic lay-down model)");
+    out.flags("mirror", &["point"], Array1::from_iter(webs.iter().map(|w| w.web.params().mirror)), "laid_segments: templates mirrored at random");
+    let shape = |f: &dyn Fn(&PointWeb) -> Option<f64>| Array1::from_iter(webs.iter().map(|w| f(w).unwrap_or(nan)));
+    out.f64("input_radius_of_gyration", &["point"], shape(&|w| w.input_shape.map(|s| s.radius_of_gyration)), "m", "mean S (eq 5) of the input's laid fibres, belt removed, as the spectra stage sampled them (NaN: no laid input)");
+    out.f64("input_bending_energy", &["point"], shape(&|w| w.input_shape.map(|s| s.bending_energy)), "1", "mean e (eq 6) of the input's laid fibres at their Δs");
+    out.f64("generated_radius_of_gyration", &["point"], shape(&|w| Some(w.generated_shape.radius_of_gyration)), "m", "mean S of segment-long windows of the generated fibres, belt drift removed (8 fibres of realisation 0)");
+    out.f64("generated_bending_energy", &["point"], shape(&|w| Some(w.generated_shape.bending_energy)), "1", "mean e of the same windows");
+    out.f64("sde_potential_length", &["point"], shape(&|w| w.web.sde_model().map(|m| m.potential_length)), "m", "lay_down_sde: b of V = |η|²/(2b²) (NaN: other generator)");
+    out.f64("sde_noise", &["point"], shape(&|w| w.web.sde_model().map(|m| m.noise)), "m-1/2", "lay_down_sde: A, noise on the tangent angle");
+    out.strings(
+        "sde_calibration",
+        "point",
+        webs.iter()
+            .map(|w| match (&w.calibration, w.web.sde_model()) {
+                (Some(c), _) => format!(
+                    "calibrated on the input's laid fibres (seed {}): target S = {:.6e} m, e = {:.6e}; achieved S = {:.6e} m, e = {:.6e} over {} segments after {} iterations; {}",
+                    w.web.params().seed, c.target.radius_of_gyration, c.target.bending_energy, c.achieved.radius_of_gyration, c.achieved.bending_energy, c.segments, c.iterations,
+                    if c.converged { "converged (S 0.5 %, e 1 %)" } else { "NOT converged" }
+                ),
+                (None, Some(_)) => "given".to_string(),
+                (None, None) => String::new(),
+            } + &sde_remark(&w.web, w.calibration.as_ref()).map(|r| format!("; WARNING: {r}")).unwrap_or_default())
+            .collect(),
+        "lay_down_sde: how b and A were set (calibration target, fit and iterations)",
+    );
+    if let Some(longest) = webs.iter().filter_map(|w| w.web.templates()).map(|t| t.len()).max() {
+        let mut curvature = crate::memory::try_array((np, longest, nbins), nan, "the laid templates")?;
+        for (p, w) in webs.iter().enumerate() {
+            for (t, row) in w.web.templates().unwrap_or_default().iter().enumerate() {
+                for (m, k) in row.iter().enumerate() {
+                    curvature[[p, t, m]] = *k;
+                }
+            }
+        }
+        out.i64("template_count", &["point"], Array1::from_iter(webs.iter().map(|w| w.web.templates().map_or(0, |t| t.len() as i64))), "1", "laid_segments: templates (laid fibres) the segments are drawn from");
+        out.f64("template_curvature", &["point", "template", "template_sample"], curvature, "m-1", "laid_segments: curvature samples κ_m of each template at Δs = node_spacing (NaN padding)");
+    }
     out.attrs.insert(
         "fibre_sample_rule".into(),
         "all fibres when n_w·(n_l·N+1) <= store_all_max_points, else sample_fibres fibres j_i = floor((2i+1)·n_w/(2k))".into(),
@@ -325,14 +497,12 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
     let (re, im) = (f("spectrum_real")?, f("spectrum_imag")?);
     let selection = crate::archive::hdf::read_strings(&g, "spectrum_selection")?;
     let seeds = crate::archive::hdf::read_strings(&g, "rng_seed")?;
+    // Archives written before the generators existed hold random-phase webs only.
+    let spacing = f("node_spacing")?;
+    let mirror = if g.link_exists("mirror") { Some(crate::archive::hdf::read_u8(&g, "mirror")?) } else { None };
+    let generators = if g.link_exists("generator") { crate::archive::hdf::read_strings(&g, "generator")? } else { vec!["random_phase".to_string(); n_w.len()] };
     (0..n_w.len())
         .map(|p| {
-            let spectra = (0..count[[p]] as usize)
-                .map(|s| {
-                    let coeffs = (0..nn[[p]] as usize).map(|r| Complex64::new(re[[p, s, r]], im[[p, s, r]])).collect();
-                    CurvatureSpectrum::new(length[[p]], coeffs)
-                })
-                .collect::<Result<Vec<_>, _>>()?;
             let params = WebParams {
                 fibres_across: n_w[[p]] as usize,
                 segments_per_fibre: n_l[[p]] as usize,
@@ -341,9 +511,31 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
                 fibre_diameter: d[[p]],
                 fibre_density: rho[[p]],
                 spectrum_selection: SpectrumSelection::from_name(&selection[p])?,
+                generator: Generator::from_name(&generators[p])?,
+                mirror: mirror.as_ref().is_some_and(|m| m[[p]] != 0),
                 seed: seeds[p].parse()?,
             };
-            Ok(Web::new(params, spectra)?)
+            let spacing = spacing[[p]];
+            match params.generator {
+                Generator::RandomPhase => {
+                    let spectra = (0..count[[p]] as usize)
+                        .map(|s| {
+                            let coeffs = (0..nn[[p]] as usize).map(|r| Complex64::new(re[[p, s, r]], im[[p, s, r]])).collect();
+                            CurvatureSpectrum::new(length[[p]], coeffs)
+                        })
+                        .collect::<Result<Vec<_>, _>>()?;
+                    Ok(Web::new(params, spectra)?)
+                }
+                Generator::LaidSegments => {
+                    let (templates, kappa) = (i("template_count")?[[p]] as usize, f("template_curvature")?);
+                    let rows = (0..templates).map(|t| (0..nn[[p]] as usize).map(|m| kappa[[p, t, m]]).collect()).collect();
+                    Ok(Web::laid_segments(params, rows, spacing)?)
+                }
+                Generator::LayDownSde => {
+                    let model = LayDownSde { potential_length: f("sde_potential_length")?[[p]], noise: f("sde_noise")?[[p]] };
+                    Ok(Web::lay_down_sde(params, model, spacing, nn[[p]] as usize)?)
+                }
+            }
         })
         .collect()
 }

@@ -137,6 +137,14 @@ fn invalid_inputs_are_named() {
                 assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.spectrum_selection.name()));
                 continue;
             }
+            "generator" => {
+                assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.generator.name()));
+                continue;
+            }
+            "mirror" => {
+                assert_eq!(row.default, crate::param_table::ParamDefault::Bool(d.mirror));
+                continue;
+            }
             other => panic!("unexpected row {other}"),
         };
         let table = match row.default {

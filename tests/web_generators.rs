@@ -1,0 +1,216 @@
+//! The web stage's three generators (issue 14) through the pipeline, on laid fibres from a
+//! real laydown: what each keeps of the input's shape (S, e), mass conservation in an open
+//! web's interior, bit-identical results for 1 and 2 threads, and bit-exact regeneration
+//! of every generator's fibres from the archive alone.
+mod common;
+use common::*;
+use laydown::archive::{hdf, Archive};
+use laydown::stages::web::web_from_input;
+use laydown::stages::Input;
+use std::path::Path;
+
+/// Laid fibres (6 replicates of a short laydown), their spectra, a web of each generator
+/// on them and an open-web interior grid of each (4 realisations).
+const PIPELINE: &str = "pipeline: gen
+archive: gen.h5
+seed: 5
+stages:
+  - name: fibre
+    kind: laydown
+    params: {length: 0.3, elements: 300}
+    replicates: 6
+  - name: spectra
+    kind: spectra
+    input: fibre
+  - name: random_phase
+    kind: web
+    input: spectra
+    params: {WEB}
+  - name: laid_segments
+    kind: web
+    input: spectra
+    params: {generator: laid_segments, mirror: true, WEB}
+  - name: lay_down_sde
+    kind: web
+    input: spectra
+    params: {generator: lay_down_sde, WEB}
+  - name: grid_laid_segments
+    kind: grid
+    input: laid_segments
+    params: {GRID}
+    replicates: 4
+  - name: grid_lay_down_sde
+    kind: grid
+    input: lay_down_sde
+    params: {GRID}
+    replicates: 4
+";
+const WEB: &str = "fibres_across: 700, fibre_spacing: 0.0005, segments_per_fibre: 40, belt_speed_ratio: 0.05, store_all_max_points: 200000, sample_fibres: 3";
+const GRID: &str = "window_side: 0.1, cell_size: 0.002";
+const GENERATORS: [&str; 3] = ["random_phase", "laid_segments", "lay_down_sde"];
+
+fn yaml() -> String {
+    PIPELINE.replace("WEB", WEB).replace("GRID", GRID)
+}
+
+fn run(dir: &Path, threads: usize) {
+    write_pipeline(dir, "p.yaml", &yaml());
+    let out = run_in_with_threads(dir, threads, &["run", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+}
+
+fn read(dir: &Path, stage: &str, name: &str) -> ndarray::ArrayD<f64> {
+    let a = Archive::open_read(&dir.join("gen.h5")).unwrap();
+    hdf::read_f64(&a.version(stage, None).unwrap().open().unwrap(), name).unwrap()
+}
+
+fn input(dir: &Path, stage: &str) -> Input {
+    let a = Archive::open_read(&dir.join("gen.h5")).unwrap();
+    Input { name: stage.into(), kind: "web".into(), version: a.version(stage, None).unwrap() }
+}
+
+#[test]
+fn generators_keep_the_laid_shape_conserve_mass_and_reproduce() {
+    let (one, two) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    run(one.path(), 1);
+    run(two.path(), 2);
+    let dir = two.path();
+
+    // Shape: S and e of the generated segments against the laid fibres' (both measured on
+    // curvature samples at the input's Δs, belt removed).
+    for g in GENERATORS {
+        let (s_in, s_gen) = (read(dir, g, "input_radius_of_gyration")[[0]], read(dir, g, "generated_radius_of_gyration")[[0]]);
+        let (e_in, e_gen) = (read(dir, g, "input_bending_energy")[[0]], read(dir, g, "generated_bending_energy")[[0]]);
+        eprintln!("{g}: S {:.3} mm for {:.3} mm ({:+.1} %), e {e_gen:.1} for {e_in:.1} ({:+.1} %)", s_gen * 1e3, s_in * 1e3, 100.0 * (s_gen / s_in - 1.0), 100.0 * (e_gen / e_in - 1.0));
+        match g {
+            // Per-segment spectrum = the mean spectrum: e exact (Parseval); S is not kept.
+            "random_phase" => {
+                assert!((e_gen / e_in - 1.0).abs() < 1e-6, "{g}: e {e_gen} vs {e_in}");
+                assert!(s_gen > 1.3 * s_in, "{g}: random phases keep S? {s_gen} vs {s_in}");
+            }
+            _ => {
+                assert!((s_gen / s_in - 1.0).abs() < 0.05, "{g}: S {s_gen} vs {s_in}");
+                assert!((e_gen / e_in - 1.0).abs() < 0.10, "{g}: e {e_gen} vs {e_in}");
+            }
+        }
+    }
+    let calibration = hdf::read_strings(&input(dir, "lay_down_sde").version.open().unwrap(), "sde_calibration").unwrap();
+    assert!(calibration[0].contains("converged"), "{calibration:?}");
+    assert!(!calibration[0].contains("NOT converged") && !calibration[0].contains("WARNING"), "{calibration:?}");
+
+    // Mass: inside the open web's interior window, ρ_av = ρπd²/4/(Δw·c) within 2 %. (The
+    // random-phase fibres wander too far for this small web's interior; the paper's
+    // generator has its own mass tests in web_grid_stage.rs.)
+    for g in &GENERATORS[1..] {
+        let grid = format!("grid_{g}");
+        let rho = read(dir, &grid, "mean_areal_density");
+        let expected = read(dir, &grid, "expected_interior_density")[[0]];
+        let mean = rho.iter().sum::<f64>() / rho.len() as f64;
+        eprintln!("{g}: interior ρ_av {mean:.3} g/m² for {expected:.3} ({:+.2} %)", 100.0 * (mean / expected - 1.0));
+        assert!((mean / expected - 1.0).abs() < 0.02, "{g}: ρ_av {mean} vs {expected}: {rho}");
+    }
+
+    // Threads: every dataset of every web and grid is bit-identical for 1 and 2 threads.
+    for g in GENERATORS {
+        for (stage, names) in [(g.to_string(), vec!["fibre_positions", "generated_radius_of_gyration", "sde_noise"]), (format!("grid_{g}"), vec!["density", "cv"])] {
+            if stage == "grid_random_phase" {
+                continue;
+            }
+            for name in names {
+                let (a, b) = (read(one.path(), &stage, name), read(dir, &stage, name));
+                assert!(a.iter().zip(b.iter()).all(|(x, y)| x.to_bits() == y.to_bits()), "{stage}/{name} differs between 1 and 2 threads");
+            }
+        }
+    }
+
+    // Regeneration: the library rebuilds each web from its archive group and redraws the
+    // stored fibres bit for bit.
+    for g in GENERATORS {
+        let web = &web_from_input(&input(dir, g)).unwrap()[0];
+        assert_eq!(web.params().generator.name(), g);
+        let stored = read(dir, g, "fibre_positions");
+        let index = hdf::read_i64(&input(dir, g).version.open().unwrap(), "sample_fibre_index").unwrap();
+        for i in 0..stored.shape()[2] {
+            let nodes = web.generate_fibre(0, index[[0, i]] as usize);
+            for (k, n) in nodes.iter().enumerate() {
+                assert_eq!(n[0].to_bits(), stored[[0, 0, i, k, 0]].to_bits(), "{g} fibre {i} node {k}");
+                assert_eq!(n[1].to_bits(), stored[[0, 0, i, k, 1]].to_bits(), "{g} fibre {i} node {k}");
+            }
+        }
+    }
+}
+
+/// laid_segments joins the templates as they are: each segment's curvature is one
+/// template's (or its mirror), position and tangent are continuous across joins.
+#[test]
+fn laid_segments_are_the_templates_joined() {
+    use laydown::stages::web::{Generator, Web, WebParams};
+    let n = 200;
+    let ds = 1e-3;
+    let templates: Vec<Vec<f64>> = (0..3).map(|t| (0..n).map(|m| 50.0 + 30.0 * t as f64 + 80.0 * (0.05 * m as f64 + t as f64).sin()).collect()).collect();
+    let params = WebParams { fibres_across: 4, segments_per_fibre: 30, belt_speed_ratio: 0.1, mirror: true, ..WebParams::default() };
+    let web = Web::laid_segments(params, templates.clone(), ds).unwrap();
+    assert_eq!(web.params().generator, Generator::LaidSegments);
+    let (_, kappa) = web.fibre_curvature(1, 2);
+    let (mut mirrored, mut used) = (0, [false; 3]);
+    for seg in kappa.chunks(n) {
+        let hit = templates.iter().enumerate().find_map(|(t, k)| {
+            if k.as_slice() == seg {
+                Some((t, false))
+            } else if k.iter().zip(seg).all(|(a, b)| *a == -b) {
+                Some((t, true))
+            } else {
+                None
+            }
+        });
+        let (t, m) = hit.expect("every segment is a template or its mirror");
+        used[t] = true;
+        mirrored += m as usize;
+    }
+    assert!(used.iter().all(|u| *u), "all templates drawn: {used:?}");
+    assert!((5..25).contains(&mirrored), "mirrored {mirrored} of 30");
+    // Continuous: no step longer than Δs(1 + c) anywhere, joins included.
+    let nodes = web.generate_fibre(1, 2);
+    let max_step = nodes.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).fold(0.0, f64::max);
+    assert!(max_step <= ds * 1.1 + 1e-15, "{max_step}");
+    // Each segment has its template's shape.
+    for (shape, seg) in web.segment_shapes(1, 2).iter().zip(kappa.chunks(n)) {
+        let want = laydown::stages::web::sde::window_shape(seg, ds);
+        assert_eq!(*shape, want);
+    }
+}
+
+/// The SDE given directly (no input) makes a web; only one of its two parameters is an error.
+#[test]
+fn lay_down_sde_preset_and_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let web = "generator: lay_down_sde, sde_potential_length: 0.004, sde_noise: 3.0, points_per_segment: 250, segment_length: 0.25, fibres_across: 20, segments_per_fibre: 4";
+    let yaml = format!("pipeline: gen\narchive: gen.h5\nseed: 5\nstages:\n  - name: web\n    kind: web\n    params: {{{web}}}\n");
+    write_pipeline(tmp.path(), "p.yaml", &yaml);
+    let out = run_in(tmp.path(), &["run", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    assert_eq!(read(tmp.path(), "web", "sde_potential_length")[[0]], 0.004);
+    assert_eq!(read(tmp.path(), "web", "node_spacing")[[0]], 0.001);
+    // S of a segment is set by b: between b (a circle) and √2 b·(1 + ...) for long segments.
+    let s = read(tmp.path(), "web", "generated_radius_of_gyration")[[0]];
+    assert!(s > 0.004 && s < 0.0075, "S = {s}");
+
+    let bad = yaml.replace(", sde_noise: 3.0", "");
+    write_pipeline(tmp.path(), "bad.yaml", &bad);
+    let out = run_in(tmp.path(), &["run", "bad.yaml"]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{o}{e}");
+    assert!(e.contains("sde_noise"), "{e}");
+    let bad = yaml.replace("sde_potential_length: 0.004, sde_noise: 3.0, ", "");
+    write_pipeline(tmp.path(), "bad.yaml", &bad);
+    let out = run_in(tmp.path(), &["run", "bad.yaml"]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{o}{e}");
+    assert!(e.contains("nothing to calibrate"), "{e}");
+    let bad = yaml.replace("generator: lay_down_sde, sde_potential_length: 0.004, sde_noise: 3.0", "generator: laid_segments");
+    write_pipeline(tmp.path(), "bad.yaml", &bad);
+    let out = run_in(tmp.path(), &["run", "bad.yaml"]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{o}{e}");
+    assert!(e.contains("laid_segments joins laid fibres") && e.contains("p.yaml") == false && e.contains("bad.yaml"), "{e}");
+}

@@ -11,7 +11,8 @@
 //! replicate) each, one unit per array task (the default): a 4-point × 2-replicate
 //! laydown sweep with ragged node counts (8 tasks), a single-point laydown with 6
 //! replicates (6 tasks), a grid of a swept web (4 points × 2 realisations, 8 tasks) and
-//! a grid of an unswept web with 4 realisations (4 tasks); and a laydown sweep with
+//! a grid of an unswept web with 4 realisations (4 tasks), grids of a laid_segments and a
+//! lay_down_sde web (2 tasks each); and a laydown sweep with
 //! `valid_replicates_target`, whose unit is the whole point (4 tasks). A task failed on
 //! purpose (the worker's LAYDOWN_FAIL_TASK test hook) and a task killed with `scancel`
 //! while running (LAYDOWN_STALL_TASK keeps it running) fail the stage naming both logs
@@ -73,6 +74,27 @@ stages:
     input: web1
     params: {cell_size: 0.01, window_side: 0.1, boundary: periodic}
     replicates: 4
+  - name: single_spectra
+    kind: spectra
+    input: single
+    params: {sample_spacing: 0.0002}
+  - name: segweb
+    kind: web
+    input: single_spectra
+    params: {generator: laid_segments, mirror: true, fibres_across: 20, fibre_spacing: 0.005, segments_per_fibre: 400}
+  - name: seggrid
+    kind: grid
+    input: segweb
+    params: {cell_size: 0.01, window_side: 0.1, boundary: periodic}
+    replicates: 2
+  - name: sdeweb
+    kind: web
+    params: {generator: lay_down_sde, sde_potential_length: 0.004, sde_noise: 3.0, points_per_segment: 100, segment_length: 0.1, fibres_across: 20, fibre_spacing: 0.005, segments_per_fibre: 30}
+  - name: sdegrid
+    kind: grid
+    input: sdeweb
+    params: {cell_size: 0.01, window_side: 0.1, boundary: periodic}
+    replicates: 2
   - name: laid
     kind: laid_web
     params: {fibres_across: 2, fibre_spacing: 0.005, belt_travel: 0.04}
@@ -227,7 +249,9 @@ fn job_array_matches_local_and_rerun_submits_only_the_failed_tasks() {
     // of every stage, the per-point statistics over replicates (reduced at gather time)
     // among them.
     let mut compared = 0;
-    for group in ["/fibre/v1", "/single/v1", "/rounds/v1", "/web/v1", "/grid/v1", "/web1/v1", "/grid1/v1", "/laid/v1", "/laidgrid/v1"] {
+    for group in [
+        "/fibre/v1", "/single/v1", "/rounds/v1", "/web/v1", "/grid/v1", "/web1/v1", "/grid1/v1", "/segweb/v1", "/seggrid/v1", "/sdeweb/v1", "/sdegrid/v1", "/laid/v1", "/laidgrid/v1",
+    ] {
         let (a, b) = (datasets(&work.join("local.h5"), group), datasets(&work.join("slurm.h5"), group));
         let names = |v: &[(String, hdf5::Dataset)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
         assert_eq!(names(&a), names(&b), "{group}");
@@ -249,7 +273,7 @@ fn job_array_matches_local_and_rerun_submits_only_the_failed_tasks() {
         }
     }
     assert!(compared >= 150, "compared {compared} datasets");
-    for (group, tasks) in [("/fibre/v1", 8), ("/single/v1", 6), ("/rounds/v1", 4), ("/grid/v1", 8), ("/grid1/v1", 4), ("/laid/v1", 4), ("/laidgrid/v1", 4)] {
+    for (group, tasks) in [("/fibre/v1", 8), ("/single/v1", 6), ("/rounds/v1", 4), ("/grid/v1", 8), ("/grid1/v1", 4), ("/seggrid/v1", 2), ("/sdegrid/v1", 2), ("/laid/v1", 4), ("/laidgrid/v1", 4)] {
         assert_eq!(attr_of(&work.join("slurm.h5"), group, "executor"), "slurm", "{group}");
         let t: serde_json::Value = serde_json::from_str(&attr_of(&work.join("slurm.h5"), group, "slurm_tasks")).unwrap();
         let t = t.as_array().unwrap();

@@ -33,6 +33,13 @@ pub fn radius_of_gyration(nodes: &[[f64; 3]]) -> f64 {
     (sum_sq / n as f64).sqrt()
 }
 
+/// A planar curve moved so that the mean of its nodes is the origin.
+pub fn centred(nodes: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let n = nodes.len() as f64;
+    let c = nodes.iter().fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+    nodes.iter().map(|p| [p[0] - c[0], p[1] - c[1]]).collect()
+}
+
 /// Total arc length of the polyline.
 pub fn arc_length(nodes: &[[f64; 3]]) -> f64 {
     nodes.windows(2).map(|w| distance(&w[0], &w[1])).sum()

@@ -51,5 +51,48 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             ..Default::default()
         }));
     }
-    Ok(vec![Figure::new("fibres", "Web: stored fibres with one highlighted", panels, 2)])
+    let mut figures = vec![Figure::new("fibres", "Web: stored fibres with one highlighted", panels, 2)];
+    if d.has("example_input_fibre") {
+        figures.push(shape_figure(d, &fibres, &index)?);
+    }
+    Ok(figures)
 }
+
+/// Per point, a laid fibre of the input beside one generated segment of the same length,
+/// both with the belt motion removed and centred: what the generator keeps of the laid
+/// shape (the Fig 8 comparison), with the mean S of each.
+fn shape_figure(d: &StageData, fibres: &ndarray::Array5<f64>, index: &ndarray::Array2<f64>) -> Result<Figure> {
+    let example = d.f64("example_input_fibre")?.into_dimensionality::<ndarray::Ix3>()?;
+    let points_per_segment = d.f64("points_per_segment")?;
+    let (c, ds) = (d.f64("belt_speed_ratio")?, d.f64("node_spacing")?);
+    let (s_in, s_gen) = (d.f64("input_radius_of_gyration")?, d.f64("generated_radius_of_gyration")?);
+    let generator = if d.has("generator") { d.strings("generator")? } else { vec![] };
+    let mut panels = vec![];
+    for p in 0..fibres.dim().0.min(4) {
+        let input: Vec<[f64; 2]> = example.index_axis(Axis(0), p).outer_iter().map(|q| [q[0], q[1]]).filter(|q| q[0].is_finite()).collect();
+        let Some(f) = (0..fibres.dim().2).find(|&f| index[[p, f]] >= 0.0) else { continue };
+        let n = (points_per_segment[[p]] as usize + 1).min(fibres.dim().3);
+        let drift = c[[p]] * ds[[p]];
+        let segment: Vec<[f64; 2]> = (0..n).map(|k| [fibres[[p, 0, f, k, 0]] - k as f64 * drift, fibres[[p, 0, f, k, 1]]]).collect();
+        let segment = crate::geometry::centred(&segment);
+        // Side by side: each curve centred, the generated one shifted right by both half-widths.
+        let half = |v: &[[f64; 2]]| v.iter().map(|q| q[0].abs()).fold(0.0, f64::max);
+        let shift = 1.15 * (half(&input) + half(&segment));
+        let mm = |v: &[[f64; 2]], dx: f64| v.iter().map(|q| ((q[0] + dx) * 1e3, q[1] * 1e3)).collect::<Vec<_>>();
+        let name = generator.get(p).map(String::as_str).unwrap_or("random_phase");
+        let label = d.point_label(p);
+        panels.push(Panel::Lines(LinePanel {
+            title: format!("{}laid fibre (S = {:.1} mm) | {name} segment (S = {:.1} mm)", if label.is_empty() { String::new() } else { format!("{label}: ") }, s_in[[p]] * 1e3, s_gen[[p]] * 1e3),
+            x_label: "x, machine direction, belt removed (mm)".into(),
+            y_label: "y, cross direction (mm)".into(),
+            equal_aspect: true,
+            series: vec![
+                Series::new(Some("laid fibre (input)"), mm(&input, 0.0), Style::Line, 0),
+                Series::new(Some(&format!("{name}, fibre {}", index[[p, f]])), mm(&segment, shift), Style::Line, 3).bold(),
+            ],
+            ..Default::default()
+        }));
+    }
+    Ok(Figure::new("shape", "Web: a laid fibre of the input beside a generated segment of the same length (belt removed)", panels, 2))
+}
+

@@ -29,7 +29,7 @@ use super::{Generator, SpectrumSelection, Web, WebParams, WEB_PARAMS};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
-use crate::stages::spectra::{declared_spectra, CurvatureSpectrum, SquareWaveParams};
+use crate::stages::spectra::{declared_spectra, integrate_curvature, CurvatureSpectrum, SquareWaveParams};
 use crate::stages::{concurrent, BadInput, Declared, Input, InputRule, RunContext, Stage};
 use anyhow::{anyhow, Result};
 use ndarray::{Array1, Array2, Array3, Axis};
@@ -99,6 +99,9 @@ struct PointWeb {
     generated_shape: ShapeTarget,
     /// How the SDE's parameters were set.
     calibration: Option<Calibration>,
+    /// The input's first laid fibre, belt removed, rebuilt by eq 13 about its centroid
+    /// (for the figure beside a generated segment).
+    example_input_fibre: Option<Vec<[f64; 2]>>,
 }
 
 /// Fibres of realisation 0 whose segment windows give a point's generated S and e.
@@ -197,6 +200,7 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     }
     let laid = if ctx.inputs.is_empty() { None } else { Some(laid_fibres(ctx, p)?) };
     let input_shape = laid.as_ref().and_then(|l| l.shape());
+    let example = laid.as_ref().map(|l| (l.curvature[0].clone(), l.spacing));
     let (web, spectra, source, calibration) = match generator {
         Generator::RandomPhase => {
             let (spectra, source) = spectra_for(ctx, p, selection)?;
@@ -244,7 +248,8 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
         (0..k).map(|i| (2 * i + 1) * n_w / (2 * k)).collect()
     };
     let generated_shape = generated_shape(&web);
-    Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration })
+    let example_input_fibre = example.map(|(kappa, spacing)| crate::geometry::centred(&integrate_curvature(&kappa, spacing, 0.0, [0.0, 0.0], 0.0)));
+    Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration, example_input_fibre })
 }
 
 /// What a researcher must know about a lay-down SDE web's numerics, if anything: a step
@@ -276,6 +281,7 @@ fn generated_shape(web: &Web) -> ShapeTarget {
     let n = shapes.len() as f64;
     ShapeTarget { radius_of_gyration: shapes.iter().map(|s| s.0).sum::<f64>() / n, bending_energy: shapes.iter().map(|s| s.1).sum::<f64>() / n }
 }
+
 
 /// The laid fibres of one point of an input spectra stage: their curvature samples.
 struct LaidFibres {
@@ -467,6 +473,16 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
             .collect(),
         "lay_down_sde: how b and A were set (calibration target, fit and iterations)",
     );
+    if let Some(longest) = webs.iter().filter_map(|w| w.example_input_fibre.as_ref()).map(|f| f.len()).max() {
+        let mut example = Array3::from_elem((np, longest, 2), nan);
+        for (p, w) in webs.iter().enumerate() {
+            for (k, q) in w.example_input_fibre.iter().flatten().enumerate() {
+                example[[p, k, 0]] = q[0];
+                example[[p, k, 1]] = q[1];
+            }
+        }
+        out.f64("example_input_fibre", &["point", "example_node", "xy"], example, "m", "the input's first laid fibre, belt removed, rebuilt from its curvature samples (eq 13) about its centroid; NaN padding");
+    }
     if let Some(longest) = webs.iter().filter_map(|w| w.web.templates()).map(|t| t.len()).max() {
         let mut curvature = crate::memory::try_array((np, longest, nbins), nan, "the laid templates")?;
         for (p, w) in webs.iter().enumerate() {

@@ -1,6 +1,8 @@
 //! Criterion benches of the hot kernels beyond the rod (release profile):
 //! - `web/generate_fibre_100_segments`: one paper fibre (n_l = 100 segments of N = 1000
 //!   points: random phases, inverse DFT, trapezoidal integration, belt drift), spectrum1;
+//! - `web/laid_segments_fibre_100_segments`, `web/lay_down_sde_fibre_100_segments`: the same
+//!   fibre from 64 laid templates joined, and from the lay-down SDE (b = 5 mm, A = 2);
 //! - `grid/deposit_point_mass` and `grid/deposit_segment_clipping`: scattering that fibre
 //!   (1e5 nodes) into a 500 × 500 mm grid of 1 mm cells;
 //! - `image/analyze_871x617`: the whole bond-removal method on a paper-size scan (2-D
@@ -12,6 +14,7 @@ use laydown::stages::grid::{DensityGrid, Deposit};
 use laydown::stages::image::render::{random_fibre_web, render, BondPattern, RenderParams};
 use laydown::stages::image::{analyze, ImageParams};
 use laydown::stages::spectra::SquareWaveParams;
+use laydown::stages::web::sde::LayDownSde;
 use laydown::stages::web::{Web, WebParams};
 use std::time::Duration;
 
@@ -29,6 +32,23 @@ fn web_and_grid(c: &mut Criterion) {
         b.iter(|| {
             k = (k + 1) % 1500;
             black_box(web.generate_fibre(0, k))
+        })
+    });
+    // The other generators at the same size: 64 segment-long templates, and the SDE.
+    let params = *web.params();
+    let templates = (0..64).map(|j| web.fibre_curvature(1, j).1[..1000].to_vec()).collect();
+    let laid = Web::laid_segments(params, templates, web.spacing()).unwrap();
+    g.bench_function("laid_segments_fibre_100_segments", |b| {
+        b.iter(|| {
+            k = (k + 1) % 1500;
+            black_box(laid.generate_fibre(0, k))
+        })
+    });
+    let sde = Web::lay_down_sde(params, LayDownSde { potential_length: 5e-3, noise: 2.0 }, web.spacing(), 1000).unwrap();
+    g.bench_function("lay_down_sde_fibre_100_segments", |b| {
+        b.iter(|| {
+            k = (k + 1) % 1500;
+            black_box(sde.generate_fibre(0, k))
         })
     });
     g.finish();

@@ -1,12 +1,17 @@
 //! Benchmark: timing (wall, nodes/s), peak RSS and results of web generation + density
 //! grid (no file I/O). Paper size: `cargo run --release --example web_grid -- spectrum1 0.04 1500 100 1000 point_mass 3 2 0`
 //!
-//! cargo run --release --example web_grid -- [preset] [c] [n_w] [n_l] [N] [deposit] [realisations] [threads] [margin] [boundary]
-//! defaults:                                  spectrum1 0.05 1500 100 1000 point_mass 1 2 3 open
+//! cargo run --release --example web_grid -- [preset] [c] [n_w] [n_l] [N] [deposit] [realisations] [threads] [margin] [boundary] [window] [generator]
+//! defaults:                                  spectrum1 0.05 1500 100 1000 point_mass 1 2 3 open 0.5 random_phase
+//!
+//! `generator` laid_segments joins 64 segment-long templates cut from random-phase fibres of
+//! the preset (the cost does not depend on where the templates come from); lay_down_sde
+//! runs the ITWM model with b = 5 mm, A = 2 m^-1/2 at Δs = L/N.
 use std::time::Instant;
 
 use laydown::stages::grid::{grid_realisation, Boundary, Deposit, GridParams};
 use laydown::stages::spectra::SquareWaveParams;
+use laydown::stages::web::sde::LayDownSde;
 use laydown::stages::web::{Web, WebParams};
 
 fn main() {
@@ -28,13 +33,20 @@ fn main() {
     let spectrum = SquareWaveParams { points_per_segment: n, ..SquareWaveParams::preset(&preset).expect("preset") }
         .spectrum()
         .unwrap();
-    let web = Web::new(
-        WebParams { fibres_across: n_w, segments_per_fibre: n_l, belt_speed_ratio: c, ..WebParams::default() },
-        vec![spectrum],
-    )
-    .unwrap();
+    let generator = arg(11, "random_phase");
+    let params = WebParams { fibres_across: n_w, segments_per_fibre: n_l, belt_speed_ratio: c, ..WebParams::default() };
+    let random_phase = Web::new(params, vec![spectrum]).unwrap();
+    let web = match generator.as_str() {
+        "random_phase" => random_phase,
+        "laid_segments" => {
+            let templates = (0..64).map(|j| random_phase.fibre_curvature(1, j % n_w).1[..n].to_vec()).collect();
+            Web::laid_segments(params, templates, random_phase.spacing()).unwrap()
+        }
+        "lay_down_sde" => Web::lay_down_sde(params, LayDownSde { potential_length: 5e-3, noise: 2.0 }, random_phase.spacing(), n).unwrap(),
+        other => panic!("generator {other}: random_phase | laid_segments | lay_down_sde"),
+    };
     let grid = GridParams { deposit, boundary, window_side, edge_margin_spreads: margin, ..GridParams::default() };
-    println!("{preset} c={c} n_w={n_w} n_l={n_l} N={n} deposit={} boundary={} threads={threads}", deposit.name(), boundary.name());
+    println!("{generator} {preset} c={c} n_w={n_w} n_l={n_l} N={n} deposit={} boundary={} threads={threads}", deposit.name(), boundary.name());
     let (mut cvs, mut rhos) = (Vec::new(), Vec::new());
     for k in 0..realisations {
         let t = Instant::now();

@@ -57,6 +57,7 @@ use std::f64::consts::PI;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::trig::sin_cos;
 use crate::geometry::radius_of_gyration;
 use crate::stages::spectra::integrate_curvature;
 
@@ -92,7 +93,7 @@ impl<'a> Draws<'a> {
         let u1 = 1.0 - self.uniform(); // (0, 1]
         let u2 = self.uniform();
         let r = (-2.0 * u1.ln()).sqrt();
-        let (s, c) = (2.0 * PI * u2).sin_cos();
+        let (s, c) = sin_cos(2.0 * PI * u2);
         self.spare = Some(r * s);
         r * c
     }
@@ -121,7 +122,7 @@ impl LayDownSde {
         let mut angle = 2.0 * PI * draws.uniform();
         let (inv_b2, kick) = (1.0 / (b * b), self.noise * spacing.sqrt());
         let mut eta = start;
-        let (mut sin, mut cos) = angle.sin_cos();
+        let (mut sin, mut cos) = sin_cos(angle);
         alpha.clear();
         alpha.reserve(steps + 1);
         alpha.push(angle);
@@ -130,11 +131,11 @@ impl LayDownSde {
             let noise = kick * draws.normal();
             let drift = -(-eta[0] * sin + eta[1] * cos) * inv_b2; // −∇V·τ⊥
             let predicted = angle + drift * spacing + noise;
-            let (sin_p, cos_p) = predicted.sin_cos();
+            let (sin_p, cos_p) = sin_cos(predicted);
             let eta_p = [eta[0] + 0.5 * (cos + cos_p) * spacing, eta[1] + 0.5 * (sin + sin_p) * spacing];
             let drift_p = -(-eta_p[0] * sin_p + eta_p[1] * cos_p) * inv_b2;
             angle += 0.5 * (drift + drift_p) * spacing + noise;
-            let (sin1, cos1) = angle.sin_cos();
+            let (sin1, cos1) = sin_cos(angle);
             eta[0] += 0.5 * (cos + cos1) * spacing; // eq 13
             eta[1] += 0.5 * (sin + sin1) * spacing;
             (sin, cos) = (sin1, cos1);

@@ -9,6 +9,7 @@
 //! implicitly means the oscillator damper (c/m ≈ 5·10⁵ 1/s) and the drag of thin
 //! fibres never limit the step.
 
+use super::air::ImpingingAir;
 use super::state::{Rod, Workspace};
 
 /// Exponent of Re in the tangential skin-friction law, C_t = β Re^-0.61 (eq 2).
@@ -81,8 +82,11 @@ impl DragLaw {
 #[derive(Clone, Debug)]
 pub struct Drag {
     pub law: DragLaw,
-    /// Air velocity (0, 0, −V_air).
+    /// Air velocity (0, 0, −V_air) of the uniform field.
     pub air_velocity: [f64; 3],
+    /// Opt-in air field near the belt ([`super::air`]): when set, the air velocity is
+    /// evaluated at each element's midpoint instead of `air_velocity`.
+    pub field: Option<ImpingingAir>,
     /// Top of the zone z0; the zone is 0 ≤ z ≤ z0 for an element's midpoint.
     pub zone_top: f64,
 }
@@ -189,6 +193,16 @@ impl Term {
             Term::Gravity { g } => rod.v.iter().zip(&rod.mass).map(|(v, m)| -m * g * v[2]).sum(),
             Term::Damping { alpha } => {
                 rod.v.iter().zip(&rod.mass).map(|(v, m)| -alpha * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])).sum()
+            }
+            Term::Drag(d) if d.field.is_some() => {
+                // F_i = −G_i v_i + Σ_e G_e v_air(midpoint e), the force drag_implicit applied
+                let mut p = 0.0;
+                for ((g, gva), v) in ws.drag_g.iter().zip(&ws.drag_gva).zip(&rod.v) {
+                    let gv = sym_mul(g, v);
+                    let f = [gv[0] - gva[0], gv[1] - gva[1], gv[2] - gva[2]];
+                    p -= f[0] * v[0] + f[1] * v[1] + f[2] * v[2];
+                }
+                p
             }
             Term::Drag(d) => {
                 let mut p = 0.0;
@@ -342,10 +356,19 @@ pub fn axial_energy_of(rod: &Rod, ws: &Workspace) -> f64 {
 /// Drag, linearised implicitly: on each element in the zone, with V the relative
 /// velocity of its midpoint, F = −l [γ_t t tᵀ + γ_n (I − t tᵀ)] (v − v_air) with
 /// γ_t = f_t/|V_t| = k_t |V_t|^0.39 and γ_n = k_n |V_n|^0.56 (eqs 1-4), split half to each node.
+/// With an air field ([`Drag::field`]) v_air is the field at the element's midpoint and
+/// each node's right-hand side gets Σ_e G_e v_air,e (kept in `ws.drag_gva` for the power);
+/// the uniform field runs the code it always ran (G summed, then times v_air).
 fn drag_implicit(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
-    let va = d.air_velocity;
+    let uniform = d.air_velocity;
+    let field = d.field.as_ref();
     for g in ws.drag_g.iter_mut() {
         *g = [0.0; 6];
+    }
+    if field.is_some() {
+        // allocated on first use: a uniform-field scene does not carry it
+        ws.drag_gva.clear();
+        ws.drag_gva.resize(rod.x.len(), [0.0; 3]);
     }
     for k in 0..rod.rest.len() {
         let (p, q) = (rod.x[k], rod.x[k + 1]);
@@ -353,6 +376,10 @@ fn drag_implicit(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
         if !(0.0..=d.zone_top).contains(&zm) {
             continue;
         }
+        let va = match field {
+            Some(f) => f.velocity(&[0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), zm]),
+            None => uniform,
+        };
         let t = ws.tangent[k];
         let (a, b) = (rod.v[k], rod.v[k + 1]);
         let w = [0.5 * (a[0] + b[0]) - va[0], 0.5 * (a[1] + b[1]) - va[1], 0.5 * (a[2] + b[2]) - va[2]];
@@ -378,6 +405,15 @@ fn drag_implicit(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
                 g[j] += s[j];
             }
         }
+        if field.is_some() {
+            let sv = sym_mul(&s, &va);
+            for node in [k, k + 1] {
+                let r = &mut ws.drag_gva[node];
+                r[0] += sv[0];
+                r[1] += sv[1];
+                r[2] += sv[2];
+            }
+        }
     }
     for i in 0..rod.x.len() {
         let g = ws.drag_g[i];
@@ -388,7 +424,7 @@ fn drag_implicit(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
         for j in 0..6 {
             a[j] += dt * g[j];
         }
-        let gv = sym_mul(&g, &va);
+        let gv = if field.is_some() { ws.drag_gva[i] } else { sym_mul(&g, &uniform) };
         let r = &mut ws.rhs[i];
         r[0] += dt * gv[0];
         r[1] += dt * gv[1];

@@ -6,7 +6,7 @@
 //! Layout: [`state`] (nodes, masses, workspace), [`forces`] (one opt-in [`forces::Term`]
 //! per effect: elasticity, gravity, drag, oscillation, damping), [`contact`] (belt
 //! plane, Coulomb friction), [`integrator`] (time steppers and their step control),
-//! [`params`] (the scene's parameter table), [`scene`] (the paper's single-fibre scene),
+//! [`params`] (the scene's parameter table), [`air`] (the opt-in air field near the belt), [`scene`] (the paper's single-fibre scene),
 //! [`feed`] (continuous feed: a fibre of any length fed through the laydown zone, the
 //! stuck part frozen), [`fibre_contact`] and [`contact_world`] (opt-in contact between
 //! fibres: narrow and broad phase), [`metrics`] (S and e of the laid fibre).
@@ -31,7 +31,11 @@
 //! - drag in 0 ≤ z ≤ z0 with air moving down at `air_speed`: tangential eqs 1-2
 //!   (C_t = β Re^-0.61, β = 0.37 after Matsui 1976, C_f = 0.37 Re^-0.61) and normal
 //!   eqs 3-4 (C_n = 6.96 Re^-0.44 (d/78 µm)^0.404) applied along the normal relative
-//!   velocity (frame invariant for a round fibre; see [`effects::Drag`]);
+//!   velocity (frame invariant for a round fibre; see [`forces::Drag`]). The air is
+//!   uniform by default; `air_field` = `impinging` / `impinging_slot` turns the part of
+//!   it the belt does not pass (1 − `belt_permeability`) sideways near the belt over
+//!   `stagnation_height` (stagnation-point flow of a round or slot jet, [`air`]), the
+//!   drag then taking the air velocity at each element's midpoint;
 //! - oscillation: eq 7 spring-damper (k, c per node) from every node above z0 to the
 //!   dummy point (0, u0 sin ωt), implicit so c/m ≈ 5·10⁵ 1/s never limits the step;
 //! - contact with the belt plane and Coulomb friction (stick and slip) as velocity
@@ -108,6 +112,7 @@
 // NaN-safe checks are written as negated comparisons on purpose (`!(x < limit)`).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod air;
 pub mod contact;
 pub mod contact_world;
 pub mod feed;
@@ -126,5 +131,5 @@ mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, LaydownResult};
-pub use params::{parameter_table_markdown, BounceCheck, Effects, Integrator, LaydownParams, ParamError, PARAMETERS};
+pub use params::{parameter_table_markdown, AirField, BounceCheck, Effects, Integrator, LaydownParams, ParamError, PARAMETERS};
 pub use scene::{prepared_simulator, replicate_rng, run_jobs, simulate, LaydownJob};

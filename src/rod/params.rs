@@ -9,6 +9,8 @@
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
+pub use super::air::AirField;
+
 /// Time integration scheme of the rod.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -147,6 +149,12 @@ pub struct LaydownParams {
     pub diameter: f64,
     /// Downward air speed V_air in the laydown zone (m/s).
     pub air_speed: f64,
+    /// Air field near the belt ([`super::air`]): uniform (default) or impinging.
+    pub air_field: AirField,
+    /// Fraction φ of the air that passes through the belt (impinging fields; 1 = uniform).
+    pub belt_permeability: f64,
+    /// Height h over which the impinging air turns sideways (m).
+    pub stagnation_height: f64,
     /// Oscillation amplitude u0 (m).
     pub oscillation_amplitude: f64,
     /// Oscillation frequency f (Hz), ω = 2πf (Table 1: ω = 62.8 rad/s → 10 Hz).
@@ -205,6 +213,9 @@ impl Default for LaydownParams {
             friction_coefficient: 1.0,
             diameter: 50e-6,
             air_speed: 10.0,
+            air_field: AirField::default(),
+            belt_permeability: 0.0,
+            stagnation_height: 0.01,
             oscillation_amplitude: 0.010,
             oscillation_frequency: 10.0,
             laydown_height: 0.05,
@@ -251,6 +262,8 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1)"),
     real("diameter", "m", 50e-6, 1e-7, 1e-2, "fibre diameter d (Table 1: 50 um)"),
     real("air_speed", "m/s", 10.0, 0.0, 500.0, "downward air speed in the laydown zone (Table 1: 10)"),
+    real("belt_permeability", "1", 0.0, 0.0, 1.0, "air_field impinging*: fraction phi of the air passing through the belt (0 = impermeable, 1 = the uniform field)"),
+    real("stagnation_height", "m", 0.01, 1e-4, 10.0, "air_field impinging*: height h over which the air not passing the belt turns sideways; jet half-width 2h (round) or h (slot); 10 mm = laydown_height/5, jet radius 2 u0"),
     real("oscillation_amplitude", "m", 0.010, 0.0, 1.0, "amplitude u0 of the imposed cross-direction oscillation (Table 1: 10 mm)"),
     real("oscillation_frequency", "Hz", 10.0, 0.0, 1e4, "frequency f of the oscillation, omega = 2 pi f (Table 1: 62.8 rad/s)"),
     real("laydown_height", "m", 0.05, 1e-4, 100.0, "height z0 of the laydown zone, below length"),
@@ -297,6 +310,8 @@ impl LaydownParams {
             "friction_coefficient" => self.friction_coefficient,
             "diameter" => self.diameter,
             "air_speed" => self.air_speed,
+            "belt_permeability" => self.belt_permeability,
+            "stagnation_height" => self.stagnation_height,
             "oscillation_amplitude" => self.oscillation_amplitude,
             "oscillation_frequency" => self.oscillation_frequency,
             "laydown_height" => self.laydown_height,
@@ -343,6 +358,8 @@ impl LaydownParams {
             "friction_coefficient" => &mut self.friction_coefficient,
             "diameter" => &mut self.diameter,
             "air_speed" => &mut self.air_speed,
+            "belt_permeability" => &mut self.belt_permeability,
+            "stagnation_height" => &mut self.stagnation_height,
             "oscillation_amplitude" => &mut self.oscillation_amplitude,
             "oscillation_frequency" => &mut self.oscillation_frequency,
             "laydown_height" => &mut self.laydown_height,
@@ -542,6 +559,11 @@ pub fn parameter_table_markdown() -> String {
         "| bounce_check | | {} | | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
         BounceCheck::default().name(),
         BounceCheck::NAMES.join(", ")
+    );
+    s += &format!(
+        "| air_field | | {} | | | one of {}: air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height |\n",
+        AirField::default().name(),
+        AirField::NAMES.join(", ")
     );
     s += &format!(
         "| integrator | | {} | | | one of {} |\n",

@@ -1,5 +1,6 @@
 //! Building a replicate from the parameters, running it, and batches of replicates.
 
+use super::air::{AirField, ImpingingAir, JetShape};
 use super::contact::BeltContact;
 use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
@@ -67,9 +68,18 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         terms.push(Term::Gravity { g: p.gravity });
     }
     if e.drag {
+        let jet = |shape| Some(ImpingingAir { air_speed: p.air_speed, permeability: p.belt_permeability, stagnation_height: p.stagnation_height, shape });
+        let field = match p.air_field {
+            AirField::Uniform => None,
+            // φ = 1: the belt passes all the air, the uniform field (and its code)
+            _ if p.belt_permeability >= 1.0 => None,
+            AirField::Impinging => jet(JetShape::Round),
+            AirField::ImpingingSlot => jet(JetShape::Slot),
+        };
         terms.push(Term::Drag(Drag {
             law: DragLaw::new(p.diameter, p.air_density, p.air_kinematic_viscosity, p.tangential_drag_beta),
             air_velocity: [0.0, 0.0, -p.air_speed],
+            field,
             zone_top: p.laydown_height,
         }));
     }

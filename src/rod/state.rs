@@ -76,6 +76,9 @@ pub struct Workspace {
     pub rhs: Vec<[f64; 3]>,
     /// Drag matrix G per node (for the drag work), zero when drag is off.
     pub drag_g: Vec<[f64; 6]>,
+    /// Σ_e G_e v_air,e per node with an air field (empty otherwise): the drag's
+    /// right-hand side, kept for its power.
+    pub drag_gva: Vec<[f64; 3]>,
     /// Unit tangents and lengths of the segments at the current positions.
     pub tangent: Vec<[f64; 3]>,
     pub seg_len: Vec<f64>,
@@ -105,6 +108,7 @@ impl Workspace {
             amat: vec![[0.0; 6]; nodes],
             rhs: vec![[0.0; 3]; nodes],
             drag_g: vec![[0.0; 6]; nodes],
+            drag_gva: Vec::new(),
             tangent: vec![[0.0; 3]; s],
             seg_len: vec![0.0; s],
             winv: vec![[0.0; 6]; nodes],

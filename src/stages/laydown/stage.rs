@@ -25,7 +25,7 @@
 //! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
 //! (one record per `diagnostic_stride` steps) are not counted.
 use crate::error::InvalidParam;
-use super::params::{BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
+use super::params::{AirField, BounceCheck, Effects, Integrator, LaydownParams, PARAMETERS};
 use super::metrics::ENERGY_COLUMNS;
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
@@ -93,6 +93,12 @@ impl Stage for LaydownStage {
     }
     fn params(&self) -> Vec<ParamSpec> {
         let mut v: Vec<ParamSpec> = PARAMETERS.iter().map(ParamSpec::from).collect();
+        v.push(ParamSpec::choice(
+            "air_field",
+            &AirField::NAMES,
+            AirField::default().name(),
+            "uniform: air (0, 0, -air_speed) everywhere, a belt passing all of it (the paper); impinging / impinging_slot: a round / slot jet whose part not passing the belt (1 - belt_permeability) turns sideways over stagnation_height (src/rod/air.rs)",
+        ));
         v.push(ParamSpec::choice(
             "integrator",
             &Integrator::NAMES,

@@ -302,6 +302,18 @@ fn hard_cases_stay_stable() {
         ("f 200 Hz", Box::new(|p| p.oscillation_frequency = 200.0)),
         ("belt 0", Box::new(|p| p.belt_speed = 0.0)),
         ("belt 2 v_f", Box::new(|p| p.belt_speed = 2.0 * p.fibre_speed)),
+        // air turned sideways on an impermeable belt: the laid fibre is blown off (an
+        // invalid replicate, never NaN); a slot jet at a quarter permeability slides it far
+        ("impinging phi 0, air 50", Box::new(|p| {
+            p.air_field = params::AirField::Impinging;
+            p.belt_permeability = 0.0;
+            p.air_speed = 50.0;
+        })),
+        ("slot phi 0.25, air 50", Box::new(|p| {
+            p.air_field = params::AirField::ImpingingSlot;
+            p.belt_permeability = 0.25;
+            p.air_speed = 50.0;
+        })),
     ];
     for (name, set) in cases {
         let mut p = reduced();

@@ -18,10 +18,12 @@ FIGURES = "pipelines/studies/figures"
 
 
 def current(f, stage):
-    """The stage's current version (layout 2), else the newest (`latest`, layout 1)."""
+    """The stage's current version (layout 2), else its newest vN (an archive migrated from
+    layout 1 by a `--only` run keeps unmarked stages)."""
     if "current" in f[stage].attrs:
         return f[stage][f[stage].attrs["current"]]
-    return f[stage]["latest"]
+    newest = max((k for k in f[stage] if k.startswith("v") and k[1:].isdigit()), key=lambda k: int(k[1:]))
+    return f[stage][newest]
 
 
 def ms(a, scale=1.0, digits=2):
@@ -79,6 +81,38 @@ def study_table():
         print(f"| | | surrogate | – | " + " | ".join(srow) + f" | {sw / 5:.2f} |")
     print(f"\nzone sizes used: {zones[0] * 1e3:g} mm and {zones[1] * 1e3:g} mm; "
           f"interior density expected ρA/(Δw·c): " + ", ".join(f"{v:.2f}" for v in lg["expected_interior_density"][...]) + " g/m²")
+
+
+def generators_table():
+    """The three surrogates of the same laid fibres against the laid web (issue 14)."""
+    f = h5py.File(STUDY, "r")
+    laid, lg = current(f, "laid"), current(f, "laid_grid")
+    amps = swept(laid, "oscillation_amplitude")
+    c = laid["belt_speed_ratio"][...]
+    print("| u0 (mm) | c | web | S of a segment (mm) | e of a segment | ρ_av (g/m²) | CV (%) | CV / laid CV | n_f 1 mm | n_f 11 mm | calibrated b (mm), A (m^-1/2) |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|")
+    for p in range(len(c)):
+        tag = f"u{int(round(amps[p] * 1000))}_c{int(round(c[p] * 100)):03d}"
+        lrow, _ = grid_row(lg, p)
+        laid_cv = np.nanmean(lg["cv"][p])
+        first = True
+        for name, web in (("laid", None), ("random_phase", "surrogate"), ("laid_segments", "segments"), ("lay_down_sde", "sde")):
+            if web is None:
+                row, s, e, extra, ratio = lrow, "", "", "", ""
+            else:
+                w, g = current(f, f"{web}_{tag}"), current(f, f"{web}_{tag}_grid")
+                row, _ = grid_row(g, 0)
+                s = f"{w['generated_radius_of_gyration'][0] * 1e3:.2f}" if "generated_radius_of_gyration" in w else "–"
+                e = f"{w['generated_bending_energy'][0]:.3g}" if "generated_bending_energy" in w else "–"
+                ratio = f"{np.nanmean(g['cv'][0]) / laid_cv:.2f}"
+                extra = f"{w['sde_potential_length'][0] * 1e3:.2f}, {w['sde_noise'][0]:.2f}" if name == "lay_down_sde" else ""
+            if name == "laid":
+                w = current(f, f"segments_{tag}")
+                s = f"{w['input_radius_of_gyration'][0] * 1e3:.2f}"
+                e = f"{w['input_bending_energy'][0]:.3g}"
+            head = f"| {amps[p] * 1e3:g} | {c[p]:g} |" if first else "| | |"
+            first = False
+            print(f"{head} {name} | {s} | {e} | " + " | ".join(row[:2]) + f" | {ratio} | " + " | ".join(row[2:]) + f" | {extra} |")
 
 
 def table4_table():
@@ -143,6 +177,8 @@ def figure():
 if __name__ == "__main__":
     if os.path.exists(STUDY):
         study_table()
+        print()
+        generators_table()
     if os.path.exists(TABLE4):
         print()
         table4_table()

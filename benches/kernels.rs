@@ -13,7 +13,7 @@ use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use laydown::stages::grid::{DensityGrid, Deposit};
 use laydown::stages::image::render::{random_fibre_web, render, BondPattern, RenderParams};
 use laydown::stages::image::{analyze, ImageParams};
-use laydown::stages::spectra::SquareWaveParams;
+use laydown::stages::spectra::{integrate_curvature, SquareWaveParams};
 use laydown::stages::web::sde::LayDownSde;
 use laydown::stages::web::{Web, WebParams};
 use std::time::Duration;
@@ -36,8 +36,9 @@ fn web_and_grid(c: &mut Criterion) {
     });
     // The other generators at the same size: 64 segment-long templates, and the SDE.
     let params = *web.params();
-    let templates = (0..64).map(|j| web.fibre_curvature(1, j).1[..1000].to_vec()).collect();
-    let laid = Web::laid_segments(params, templates, web.spacing()).unwrap();
+    let templates: Vec<Vec<f64>> = (0..64).map(|j| web.fibre_curvature(1, j).1[..1000].to_vec()).collect();
+    let nodes = templates.iter().map(|k| integrate_curvature(k, web.spacing(), 0.0, [0.0, 0.0], 0.0)).collect();
+    let laid = Web::laid_segments(params, templates, nodes, web.spacing()).unwrap();
     g.bench_function("laid_segments_fibre_100_segments", |b| {
         b.iter(|| {
             k = (k + 1) % 1500;

@@ -10,7 +10,7 @@
 use std::time::Instant;
 
 use laydown::stages::grid::{grid_realisation, Boundary, Deposit, GridParams};
-use laydown::stages::spectra::SquareWaveParams;
+use laydown::stages::spectra::{integrate_curvature, SquareWaveParams};
 use laydown::stages::web::sde::LayDownSde;
 use laydown::stages::web::{Web, WebParams};
 
@@ -39,8 +39,9 @@ fn main() {
     let web = match generator.as_str() {
         "random_phase" => random_phase,
         "laid_segments" => {
-            let templates = (0..64).map(|j| random_phase.fibre_curvature(1, j % n_w).1[..n].to_vec()).collect();
-            Web::laid_segments(params, templates, random_phase.spacing()).unwrap()
+            let templates: Vec<Vec<f64>> = (0..64).map(|j| random_phase.fibre_curvature(1, j % n_w).1[..n].to_vec()).collect();
+            let nodes = templates.iter().map(|k| integrate_curvature(k, random_phase.spacing(), 0.0, [0.0, 0.0], 0.0)).collect();
+            Web::laid_segments(params, templates, nodes, random_phase.spacing()).unwrap()
         }
         "lay_down_sde" => Web::lay_down_sde(params, LayDownSde { potential_length: 5e-3, noise: 2.0 }, random_phase.spacing(), n).unwrap(),
         other => panic!("generator {other}: random_phase | laid_segments | lay_down_sde"),

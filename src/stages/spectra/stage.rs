@@ -60,6 +60,8 @@ struct Row {
     spectrum: CurvatureSpectrum,
     curvature: Vec<f64>,
     tangent_angle: Vec<f64>,
+    /// A laid fibre's nodes resampled at s_m = mΔs, N + 1 (empty for idealised spectra).
+    resampled: Vec<[f64; 2]>,
     e_from_curvature: f64,
     valid: bool,
 }
@@ -161,7 +163,7 @@ fn idealised(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Row>> {
             let curvature = realised.curvature();
             let tangent_angle = super::tangent_angles(&curvature, spectrum.spacing(), 0.0);
             let e = realised.bending_energy();
-            Row { spectrum: spectrum.clone(), curvature, tangent_angle, e_from_curvature: e, valid: true }
+            Row { spectrum: spectrum.clone(), curvature, tangent_angle, resampled: vec![], e_from_curvature: e, valid: true }
         })
         .collect())
 }
@@ -188,6 +190,7 @@ fn laid(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Vec<Row>>> {
                 .into_iter()
                 .map(|a| Row {
                     tangent_angle: a.signal.tangent_angles(),
+                    resampled: a.signal.resampled.clone(),
                     curvature: a.signal.curvature.clone(),
                     e_from_curvature: a.bending_energy_samples,
                     spectrum: a.spectrum,
@@ -268,6 +271,8 @@ fn assemble(rows: &[Vec<Row>]) -> Result<Output> {
     let mut energy = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
     let mut kappa = crate::memory::try_array((npoints, nfibres, nbins), nan, what)?;
     let mut theta = crate::memory::try_array((npoints, nfibres, nangles), nan, what)?;
+    let nnodes = rows.iter().flatten().map(|r| r.resampled.len()).max().unwrap_or(0);
+    let mut resampled = if nnodes > 0 { Some(crate::memory::try_array((npoints, nfibres, nnodes, 2), nan, what)?) } else { None };
     let mut e_k = Array2::from_elem((npoints, nfibres), nan);
     let mut e_s = e_k.clone();
     let mut valid = Array2::from_elem((npoints, nfibres), false);
@@ -290,6 +295,12 @@ fn assemble(rows: &[Vec<Row>]) -> Result<Output> {
             }
             for (m, t) in row.tangent_angle.iter().enumerate() {
                 theta[[p, f, m]] = *t;
+            }
+            if let Some(r) = resampled.as_mut() {
+                for (m, q) in row.resampled.iter().enumerate() {
+                    r[[p, f, m, 0]] = q[0];
+                    r[[p, f, m, 1]] = q[1];
+                }
             }
             e_k[[p, f]] = row.e_from_curvature;
             e_s[[p, f]] = s.bending_energy();
@@ -319,6 +330,10 @@ fn assemble(rows: &[Vec<Row>]) -> Result<Output> {
     out.f64("mean_energy_spectrum", &["point", "bin"], mean_energy, "m-2", "mean S_r over fibres");
     out.f64("curvature", &["point", "fibre", "sample"], kappa, "m-1", "κ_m at s_m = mΔs (eq 9)");
     out.f64("tangent_angle", &["point", "fibre", "angle_sample"], theta, "rad", "θ_m, unwrapped tangent angle in the belt plane (x = machine direction)");
+    if let Some(r) = resampled {
+        out.f64("resampled_position", &["point", "fibre", "node", "xy"], r, "m", "laid fibre's nodes in the belt plane at s_m = mΔs, m = 0..N, as analysed (belt removed with belt_removed); NaN padding");
+        out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis: x machine direction (belt motion), y cross direction");
+    }
     out.f64("bending_energy_from_curvature", &["point", "fibre"], e_k, "1", "e = (L/2) Σ κ_m² Δs (eqs 6, A.3)");
     out.f64("bending_energy_from_spectrum", &["point", "fibre"], e_s, "1", "e = (L²/2) Σ S_r (Parseval, eq A.4)");
     out.flags("valid", &["point", "fibre"], valid, "spectrum present (padding is false)");

@@ -11,7 +11,8 @@ use rustfft::{Fft, FftPlanner};
 
 use super::trig::{sin_cos, sin_cos_slices};
 use super::sde::{Draws, LayDownSde};
-use super::{Generator, SpectrumSelection, WebError, WebParams};
+use super::segments::LaidTemplates;
+use super::{Generator, SegmentJoin, SpectrumSelection, WebError, WebParams};
 use crate::stages::spectra::{check_compatible, CurvatureSpectrum};
 
 /// Domain tag in the ChaCha key, so other stages' streams from the same seed differ.
@@ -93,8 +94,11 @@ pub struct FibreScratch {
 enum Source {
     /// Spectra with random phases (eqs 11-12).
     Spectra { spectra: Vec<Prepared>, ifft: Arc<dyn Fft<f64>> },
-    /// Laid fibres' curvature samples, N each, joined as they are.
+    /// Laid fibres' curvature samples, N each, joined by integrating across (curvature join).
     Templates(Vec<Vec<f64>>),
+    /// Laid fibres kept about their feed axis, joined at matched states (and their
+    /// curvature samples and first tangent angles, as given).
+    Matched { walk: LaidTemplates, curvature: Vec<Vec<f64>>, positions: Vec<Vec<[f64; 2]>> },
     /// The ITWM lay-down SDE.
     Sde(LayDownSde),
 }
@@ -114,7 +118,7 @@ impl std::fmt::Debug for Web {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let source = match &self.source {
             Source::Spectra { spectra, .. } => format!("{} spectra", spectra.len()),
-            Source::Templates(t) => format!("{} laid templates", t.len()),
+            Source::Templates(t) | Source::Matched { curvature: t, .. } => format!("{} laid templates", t.len()),
             Source::Sde(m) => format!("{m:?}"),
         };
         f.debug_struct("Web")
@@ -141,10 +145,11 @@ impl Web {
         Ok(Self { params, source: Source::Spectra { spectra: spectra.iter().map(Prepared::new).collect(), ifft }, points, segment_length })
     }
 
-    /// A `laid_segments` web: every segment is one of `templates` (curvature samples of
-    /// laid fibres at arc-length spacing `spacing`, all of the same length N), joined by
-    /// eq 13 with its own phases.
-    pub fn laid_segments(params: WebParams, templates: Vec<Vec<f64>>, spacing: f64) -> Result<Self, WebError> {
+    /// A `laid_segments` web from laid fibres given as curvature samples (`templates`, all
+    /// N long, at arc-length spacing `spacing`) and, for the matched join, their resampled
+    /// belt-removed nodes (`positions`, N + 1 each; ignored by the curvature join), joined
+    /// as `params.segment_join` says (see [`super::segments`]).
+    pub fn laid_segments(params: WebParams, templates: Vec<Vec<f64>>, positions: Vec<Vec<[f64; 2]>>, spacing: f64) -> Result<Self, WebError> {
         params.validate()?;
         let bad = |m: String| Err(WebError::Generator(m));
         let points = match templates.first() {
@@ -163,7 +168,19 @@ impl Web {
         if !(spacing > 0.0 && spacing.is_finite()) {
             return bad(format!("laid_segments: sample spacing must be positive, got {spacing}"));
         }
-        Ok(Self { params: WebParams { generator: Generator::LaidSegments, ..params }, source: Source::Templates(templates), points, segment_length: spacing * points as f64 })
+        let source = match params.segment_join {
+            SegmentJoin::Curvature => Source::Templates(templates),
+            SegmentJoin::Matched => {
+                if positions.len() != templates.len() {
+                    return bad(format!("laid_segments (matched join): nodes of {} laid fibres for {} templates", positions.len(), templates.len()));
+                }
+                if let Some(i) = positions.iter().position(|q| q.len() != points + 1 || q.iter().flatten().any(|v| !v.is_finite())) {
+                    return bad(format!("laid_segments (matched join): laid fibre {i} has {} finite nodes, needs N + 1 = {}", positions[i].len(), points + 1));
+                }
+                Source::Matched { walk: LaidTemplates::new(&positions, &templates, spacing), curvature: templates, positions }
+            }
+        };
+        Ok(Self { params: WebParams { generator: Generator::LaidSegments, ..params }, source, points, segment_length: spacing * points as f64 })
     }
 
     /// A `lay_down_sde` web: fibres of the ITWM model integrated at Δs = `spacing`, with
@@ -191,7 +208,14 @@ impl Web {
     /// The laid-fibre templates' curvature samples, for a `laid_segments` web.
     pub fn templates(&self) -> Option<&[Vec<f64>]> {
         match &self.source {
-            Source::Templates(t) => Some(t),
+            Source::Templates(t) | Source::Matched { curvature: t, .. } => Some(t),
+            _ => None,
+        }
+    }
+    /// The laid-fibre templates' resampled nodes (matched join only).
+    pub fn template_positions(&self) -> Option<&[Vec<[f64; 2]>]> {
+        match &self.source {
+            Source::Matched { positions, .. } => Some(positions),
             _ => None,
         }
     }
@@ -233,6 +257,13 @@ impl Web {
             Source::Sde(_) => {
                 self.tangent_angles_into(realisation, fibre, &mut scratch);
                 (scratch.theta[0], super::sde::chord_curvature(&scratch.theta, self.spacing()))
+            }
+            Source::Matched { walk, .. } => {
+                let mut rng = fibre_rng(self.params.seed, realisation, fibre as u32);
+                let mut nodes = Vec::new();
+                walk.walk(&mut Draws::new(&mut rng), self.params.mirror, self.params.segments_per_fibre * self.points, &mut nodes, &mut scratch.curvature);
+                let first = &nodes[..2];
+                ((first[1][1] - first[0][1]).atan2(first[1][0] - first[0][0]), scratch.curvature)
             }
             _ => {
                 let theta = self.curvature_into(realisation, fibre, &mut scratch);
@@ -289,7 +320,7 @@ impl Web {
                     }
                 }
             }
-            Source::Sde(_) => unreachable!("the lay-down SDE draws tangent angles, not curvature"),
+            Source::Sde(_) | Source::Matched { .. } => unreachable!("the lay-down SDE and the matched join make nodes, not curvature to integrate"),
         }
         theta_start
     }
@@ -330,6 +361,16 @@ impl Web {
     /// As [`Self::generate_fibre`], reusing buffers.
     pub fn generate_fibre_into(&self, realisation: u32, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) {
         assert!(fibre < self.params.fibres_across, "fibre {fibre} of {}", self.params.fibres_across);
+        if let Source::Matched { walk, .. } = &self.source {
+            // Belt-removed nodes about the deposition point (0, y_j), then the drift of eq 14.
+            let mut rng = fibre_rng(self.params.seed, realisation, fibre as u32);
+            walk.walk(&mut Draws::new(&mut rng), self.params.mirror, self.params.segments_per_fibre * self.points, nodes, &mut scratch.curvature);
+            let (drift_ds, y) = (self.params.belt_speed_ratio * self.spacing(), self.params.start_y(fibre));
+            for (k, p) in nodes.iter_mut().enumerate() {
+                *p = [p[0] + k as f64 * drift_ds, p[1] + y];
+            }
+            return;
+        }
         // Three passes so the sin/cos loop vectorises: θ (eq 13 or the SDE), (sin θ, cos θ), nodes.
         let offset = self.tangent_angles_into(realisation, fibre, scratch);
         let total = scratch.theta.len() - 1;
@@ -350,13 +391,16 @@ impl Web {
         }
     }
 
-    /// S (eq 5) and e (eq 6) of each of one fibre's n_l segments, belt drift left out:
-    /// its curvature samples ([`Self::fibre_curvature`]) cut into segments and measured by
-    /// [`super::sde::window_shape`], as the input's laid fibres are. What a generator keeps
-    /// of its input's shape.
+    /// S (eq 5) and e (eq 6) of each of one fibre's n_l segments, belt drift removed
+    /// (x − c·s): its nodes and curvature samples ([`Self::fibre_curvature`]) cut into
+    /// segments and measured by [`super::sde::window_shape`], as the input's laid fibres
+    /// are. What a generator keeps of its input's shape.
     pub fn segment_shapes(&self, realisation: u32, fibre: usize) -> Vec<(f64, f64)> {
+        let drift_ds = self.params.belt_speed_ratio * self.spacing();
+        let nodes: Vec<[f64; 2]> = self.generate_fibre(realisation, fibre).iter().enumerate().map(|(k, p)| [p[0] - k as f64 * drift_ds, p[1]]).collect();
         let (_, kappa) = self.fibre_curvature(realisation, fibre);
-        kappa.chunks_exact(self.points).map(|w| super::sde::window_shape(w, self.spacing())).collect()
+        let n = self.points;
+        kappa.chunks_exact(n).enumerate().map(|(i, w)| super::sde::window_shape(Some(&nodes[i * n..=(i + 1) * n]), w, self.spacing())).collect()
     }
 
     /// Calls `visit(fibre, nodes)` for every fibre of a realisation, in parallel on

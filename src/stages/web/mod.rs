@@ -41,12 +41,14 @@
 //! ```
 mod generate;
 pub mod sde;
+pub mod segments;
 mod stage;
 pub mod trig;
 
 pub use stage::{declared_webs, stored_bytes, web_from_input, DeclaredWeb, WebStage, SCRATCH_BYTES_PER_NODE};
 
 pub use generate::{fibre_rng, FibreScratch, Web};
+pub use segments::LaidTemplates;
 
 use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
 use crate::stages::spectra::SpectraError;
@@ -58,11 +60,8 @@ pub enum Generator {
     /// and random phases.
     #[default]
     RandomPhase,
-    /// Laid fibres (belt removed) joined end to end with their own curvature, hence
-    /// their own phases and shape; each segment a template drawn uniformly, optionally
-    /// mirrored (κ → −κ). Joins are continuous in position and tangent because the
-    /// curvature sequence is integrated across them (eq 13), which rotates each template
-    /// to continue its predecessor's last tangent; the first is rotated uniformly.
+    /// Laid fibres (belt removed) followed one after another with their own shape and
+    /// phases, each drawn uniformly, optionally mirrored; joined as [`SegmentJoin`] says.
     LaidSegments,
     /// The ITWM stochastic lay-down model ([`sde`]), calibrated on the laid fibres or given.
     LayDownSde,
@@ -79,6 +78,32 @@ impl Generator {
             "laid_segments" => Ok(Self::LaidSegments),
             "lay_down_sde" => Ok(Self::LayDownSde),
             _ => Err(spec(WEB_PARAMS, "generator").check_choice(name).unwrap_err()),
+        }
+    }
+}
+
+/// How `laid_segments` joins one laid fibre to the next (the `segment_join` parameter).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SegmentJoin {
+    /// Each laid fibre kept in its place about the feed axis and its laid orientation,
+    /// entered where it best continues the previous one ([`segments`]).
+    #[default]
+    Matched,
+    /// The laid fibres' curvature samples concatenated and integrated by eq 13: each
+    /// template rotated to continue the previous tangent, starting where it ended.
+    Curvature,
+}
+
+impl SegmentJoin {
+    pub const CHOICES: &'static [&'static str] = &["matched", "curvature"];
+    pub fn name(self) -> &'static str {
+        Self::CHOICES[self as usize]
+    }
+    pub fn from_name(name: &str) -> Result<Self, ParamError> {
+        match name {
+            "matched" => Ok(Self::Matched),
+            "curvature" => Ok(Self::Curvature),
+            _ => Err(spec(WEB_PARAMS, "segment_join").check_choice(name).unwrap_err()),
         }
     }
 }
@@ -133,6 +158,8 @@ pub struct WebParams {
     pub generator: Generator,
     /// `laid_segments`: mirror each template with probability ½.
     pub mirror: bool,
+    /// `laid_segments`: how templates are joined.
+    pub segment_join: SegmentJoin,
     /// Master seed of the random streams.
     pub seed: u64,
 }
@@ -149,6 +176,7 @@ impl Default for WebParams {
             spectrum_selection: SpectrumSelection::Single,
             generator: Generator::RandomPhase,
             mirror: false,
+            segment_join: SegmentJoin::Matched,
             seed: 0,
         }
     }
@@ -195,7 +223,8 @@ pub const WEB_PARAMS: &[ParamSpec] = &[
     ParamSpec { name: "fibre_density", unit: "kg/m^3", default: ParamDefault::Real(950.0), min: f64::MIN_POSITIVE, max: 1e5, choices: &[], doc: "ρ, fibre material density" },
     ParamSpec { name: "spectrum_selection", unit: "", default: ParamDefault::Choice("single"), min: f64::NAN, max: f64::NAN, choices: SpectrumSelection::CHOICES, doc: "single: every segment uses the first spectrum; per_segment: each segment draws one of the set" },
     ParamSpec { name: "generator", unit: "", default: ParamDefault::Choice("random_phase"), min: f64::NAN, max: f64::NAN, choices: Generator::CHOICES, doc: "random_phase: the paper's surrogate (eqs 11-13); laid_segments: the input's laid fibres joined with their own phases; lay_down_sde: the ITWM stochastic lay-down model" },
-    ParamSpec { name: "mirror", unit: "", default: ParamDefault::Bool(false), min: 0.0, max: 1.0, choices: &[], doc: "laid_segments: mirror each joined template (κ → −κ) with probability 1/2" },
+    ParamSpec { name: "mirror", unit: "", default: ParamDefault::Bool(false), min: 0.0, max: 1.0, choices: &[], doc: "laid_segments: mirror each joined template in CD (y → −y, κ → −κ) with probability 1/2" },
+    ParamSpec { name: "segment_join", unit: "", default: ParamDefault::Choice("matched"), min: f64::NAN, max: f64::NAN, choices: SegmentJoin::CHOICES, doc: "laid_segments: matched keeps each laid fibre about its feed axis in its laid orientation, entered where it continues the previous one; curvature integrates the joined curvature (templates rotated, fibre drifts from its hole)" },
     ParamSpec { name: "seed", unit: "1", default: ParamDefault::Integer(0), min: 0.0, max: 18446744073709551615.0, choices: &[], doc: "master seed; fibre j of realisation k uses ChaCha8 stream k·2³²+j" },
 ];
 

@@ -38,7 +38,7 @@
 //! calibrated at the input's Δs and meant to be used there.
 //!
 //! **Calibration** ([`calibrate`]): b and A are found so that segments of the input's
-//! length L, measured like the input fibres ([`chord_curvature`], [`window_shape`]), have
+//! length L, measured like the input fibres ([`window_shape`] of their nodes and [`chord_curvature`]), have
 //! the input's mean radius of gyration S (eq 5) and mean bending energy e (eq 6): damped
 //! fixed-point updates b ← b (S*/S)^0.8, A ← A (e*/e)^0.4 on a fixed set of simulated
 //! segments (common random numbers, so the measured S and e are smooth in b and A).
@@ -148,17 +148,22 @@ impl LayDownSde {
     pub fn positions(&self, rng: &mut ChaCha8Rng, steps: usize, spacing: f64) -> Vec<[f64; 2]> {
         let mut alpha = Vec::new();
         let start = self.tangent_angles_into(&mut Draws::new(rng), steps, spacing, &mut alpha);
-        let mut p = start;
-        let mut out = Vec::with_capacity(steps + 1);
-        out.push(p);
-        for w in alpha.windows(2) {
-            let ((s0, c0), (s1, c1)) = (w[0].sin_cos(), w[1].sin_cos());
-            p[0] += 0.5 * (c0 + c1) * spacing;
-            p[1] += 0.5 * (s0 + s1) * spacing;
-            out.push(p);
-        }
-        out
+        positions_from(start, &alpha, spacing)
     }
+}
+
+/// The nodes eq 13 builds from `start` and the tangent angles.
+fn positions_from(start: [f64; 2], alpha: &[f64], spacing: f64) -> Vec<[f64; 2]> {
+    let mut p = start;
+    let mut out = Vec::with_capacity(alpha.len());
+    out.push(p);
+    for w in alpha.windows(2) {
+        let ((s0, c0), (s1, c1)) = (sin_cos(w[0]), sin_cos(w[1]));
+        p[0] += 0.5 * (c0 + c1) * spacing;
+        p[1] += 0.5 * (s0 + s1) * spacing;
+        out.push(p);
+    }
+    out
 }
 
 /// Steps per potential length b the scheme needs for its stationary spread to be within
@@ -172,11 +177,16 @@ pub struct ShapeTarget {
     pub bending_energy: f64,
 }
 
-/// S and e of a curvature window of N samples at Δs, as the spectra stage reports a laid
-/// fibre's: S (eq 5) of the curve its samples rebuild by eq 13, e = (L/2) Σ κ² Δs (eq A.3).
-/// Every generator's fibres and the input's laid fibres are measured by this one function.
-pub fn window_shape(curvature: &[f64], spacing: f64) -> (f64, f64) {
-    let nodes: Vec<[f64; 3]> = integrate_curvature(curvature, spacing, 0.0, [0.0, 0.0], 0.0).iter().map(|p| [p[0], p[1], 0.0]).collect();
+/// S and e of a window of a fibre, belt removed: S (eq 5) of its N + 1 nodes and
+/// e = (L/2) Σ κ² Δs (eq A.3) of its N curvature samples at Δs, as the spectra stage reports
+/// a laid fibre's e. Every generator's fibres and the input's laid fibres are measured by
+/// this one function. Without nodes (`None`) S is that of the curve the samples rebuild
+/// by eq 13 (for idealised spectra, which have no nodes).
+pub fn window_shape(nodes: Option<&[[f64; 2]]>, curvature: &[f64], spacing: f64) -> (f64, f64) {
+    let nodes: Vec<[f64; 3]> = match nodes {
+        Some(n) => n.iter().map(|p| [p[0], p[1], 0.0]).collect(),
+        None => integrate_curvature(curvature, spacing, 0.0, [0.0, 0.0], 0.0).iter().map(|p| [p[0], p[1], 0.0]).collect(),
+    };
     let length = spacing * curvature.len() as f64;
     let e = 0.5 * length * curvature.iter().map(|k| k * k).sum::<f64>() * spacing;
     (radius_of_gyration(&nodes), e)
@@ -214,13 +224,15 @@ pub const CALIBRATION_ITERATIONS: usize = 60;
 /// each from its own stream of the calibration key `seed` (the same draws for every model).
 pub fn measure(model: &LayDownSde, spacing: f64, points: usize, seed: u64) -> ShapeTarget {
     let (mut s, mut e) = (0.0, 0.0);
-    let mut alpha = Vec::new();
     for i in 0..CALIBRATION_SEGMENTS {
         let mut rng = calibration_rng(seed, i as u64);
-        // N + 1 steps: the window's N samples are κ_1..κ_N (central differences).
-        model.tangent_angles_into(&mut Draws::new(&mut rng), points + 1, spacing, &mut alpha);
+        // N + 1 steps: the window's N samples are κ_1..κ_N (central differences) and its
+        // nodes η_0..η_N.
+        let mut alpha = Vec::new();
+        let start = model.tangent_angles_into(&mut Draws::new(&mut rng), points + 1, spacing, &mut alpha);
         let kappa = chord_curvature(&alpha, spacing);
-        let (si, ei) = window_shape(&kappa[1..], spacing);
+        let nodes = positions_from(start, &alpha, spacing);
+        let (si, ei) = window_shape(Some(&nodes[..=points]), &kappa[1..], spacing);
         s += si;
         e += ei;
     }

@@ -25,7 +25,7 @@
 //! placed (32 B each), every thread's fibre buffers ([`SCRATCH_BYTES_PER_NODE`] per node
 //! of a fibre being generated) and the spectrum set (read and prepared, 48 B per bin).
 use super::sde::{calibrate, window_shape, Calibration, LayDownSde, ShapeTarget, RESOLUTION};
-use super::{Generator, SpectrumSelection, Web, WebParams, WEB_PARAMS};
+use super::{Generator, SegmentJoin, SpectrumSelection, Web, WebParams, WEB_PARAMS};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
@@ -193,6 +193,7 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
         spectrum_selection: selection,
         generator,
         mirror: p.bool("mirror"),
+        segment_join: SegmentJoin::from_name(p.text("segment_join")).map_err(|e| bad(&e))?,
         seed: ctx.seed,
     };
     if generator != Generator::RandomPhase && p.text("preset") != "none" {
@@ -200,7 +201,10 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     }
     let laid = if ctx.inputs.is_empty() { None } else { Some(laid_fibres(ctx, p)?) };
     let input_shape = laid.as_ref().and_then(|l| l.shape());
-    let example = laid.as_ref().map(|l| (l.curvature[0].clone(), l.spacing));
+    let example = laid.as_ref().map(|l| match l.positions.first() {
+        Some(nodes) => nodes.clone(),
+        None => integrate_curvature(&l.curvature[0], l.spacing, 0.0, [0.0, 0.0], 0.0),
+    });
     let (web, spectra, source, calibration) = match generator {
         Generator::RandomPhase => {
             let (spectra, source) = spectra_for(ctx, p, selection)?;
@@ -209,8 +213,17 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
         }
         Generator::LaidSegments => {
             let laid = laid.ok_or_else(|| BadInput("generator laid_segments joins laid fibres: give `input: <spectra stage>` computed from a laydown or laid_web stage".into()))?;
-            let source = format!("{}: {} laid fibres (belt removed) joined{}", laid.source, laid.curvature.len(), if params.mirror { ", mirrored at random" } else { "" });
-            let web = Web::laid_segments(params, laid.curvature, laid.spacing).map_err(|e| bad(&e))?;
+            let source = format!(
+                "{}: {} laid fibres (belt removed) joined ({} join){}",
+                laid.source,
+                laid.curvature.len(),
+                params.segment_join.name(),
+                if params.mirror { ", mirrored at random" } else { "" }
+            );
+            if params.segment_join == SegmentJoin::Matched && laid.positions.is_empty() {
+                return Err(BadInput(format!("{}: the matched join needs the laid fibres' resampled nodes (`resampled_position`), which this spectra version does not hold (written by an older laydown, or idealised spectra); rerun it, or use `segment_join: curvature`", laid.source)).into());
+            }
+            let web = Web::laid_segments(params, laid.curvature, laid.positions, laid.spacing).map_err(|e| bad(&e))?;
             (web, vec![], source, None)
         }
         Generator::LayDownSde => {
@@ -248,7 +261,7 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
         (0..k).map(|i| (2 * i + 1) * n_w / (2 * k)).collect()
     };
     let generated_shape = generated_shape(&web);
-    let example_input_fibre = example.map(|(kappa, spacing)| crate::geometry::centred(&integrate_curvature(&kappa, spacing, 0.0, [0.0, 0.0], 0.0)));
+    let example_input_fibre = example.map(|nodes| crate::geometry::centred(&nodes));
     Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration, example_input_fibre })
 }
 
@@ -286,14 +299,17 @@ fn generated_shape(web: &Web) -> ShapeTarget {
 /// The laid fibres of one point of an input spectra stage: their curvature samples.
 struct LaidFibres {
     curvature: Vec<Vec<f64>>,
+    /// Resampled belt-removed nodes of each (N + 1), when the spectra version holds them.
+    positions: Vec<Vec<[f64; 2]>>,
     spacing: f64,
     source: String,
 }
 
 impl LaidFibres {
-    /// Mean S and e of the fibres, measured by [`window_shape`].
+    /// Mean S and e of the fibres, measured by [`window_shape`] (S of their resampled
+    /// nodes when the spectra version holds them).
     fn shape(&self) -> Option<ShapeTarget> {
-        let shapes: Vec<(f64, f64)> = self.curvature.iter().map(|k| window_shape(k, self.spacing)).collect();
+        let shapes: Vec<(f64, f64)> = self.curvature.iter().enumerate().map(|(i, k)| window_shape(self.positions.get(i).map(|q| q.as_slice()), k, self.spacing)).collect();
         let n = shapes.len() as f64;
         (n > 0.0).then(|| ShapeTarget { radius_of_gyration: shapes.iter().map(|s| s.0).sum::<f64>() / n, bending_energy: shapes.iter().map(|s| s.1).sum::<f64>() / n })
     }
@@ -329,18 +345,23 @@ fn laid_fibres(ctx: &RunContext, p: &ParamSet) -> Result<LaidFibres> {
     let kappa = input.read_f64("curvature")?; // (point, fibre, sample)
     let valid = input.read_u8("valid")?;
     let spacing = input.read_f64("sample_spacing")?[[point]];
+    let resampled = if input.has("resampled_position") { Some(input.read_f64("resampled_position")?) } else { None }; // (point, fibre, node, xy)
     let kappa = kappa.index_axis(Axis(0), point);
-    let mut curvature = vec![];
+    let (mut curvature, mut positions) = (vec![], vec![]);
     for f in 0..kappa.shape()[0] {
         if valid[[point, f]] == 0 {
             continue;
+        }
+        if let Some(r) = &resampled {
+            let nodes = r.index_axis(Axis(0), point).index_axis(Axis(0), f).outer_iter().map(|q| [q[0], q[1]]).take_while(|q| q[0].is_finite()).collect();
+            positions.push(nodes);
         }
         curvature.push(kappa.index_axis(Axis(0), f).iter().copied().take_while(|k| k.is_finite()).collect::<Vec<f64>>());
     }
     if curvature.is_empty() {
         return Err(BadInput(format!("{} point {point} has no valid fibre", input.version.group_path())).into());
     }
-    Ok(LaidFibres { curvature, spacing, source: format!("{} point {point}", input.version.group_path()) })
+    Ok(LaidFibres { curvature, positions, spacing, source: format!("{} point {point}", input.version.group_path()) })
 }
 
 fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> Result<(Vec<CurvatureSpectrum>, String)> {
@@ -449,6 +470,7 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
     out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis: x machine direction (belt motion), y cross direction");
     out.f64("fibre_positions", &["point", "realisation", "sample_fibre", "node", "xy"], positions, "m", "nodes of the stored fibres (realisation = replicate), s = node·Δs; NaN padding");
     out.strings("generator", "point", webs.iter().map(|w| w.web.params().generator.name().to_string()).collect(), "how the fibres are made: random_phase (eqs 11-13), laid_segments (laid fibres joined), lay_down_sde (ITWM stochastic lay-down model)");
+    out.strings("segment_join", "point", webs.iter().map(|w| w.web.params().segment_join.name().to_string()).collect(), "laid_segments: matched (laid fibres kept about their feed axis, entered where they continue the previous one) or curvature (curvature integrated across joins)");
     out.flags("mirror", &["point"], Array1::from_iter(webs.iter().map(|w| w.web.params().mirror)), "laid_segments: templates mirrored at random");
     let shape = |f: &dyn Fn(&PointWeb) -> Option<f64>| Array1::from_iter(webs.iter().map(|w| f(w).unwrap_or(nan)));
     out.f64("input_radius_of_gyration", &["point"], shape(&|w| w.input_shape.map(|s| s.radius_of_gyration)), "m", "mean S (eq 5) of the input's laid fibres, belt removed, as the spectra stage sampled them (NaN: no laid input)");
@@ -481,7 +503,7 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
                 example[[p, k, 1]] = q[1];
             }
         }
-        out.f64("example_input_fibre", &["point", "example_node", "xy"], example, "m", "the input's first laid fibre, belt removed, rebuilt from its curvature samples (eq 13) about its centroid; NaN padding");
+        out.f64("example_input_fibre", &["point", "example_node", "xy"], example, "m", "the input's first laid fibre, belt removed, about its centroid (its resampled nodes, or the curve its curvature samples rebuild by eq 13); NaN padding");
     }
     if let Some(longest) = webs.iter().filter_map(|w| w.web.templates()).map(|t| t.len()).max() {
         let mut curvature = crate::memory::try_array((np, longest, nbins), nan, "the laid templates")?;
@@ -491,6 +513,18 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
                     curvature[[p, t, m]] = *k;
                 }
             }
+        }
+        if webs.iter().any(|w| w.web.template_positions().is_some()) {
+            let mut nodes = crate::memory::try_array((np, longest, nbins + 1, 2), nan, "the laid templates' nodes")?;
+            for (p, w) in webs.iter().enumerate() {
+                for (t, row) in w.web.template_positions().unwrap_or_default().iter().enumerate() {
+                    for (m, q) in row.iter().enumerate() {
+                        nodes[[p, t, m, 0]] = q[0];
+                        nodes[[p, t, m, 1]] = q[1];
+                    }
+                }
+            }
+            out.f64("template_position", &["point", "template", "template_node", "xy"], nodes, "m", "laid_segments (matched join): each laid fibre's resampled belt-removed nodes, N + 1 (NaN: curvature join or padding)");
         }
         out.i64("template_count", &["point"], Array1::from_iter(webs.iter().map(|w| w.web.templates().map_or(0, |t| t.len() as i64))), "1", "laid_segments: templates (laid fibres) the segments are drawn from");
         out.f64("template_curvature", &["point", "template", "template_sample"], curvature, "m-1", "laid_segments: curvature samples κ_m of each template at Δs = node_spacing (NaN padding)");
@@ -515,6 +549,7 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
     let seeds = crate::archive::hdf::read_strings(&g, "rng_seed")?;
     // Archives written before the generators existed hold random-phase webs only.
     let spacing = f("node_spacing")?;
+    let joins = if g.link_exists("segment_join") { Some(crate::archive::hdf::read_strings(&g, "segment_join")?) } else { None };
     let mirror = if g.link_exists("mirror") { Some(crate::archive::hdf::read_u8(&g, "mirror")?) } else { None };
     let generators = if g.link_exists("generator") { crate::archive::hdf::read_strings(&g, "generator")? } else { vec!["random_phase".to_string(); n_w.len()] };
     (0..n_w.len())
@@ -529,6 +564,10 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
                 spectrum_selection: SpectrumSelection::from_name(&selection[p])?,
                 generator: Generator::from_name(&generators[p])?,
                 mirror: mirror.as_ref().is_some_and(|m| m[[p]] != 0),
+                segment_join: match &joins {
+                    Some(j) => SegmentJoin::from_name(&j[p])?,
+                    None => SegmentJoin::Curvature,
+                },
                 seed: seeds[p].parse()?,
             };
             let spacing = spacing[[p]];
@@ -545,7 +584,14 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
                 Generator::LaidSegments => {
                     let (templates, kappa) = (i("template_count")?[[p]] as usize, f("template_curvature")?);
                     let rows = (0..templates).map(|t| (0..nn[[p]] as usize).map(|m| kappa[[p, t, m]]).collect()).collect();
-                    Ok(Web::laid_segments(params, rows, spacing)?)
+                    let positions = match params.segment_join {
+                        SegmentJoin::Matched => {
+                            let q = f("template_position")?;
+                            (0..templates).map(|t| (0..=nn[[p]] as usize).map(|m| [q[[p, t, m, 0]], q[[p, t, m, 1]]]).collect()).collect()
+                        }
+                        SegmentJoin::Curvature => vec![],
+                    };
+                    Ok(Web::laid_segments(params, rows, positions, spacing)?)
                 }
                 Generator::LayDownSde => {
                     let model = LayDownSde { potential_length: f("sde_potential_length")?[[p]], noise: f("sde_noise")?[[p]] };

@@ -141,6 +141,10 @@ fn invalid_inputs_are_named() {
                 assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.generator.name()));
                 continue;
             }
+            "segment_join" => {
+                assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.segment_join.name()));
+                continue;
+            }
             "mirror" => {
                 assert_eq!(row.default, crate::param_table::ParamDefault::Bool(d.mirror));
                 continue;

@@ -247,7 +247,7 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
             };
             let web = Web::lay_down_sde(params, model, spacing, points).map_err(|e| bad(&e))?;
             if let Some(remark) = sde_remark(&web, calibration.as_ref()) {
-                crate::status!("warning: web point {index}: {remark}");
+                eprintln!("{}: warning: point {index}: {remark}", ctx.stage_name);
             }
             (web, vec![], source, calibration)
         }

@@ -1,6 +1,9 @@
-//! Web stage numerics (§3.1 eqs 11-15, §3.2, §3.3): stochastic fibres from a
-//! curvature spectrum, n_w of them started Δw apart across the belt, each n_l
-//! random segments long, drifting in the machine direction with the belt.
+//! Web stage numerics (§3.1 eqs 11-15, §3.2, §3.3): stochastic fibres, n_w of them
+//! started Δw apart across the belt, each n_l segments long, drifting in the machine
+//! direction with the belt. Three generators make the fibres ([`Generator`]): random
+//! phases of a curvature spectrum (the paper's, described below), laid fibres followed one
+//! after another ([`segments`]) and the ITWM stochastic lay-down model ([`sde`]); all
+//! share the belt drift, the starting points and the random streams described here.
 //!
 //! Conventions (x = machine direction MD, y = cross direction CD, metres):
 //! - **Random segments** (eqs 11-12): K'_r = |K_r|e^{iθ_r}, θ_r uniform in [0, 2π)

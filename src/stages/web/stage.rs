@@ -6,7 +6,17 @@
 //! datasets and regenerates any fibre of any realisation bit for bit (the fibre's
 //! random stream is fixed by (seed, realisation, fibre), see [`super::fibre_rng`]).
 //!
-//! **Spectrum source.** Either `input: <spectra stage>` (the spectrum of one of its
+//! **Generators** (`generator`, see [`super::Generator`]): `random_phase` (the paper's,
+//! the default) needs a spectrum; `laid_segments` follows the laid fibres of the input
+//! spectra stage (their resampled nodes, `resampled_position`, and curvature samples);
+//! `lay_down_sde` is calibrated on those fibres' mean S and e ([`super::sde::calibrate`])
+//! unless `sde_potential_length` and `sde_noise` are both given. Per point the stage
+//! records the input's and the generated segments' mean S and e (measured alike by
+//! [`super::sde::window_shape`]), the SDE's parameters and calibration, the laid templates
+//! (so that a grid regenerates a `laid_segments` web from the archive alone) and one input
+//! fibre for the `shape` figure.
+//!
+//! **Spectrum source** (random_phase). Either `input: <spectra stage>` (the spectrum of one of its
 //! points, chosen with `input_point`; `spectrum_selection: single` uses that point's
 //! energy-averaged mean spectrum, `per_segment` keeps every valid fibre's spectrum and
 //! each segment draws one uniformly, the draw being part of the fibre's random stream),
@@ -112,7 +122,7 @@ impl Stage for WebStage {
         "web"
     }
     fn summary(&self) -> &'static str {
-        "stochastic fibres from a curvature spectrum (random phases, eqs 11-13) laid with belt drift (eqs 14-15), n_w across, n_l segments long"
+        "stochastic fibres laid with belt drift (eqs 14-15), n_w across, n_l segments long: random phases of a curvature spectrum (eqs 11-13), laid fibres joined, or the ITWM lay-down SDE"
     }
     fn cache_version(&self) -> u32 {
         1
@@ -213,39 +223,11 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
         }
         Generator::LaidSegments => {
             let laid = laid.ok_or_else(|| BadInput("generator laid_segments joins laid fibres: give `input: <spectra stage>` computed from a laydown or laid_web stage".into()))?;
-            let source = format!(
-                "{}: {} laid fibres (belt removed) joined ({} join){}",
-                laid.source,
-                laid.curvature.len(),
-                params.segment_join.name(),
-                if params.mirror { ", mirrored at random" } else { "" }
-            );
-            if params.segment_join == SegmentJoin::Matched && laid.positions.is_empty() {
-                return Err(BadInput(format!("{}: the matched join needs the laid fibres' resampled nodes (`resampled_position`), which this spectra version does not hold (written by an older laydown, or idealised spectra); rerun it, or use `segment_join: curvature`", laid.source)).into());
-            }
-            let web = Web::laid_segments(params, laid.curvature, laid.positions, laid.spacing).map_err(|e| bad(&e))?;
+            let (web, source) = laid_segments_web(params, laid).map_err(|e| bad(&e))?;
             (web, vec![], source, None)
         }
         Generator::LayDownSde => {
-            let given = (p.f64_or_auto("sde_potential_length"), p.f64_or_auto("sde_noise"));
-            let (spacing, points) = match &laid {
-                Some(l) => (l.spacing, l.curvature[0].len()),
-                None => (p.f64("segment_length") / p.usize("points_per_segment") as f64, p.usize("points_per_segment")),
-            };
-            let (model, calibration, source) = match (given, input_shape) {
-                ((Some(b), Some(a)), _) => (LayDownSde { potential_length: b, noise: a }, None, "lay_down_sde: parameters given".to_string()),
-                ((None, None), Some(target)) => {
-                    let fit = calibrate(target, spacing, points, ctx.seed).map_err(|e| bad(&e))?;
-                    let l = laid.as_ref().expect("a shape comes from laid fibres");
-                    let source = format!("lay_down_sde calibrated on {}: {} laid fibres", l.source, l.curvature.len());
-                    (fit.model, Some(fit), source)
-                }
-                ((None, None), None) => {
-                    return Err(BadInput("generator lay_down_sde needs its two parameters (`sde_potential_length`, `sde_noise`) or an input spectra stage of laid fibres to calibrate them on".into()).into())
-                }
-                _ => return Err(BadInput("lay_down_sde: give both `sde_potential_length` and `sde_noise`, or neither (both calibrated on the input)".into()).into()),
-            };
-            let web = Web::lay_down_sde(params, model, spacing, points).map_err(|e| bad(&e))?;
+            let (web, source, calibration) = sde_web(ctx, p, params, laid.as_ref(), input_shape).map_err(|e| bad(&e))?;
             if let Some(remark) = sde_remark(&web, calibration.as_ref()) {
                 eprintln!("{}: warning: point {index}: {remark}", ctx.stage_name);
             }
@@ -263,6 +245,43 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     let generated_shape = generated_shape(&web);
     let example_input_fibre = example.map(|nodes| crate::geometry::centred(&nodes));
     Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration, example_input_fibre })
+}
+
+/// A `laid_segments` web of the input's laid fibres, and where they came from.
+fn laid_segments_web(params: WebParams, laid: LaidFibres) -> Result<(Web, String), String> {
+    let source = format!(
+        "{}: {} laid fibres (belt removed) joined ({} join){}",
+        laid.source,
+        laid.curvature.len(),
+        params.segment_join.name(),
+        if params.mirror { ", mirrored at random" } else { "" }
+    );
+    if params.segment_join == SegmentJoin::Matched && laid.positions.is_empty() {
+        return Err(format!("{}: the matched join needs the laid fibres' resampled nodes (`resampled_position`), which this spectra version does not hold (written by an older laydown, or idealised spectra); rerun it, or use `segment_join: curvature`", laid.source));
+    }
+    let web = Web::laid_segments(params, laid.curvature, laid.positions, laid.spacing).map_err(|e| e.to_string())?;
+    Ok((web, source))
+}
+
+/// A `lay_down_sde` web: b and A as given, or calibrated on the laid fibres' mean shape at
+/// their Δs and length; without an input, Δs = segment_length / points_per_segment.
+fn sde_web(ctx: &RunContext, p: &ParamSet, params: WebParams, laid: Option<&LaidFibres>, target: Option<ShapeTarget>) -> Result<(Web, String, Option<Calibration>), String> {
+    let given = (p.f64_or_auto("sde_potential_length"), p.f64_or_auto("sde_noise"));
+    let (spacing, points) = match laid {
+        Some(l) => (l.spacing, l.curvature[0].len()),
+        None => (p.f64("segment_length") / p.usize("points_per_segment") as f64, p.usize("points_per_segment")),
+    };
+    let (model, calibration, source) = match (given, target, laid) {
+        ((Some(b), Some(a)), _, _) => (LayDownSde { potential_length: b, noise: a }, None, "lay_down_sde: parameters given".to_string()),
+        ((None, None), Some(target), Some(l)) => {
+            let fit = calibrate(target, spacing, points, ctx.seed)?;
+            (fit.model, Some(fit), format!("lay_down_sde calibrated on {}: {} laid fibres", l.source, l.curvature.len()))
+        }
+        ((None, None), _, _) => return Err("generator lay_down_sde needs its two parameters (`sde_potential_length`, `sde_noise`) or an input spectra stage of laid fibres to calibrate them on".into()),
+        _ => return Err("lay_down_sde: give both `sde_potential_length` and `sde_noise`, or neither (both calibrated on the input)".into()),
+    };
+    let web = Web::lay_down_sde(params, model, spacing, points).map_err(|e| e.to_string())?;
+    Ok((web, source, calibration))
 }
 
 /// What a researcher must know about a lay-down SDE web's numerics, if anything: a step

@@ -133,7 +133,7 @@ impl Stage for WebStage {
     fn params(&self) -> Vec<ParamSpec> {
         let mut v = vec![
             ParamSpec::choice("preset", PRESETS, "none", "idealised spectrum instead of an input: the paper's Fig 10 square waves (L = 1 m)"),
-            ParamSpec::int("points_per_segment", "1", 1000, 4, 1_000_000, "N, samples per segment of a preset spectrum (Δs = L/N); ignored with an input"),
+            ParamSpec::int("points_per_segment", "1", 1000, 4, 1_000_000, "N, samples per segment of a preset spectrum or of a lay_down_sde given without an input (Δs = L/N); ignored with an input"),
             ParamSpec::int("input_point", "1", 0, 0, i64::MAX, "which point of the input spectra stage to use (auto: its only point)").auto_default(),
         ];
         for p in WEB_PARAMS {

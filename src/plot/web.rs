@@ -93,6 +93,6 @@ fn shape_figure(d: &StageData, fibres: &ndarray::Array5<f64>, index: &ndarray::A
             ..Default::default()
         }));
     }
-    Ok(Figure::new("shape", "Web: a laid fibre of the input beside a generated segment of the same length (belt removed)", panels, 2))
+    Ok(Figure::new("shape", "Web: laid fibre beside a generated segment (belt removed)", panels, 2))
 }
 

@@ -784,7 +784,17 @@ where
             }
         }
         let radius = (1.8 * sc.u).round().max(1.0) as u32;
+        // Categories (a preset, an integrator) have no order between them: no joining lines;
+        // a dashed twin becomes hollow markers.
+        let categorical = !p.categories.is_empty();
         for run in runs.into_iter().filter(|r| !r.is_empty()) {
+            if categorical {
+                match s.style {
+                    Style::Dashed => chart.draw_series(run.iter().map(|&q| Circle::new(q, radius + 1, style))).map_err(plot_err)?,
+                    _ => chart.draw_series(run.iter().map(|&q| Circle::new(q, radius, c.filled()))).map_err(plot_err)?,
+                };
+                continue;
+            }
             match s.style {
                 Style::Dashed => {
                     let (dash, gap) = ((3.5 * sc.u).round() as u32, (2.0 * sc.u).round() as u32);
@@ -820,6 +830,15 @@ fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &LinePanel,
             let c = colour(s.colour);
             let style = ShapeStyle::from(&c).stroke_width(sc.stroke(if s.bold { 1.8 } else { 0.9 }));
             let (a, b, yi) = (x.round() as i32, (x + 1.8 * sc.font).round() as i32, y.round() as i32);
+            let radius = (1.8 * sc.u).round().max(1.0) as u32;
+            if !p.categories.is_empty() {
+                match s.style {
+                    Style::Dashed => area.draw(&Circle::new(((a + b) / 2, yi), radius + 1, style)).map_err(plot_err)?,
+                    _ => area.draw(&Circle::new(((a + b) / 2, yi), radius, c.filled())).map_err(plot_err)?,
+                }
+                draw_text(area, s.label.as_deref().unwrap_or(""), sc.font, (x + 2.4 * sc.font, y), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
+                continue;
+            }
             match s.style {
                 Style::Dashed => {
                     let third = (b - a) / 3;

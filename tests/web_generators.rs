@@ -208,6 +208,13 @@ fn lay_down_sde_preset_and_bad_input() {
     let (o, e) = text(&out);
     assert_eq!(out.status.code(), Some(2), "{o}{e}");
     assert!(e.contains("nothing to calibrate"), "{e}");
+    // A step longer than the potential length is refused, naming both.
+    let bad = yaml.replace("sde_potential_length: 0.004", "sde_potential_length: 0.0005");
+    write_pipeline(tmp.path(), "bad.yaml", &bad);
+    let out = run_in(tmp.path(), &["run", "bad.yaml"]);
+    let (o, e) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{o}{e}");
+    assert!(e.contains("Δs = 1.000e-3 m exceeds the potential length b = 5.000e-4 m"), "{e}");
     let bad = yaml.replace("generator: lay_down_sde, sde_potential_length: 0.004, sde_noise: 3.0", "generator: laid_segments");
     write_pipeline(tmp.path(), "bad.yaml", &bad);
     let out = run_in(tmp.path(), &["run", "bad.yaml"]);

@@ -280,6 +280,15 @@ fn sde_web(ctx: &RunContext, p: &ParamSet, params: WebParams, laid: Option<&Laid
         ((None, None), _, _) => return Err("generator lay_down_sde needs its two parameters (`sde_potential_length`, `sde_noise`) or an input spectra stage of laid fibres to calibrate them on".into()),
         _ => return Err("lay_down_sde: give both `sde_potential_length` and `sde_noise`, or neither (both calibrated on the input)".into()),
     };
+    if spacing > model.potential_length {
+        // Measured: the stationary spread is 27 % off already at Δs = b/2; beyond b the
+        // scheme turns the fibre by more than a radian per step and the web is noise.
+        return Err(format!(
+            "lay_down_sde: the step Δs = {spacing:.3e} m exceeds the potential length b = {:.3e} m{}: the scheme cannot resolve the potential; allowed: Δs ≤ b (≤ b/{RESOLUTION} to be within 1 %): sample the input finer (the spectra stage's sample_spacing) or raise points_per_segment",
+            model.potential_length,
+            if calibration.is_some() { " (calibrated)" } else { "" }
+        ));
+    }
     let web = Web::lay_down_sde(params, model, spacing, points).map_err(|e| e.to_string())?;
     Ok((web, source, calibration))
 }

@@ -31,7 +31,7 @@ const MAGIC: f64 = 6_755_399_441_055_744.0;
 
 /// Branch-free kernel for |x| ≤ [`FAST_LIMIT`] (vectorisable in loops).
 #[inline(always)]
-fn kernel(x: f64) -> (f64, f64) {
+pub(crate) fn kernel(x: f64) -> (f64, f64) {
     let t = x * TWO_OVER_PI + MAGIC;
     let bits = t.to_bits(); // low bits hold q mod 4 (two's complement for q < 0)
     let q = t - MAGIC;
@@ -57,6 +57,27 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     } else {
         x.sin_cos()
     }
+}
+
+/// [`sin_cos`] of L independent angles (lanes of a lockstep loop): the kernel on every
+/// lane, branch-free so it vectorises, then `f64::sin_cos` for any lane beyond
+/// [`FAST_LIMIT`] (NaN included), exactly as [`sin_cos`] decides per angle.
+#[inline(always)]
+pub(crate) fn sin_cos_lanes<const L: usize>(x: &[f64; L]) -> ([f64; L], [f64; L]) {
+    let (mut s, mut c) = ([0.0; L], [0.0; L]);
+    let mut wide = false;
+    for l in 0..L {
+        (s[l], c[l]) = kernel(x[l]);
+        wide |= !(x[l].abs() <= FAST_LIMIT);
+    }
+    if wide {
+        for l in 0..L {
+            if !(x[l].abs() <= FAST_LIMIT) {
+                (s[l], c[l]) = x[l].sin_cos();
+            }
+        }
+    }
+    (s, c)
 }
 
 /// sin and cos of every angle (the slices must have equal lengths). Uses AVX2 when

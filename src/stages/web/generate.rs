@@ -246,6 +246,8 @@ impl Web {
         let segments = self.params.segments_per_fibre;
         let mut rng = fibre_rng(self.params.seed, realisation, fibre as u32);
         let theta_start = 2.0 * PI * uniform(&mut rng);
+        // Room for the closing κ the node pass appends (no reallocation there).
+        scratch.curvature.reserve((segments * n + 1).saturating_sub(scratch.curvature.len()));
         scratch.curvature.resize(segments * n, 0.0);
         match &self.source {
             Source::Spectra { spectra, ifft } => {
@@ -468,8 +470,8 @@ impl Web {
     }
 
     /// Calls `visit(fibre, nodes)` for every fibre of a realisation, in parallel on
-    /// the current rayon pool, holding one fibre per worker. Call order is not fixed;
-    /// each fibre's nodes are.
+    /// the current rayon pool, holding one fibre per worker (a `lay_down_sde` web: eight,
+    /// integrated in lockstep). Call order is not fixed; each fibre's nodes are.
     pub fn par_for_each_fibre<F>(&self, realisation: u32, visit: F)
     where
         F: Fn(usize, &[[f64; 2]]) + Sync + Send,
@@ -520,14 +522,14 @@ impl Web {
 /// Fibres of a `lay_down_sde` web integrated in lockstep, one per lane: the recurrence of
 /// one fibre is a dependent chain (two trig kernels per Heun step), so independent fibres
 /// side by side fill the vector units and hide its latency.
-pub(crate) const SDE_LANES: usize = 8;
+const SDE_LANES: usize = 8;
 
 /// Steps whose normal draws are made a block ahead of the integration.
 const SDE_BLOCK: usize = 128;
 
 /// Buffers of one worker integrating SDE fibres [`SDE_LANES`] at a time.
 #[derive(Default)]
-pub(crate) struct SdeScratch {
+struct SdeScratch {
     /// Normal draws of the block, lane by lane, then step by step (lanes adjacent).
     draws: Vec<f64>,
     lanes: Vec<f64>,
@@ -566,7 +568,9 @@ impl Web {
         let drift_ds = self.params.belt_speed_ratio * spacing;
         let mut escaped = [false; L];
         let (mut p0, mut p1) = ([0.0; L], [0.0; L]);
-        scratch.nodes.resize_with(L, Vec::new);
+        if scratch.nodes.len() < L {
+            scratch.nodes.resize_with(L, Vec::new);
+        }
         for l in 0..L {
             escaped[l] = !(angle[l].abs() <= FAST_LIMIT);
             p0[l] = eta0[l];

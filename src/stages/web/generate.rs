@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use rustfft::{Fft, FftPlanner};
 
-use super::trig::{sin_cos, sin_cos_lanes, sin_cos_slices, FAST_LIMIT};
+use super::trig::{beyond_fast_range, sin_cos_lanes, sin_cos_slices};
 use super::sde::{Draws, LayDownSde};
 use super::{Generator, SpectrumSelection, WebError, WebParams};
 use crate::stages::spectra::{check_compatible, CurvatureSpectrum};
@@ -61,15 +61,23 @@ impl Prepared {
         Self { mean: k[0].re, nyquist, bins }
     }
 
-    /// Adds w·K'_r (random phases, eq 11) into `buf`, for w = 1 or i.
-    fn add_random(&self, rng: &mut ChaCha8Rng, w: Complex64, buf: &mut [Complex64]) {
+    /// Adds w·K'_r (random phases, eq 11) into `buf`, for w = 1 or i. The phases are
+    /// drawn first, in increasing r as always, then turned into sines and cosines in one
+    /// vectorised pass (2πu < 2π is always in the fast kernel's range, so the values are
+    /// [`sin_cos`](super::trig::sin_cos)'s).
+    fn add_random(&self, rng: &mut ChaCha8Rng, w: Complex64, buf: &mut [Complex64], phases: &mut Phases) {
         let n = buf.len();
         buf[0] += w * self.mean;
         if n % 2 == 0 {
             buf[n / 2] += w * self.nyquist;
         }
-        for &(r, magnitude) in &self.bins {
-            let (s, c) = sin_cos(2.0 * PI * uniform(rng));
+        let m = self.bins.len();
+        phases.angle.clear();
+        phases.angle.extend((0..m).map(|_| 2.0 * PI * uniform(rng)));
+        phases.sin.resize(m, 0.0);
+        phases.cos.resize(m, 0.0);
+        sin_cos_slices(&phases.angle, &mut phases.sin, &mut phases.cos);
+        for ((&(r, magnitude), s), c) in self.bins.iter().zip(&phases.sin).zip(&phases.cos) {
             let z = Complex64::new(magnitude * c, magnitude * s);
             buf[r] += w * z;
             buf[n - r] += w * z.conj();
@@ -77,9 +85,18 @@ impl Prepared {
     }
 }
 
+/// The random phases of one segment, their sines and cosines.
+#[derive(Default)]
+struct Phases {
+    angle: Vec<f64>,
+    sin: Vec<f64>,
+    cos: Vec<f64>,
+}
+
 /// Reusable buffers for generating one fibre at a time.
 #[derive(Default)]
 pub struct FibreScratch {
+    phases: Phases,
     curvature: Vec<f64>,
     spectrum: Vec<Complex64>,
     fft: Vec<Complex64>,
@@ -261,10 +278,10 @@ impl Web {
                 for pair in (0..segments).step_by(2) {
                     let buf = &mut scratch.spectrum;
                     buf.fill(Complex64::default());
-                    choose(&mut rng).add_random(&mut rng, Complex64::new(1.0, 0.0), buf);
+                    choose(&mut rng).add_random(&mut rng, Complex64::new(1.0, 0.0), buf, &mut scratch.phases);
                     let second = pair + 1 < segments;
                     if second {
-                        choose(&mut rng).add_random(&mut rng, Complex64::new(0.0, 1.0), buf);
+                        choose(&mut rng).add_random(&mut rng, Complex64::new(0.0, 1.0), buf, &mut scratch.phases);
                     }
                     ifft.process_with_scratch(buf, &mut scratch.fft); // eq 12 (no 1/N)
                     let out = &mut scratch.curvature[pair * n..];
@@ -367,7 +384,7 @@ impl Web {
     /// kernel and the nodes by eqs 13-14, block by block so all three stay in L1 and the
     /// kernel vectorises. The same operations in the same order as
     /// [`Self::tangent_angles_into`] then [`Self::generate_fibre_scalar_into`]'s passes,
-    /// so the same bits, provided every |θ| ≤ [`FAST_LIMIT`] (that path then uses the
+    /// so the same bits, provided every |θ| ≤ [`FAST_LIMIT`](super::trig::FAST_LIMIT) (that path then uses the
     /// kernel for all); returns `true` (nodes to be remade by the scalar path) if not.
     #[inline(always)]
     fn nodes_from_curvature(&self, theta_start: f64, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) -> bool {
@@ -386,7 +403,7 @@ impl Web {
         let mut p = [0.0, self.params.start_y(fibre) + 0.0];
         all[0].write(p);
         let mut t = theta_start;
-        let mut wide = !(t.abs() <= FAST_LIMIT);
+        let mut wide = beyond_fast_range(t);
         let (mut s0, mut c0) = super::trig::kernel(t);
         let (mut theta, mut sin, mut cos) = ([0.0; BLOCK], [0.0; BLOCK], [0.0; BLOCK]);
         // Block b holds nodes b·BLOCK + 1 ..= b·BLOCK + its length, node k having
@@ -400,7 +417,7 @@ impl Web {
             let mut w = false;
             for i in 0..BLOCK {
                 (sin[i], cos[i]) = super::trig::kernel(theta[i]);
-                w |= !(theta[i].abs() <= FAST_LIMIT);
+                w |= beyond_fast_range(theta[i]);
             }
             w
         };
@@ -540,7 +557,7 @@ struct SdeScratch {
 impl Web {
     /// Integrates the SDE fibres `fibres` (L of them, repeats allowed) of one realisation
     /// in lockstep and fills `scratch.nodes[l]` with fibre `fibres[l]`'s nodes, unless its
-    /// tangent angle leaves the fast-trig range ([`FAST_LIMIT`]), when `true` is returned
+    /// tangent angle leaves the fast-trig range ([`FAST_LIMIT`](super::trig::FAST_LIMIT)), when `true` is returned
     /// for that lane and its nodes are to be made by [`Self::generate_fibre_scalar_into`]
     /// (the nodes' sines and cosines then come from `f64::sin_cos` for the whole fibre).
     ///
@@ -572,7 +589,7 @@ impl Web {
             scratch.nodes.resize_with(L, Vec::new);
         }
         for l in 0..L {
-            escaped[l] = !(angle[l].abs() <= FAST_LIMIT);
+            escaped[l] = beyond_fast_range(angle[l]);
             p0[l] = eta0[l];
             p1[l] = self.params.start_y(fibres[l]) + eta1[l];
             let nodes = &mut scratch.nodes[l];
@@ -612,7 +629,7 @@ impl Web {
                     let eta_p1 = eta1[l] + 0.5 * (sin[l] + sin_p[l]) * spacing;
                     let drift_p = -(-eta_p0 * sin_p[l] + eta_p1 * cos_p[l]) * inv_b2;
                     angle[l] += 0.5 * (drift[l] + drift_p) * spacing + noise[l];
-                    escaped[l] |= !(angle[l].abs() <= FAST_LIMIT);
+                    escaped[l] |= beyond_fast_range(angle[l]);
                 }
                 let (sin1, cos1) = sin_cos_lanes(&angle);
                 for l in 0..L {
@@ -698,6 +715,7 @@ mod bit_identity {
         use rand_chacha::ChaCha8Rng;
         use std::f64::consts::PI;
 
+        #[allow(clippy::excessive_precision)] // fdlibm's constants, as trig.rs writes them
         fn kernel(x: f64) -> (f64, f64) {
             const TWO_OVER_PI: f64 = std::f64::consts::FRAC_2_PI;
             const PIO2_1: f64 = 1.570_796_326_734_125_614_17e+00;
@@ -915,7 +933,19 @@ mod bit_identity {
         let per = WebParams { spectrum_selection: SpectrumSelection::PerSegment, ..params(4, 5, 8) };
         let web = Web::new(per, vec![spectrum("spectrum1"), spectrum("spectrum2")]).unwrap();
         got.push(check("random_phase per_segment", &web));
-        assert_eq!(got, ["385897f4f75cc268", "ad667dd12a8d93ef"]);
+        // A laid-fibre-like spectrum: every bin non-zero, a negative mean, a Nyquist term.
+        let n = 512;
+        let mut k = vec![Complex64::new(0.0, 0.0); n];
+        k[0].re = -3.0;
+        for r in 1..n / 2 {
+            k[r] = Complex64::from_polar(40.0 / (1.0 + (r as f64 / 15.0).powi(2)), 0.1 * r as f64);
+            k[n - r] = k[r].conj();
+        }
+        k[n / 2].re = 0.5;
+        let full = crate::stages::spectra::CurvatureSpectrum::new(0.5, k).unwrap();
+        let web = Web::new(params(5, 7, 4), vec![full]).unwrap();
+        got.push(check("random_phase all bins", &web));
+        assert_eq!(got, ["385897f4f75cc268", "ad667dd12a8d93ef", "607c161fbc86f6f5"]);
     }
 
     #[test]

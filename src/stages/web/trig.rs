@@ -59,6 +59,13 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     }
 }
 
+/// True where [`sin_cos`] leaves the kernel for `f64::sin_cos`: |x| > [`FAST_LIMIT`] or NaN.
+#[inline(always)]
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must count as beyond
+pub(crate) fn beyond_fast_range(x: f64) -> bool {
+    !(x.abs() <= FAST_LIMIT)
+}
+
 /// [`sin_cos`] of L independent angles (lanes of a lockstep loop): the kernel on every
 /// lane, branch-free so it vectorises, then `f64::sin_cos` for any lane beyond
 /// [`FAST_LIMIT`] (NaN included), exactly as [`sin_cos`] decides per angle.
@@ -68,11 +75,11 @@ pub(crate) fn sin_cos_lanes<const L: usize>(x: &[f64; L]) -> ([f64; L], [f64; L]
     let mut wide = false;
     for l in 0..L {
         (s[l], c[l]) = kernel(x[l]);
-        wide |= !(x[l].abs() <= FAST_LIMIT);
+        wide |= beyond_fast_range(x[l]);
     }
     if wide {
         for l in 0..L {
-            if !(x[l].abs() <= FAST_LIMIT) {
+            if beyond_fast_range(x[l]) {
                 (s[l], c[l]) = x[l].sin_cos();
             }
         }

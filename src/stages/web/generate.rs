@@ -359,7 +359,10 @@ impl Web {
         // Curvature, then θ, its sines and cosines and the nodes in one blocked pass.
         let theta_start = self.curvature_into(realisation, fibre, scratch);
         #[cfg(target_arch = "x86_64")]
-        let wide = if std::arch::is_x86_feature_detected!("avx2") {
+        let wide = if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            unsafe { self.nodes_from_curvature_avx512(theta_start, fibre, scratch, nodes) }
+        } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked just above).
             unsafe { self.nodes_from_curvature_avx2(theta_start, fibre, scratch, nodes) }
         } else {
@@ -371,6 +374,12 @@ impl Web {
             // Some |θ| beyond the fast kernel: the whole fibre takes `f64::sin_cos`.
             self.generate_fibre_scalar_into(realisation, fibre, scratch, nodes);
         }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn nodes_from_curvature_avx512(&self, theta_start: f64, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) -> bool {
+        self.nodes_from_curvature(theta_start, fibre, scratch, nodes)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -495,7 +504,7 @@ impl Web {
     {
         let n_w = self.params.fibres_across;
         if let Source::Sde(model) = &self.source {
-            let lanes = SDE_LANES;
+            let lanes = self.sde_width();
             let batches = n_w.div_ceil(lanes);
             // Few jobs per thread: each allocates its buffers once (init).
             let min_len = (batches / (8 * rayon::current_num_threads())).max(1);
@@ -523,8 +532,9 @@ impl Web {
         if let Source::Sde(model) = &self.source {
             let mut scratch = (SdeScratch::default(), FibreScratch::default());
             let n_w = self.params.fibres_across;
-            for first in (0..n_w).step_by(SDE_LANES) {
-                self.sde_visit(model, realisation, first, SDE_LANES.min(n_w - first), &mut scratch, &mut visit);
+            let lanes = self.sde_width();
+            for first in (0..n_w).step_by(lanes) {
+                self.sde_visit(model, realisation, first, lanes.min(n_w - first), &mut scratch, &mut visit);
             }
             return;
         }
@@ -540,11 +550,14 @@ impl Web {
 /// one fibre is a dependent chain (two trig kernels per Heun step), so independent fibres
 /// side by side fill the vector units and hide its latency.
 const SDE_LANES: usize = 8;
+/// Most bytes of lane node buffers one worker holds: fibres longer than 2²² nodes
+/// (64 MiB / 8 lanes / 16 B) are integrated fewer at a time, down to one.
+const SDE_LANE_BYTES: usize = 64 << 20;
 
 /// Steps whose normal draws are made a block ahead of the integration.
 const SDE_BLOCK: usize = 128;
 
-/// Buffers of one worker integrating SDE fibres [`SDE_LANES`] at a time.
+/// Buffers of one worker integrating SDE fibres up to [`SDE_LANES`] at a time.
 #[derive(Default)]
 struct SdeScratch {
     /// Normal draws of the block, lane by lane, then step by step (lanes adjacent).
@@ -656,7 +669,10 @@ impl Web {
     /// wider registers, no FMA: the same bits), and the nodes of escaped lanes remade.
     fn sde_batch<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch, fallback: &mut FibreScratch) {
         #[cfg(target_arch = "x86_64")]
-        let escaped = if std::arch::is_x86_feature_detected!("avx2") {
+        let escaped = if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            unsafe { self.sde_lanes_avx512(model, realisation, fibres, scratch) }
+        } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked just above).
             unsafe { self.sde_lanes_avx2(model, realisation, fibres, scratch) }
         } else {
@@ -672,21 +688,39 @@ impl Web {
     }
 
     #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn sde_lanes_avx512<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) -> [bool; L] {
+        self.sde_lanes(model, realisation, fibres, scratch)
+    }
+
+    #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn sde_lanes_avx2<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) -> [bool; L] {
         self.sde_lanes(model, realisation, fibres, scratch)
     }
 
+    /// Fibres an SDE batch integrates at once: [`SDE_LANES`], fewer (a power of two) for
+    /// fibres so long that their node buffers would pass [`SDE_LANE_BYTES`].
+    fn sde_width(&self) -> usize {
+        let fibre_bytes = self.nodes_per_fibre() * std::mem::size_of::<[f64; 2]>();
+        let mut lanes = SDE_LANES;
+        while lanes > 1 && lanes * fibre_bytes > SDE_LANE_BYTES {
+            lanes /= 2;
+        }
+        lanes
+    }
+
     /// Calls `visit(j, nodes)` for fibres `first..first + count` of an SDE web, integrated
-    /// [`SDE_LANES`] at a time (one lane for a lone fibre; a short batch repeats its
+    /// [`Self::sde_width`] at a time (one lane for a lone fibre; a short batch repeats its
     /// first fibre in the idle lanes).
     fn sde_visit<F: FnMut(usize, &[[f64; 2]])>(&self, model: &LayDownSde, realisation: u32, first: usize, count: usize, scratch: &mut (SdeScratch, FibreScratch), mut visit: F) {
         let (lanes, fallback) = scratch;
-        if count == 1 {
-            self.sde_batch(model, realisation, [first], lanes, fallback);
-        } else {
-            let fibres = std::array::from_fn(|l| if l < count { first + l } else { first });
-            self.sde_batch::<SDE_LANES>(model, realisation, fibres, lanes, fallback);
+        let fibres = |l: usize| if l < count { first + l } else { first };
+        match count {
+            1 => self.sde_batch(model, realisation, [first], lanes, fallback),
+            2 => self.sde_batch::<2>(model, realisation, std::array::from_fn(fibres), lanes, fallback),
+            3 | 4 => self.sde_batch::<4>(model, realisation, std::array::from_fn(fibres), lanes, fallback),
+            _ => self.sde_batch::<SDE_LANES>(model, realisation, std::array::from_fn(fibres), lanes, fallback),
         }
         for l in 0..count {
             visit(first + l, &lanes.nodes[l]);
@@ -975,6 +1009,59 @@ mod bit_identity {
         assert!(escaped > 0 && escaped < 9, "{escaped} of 9 fibres beyond the fast range");
         got.push(check("lay_down_sde beyond the fast range", &web));
         assert_eq!(got, ["b6b8730a13e1be34", "758f4e09ecab82be", "f3b288bbd61a6ea5"]);
+    }
+
+    #[test]
+    fn every_instruction_set_gives_the_same_fibres() {
+        // The dispatch picks one path per CPU; call each this CPU has directly.
+        let sde = sde_web(5, 4, 5e-3, 2.0, 3);
+        let model = sde.sde_model().unwrap();
+        let fibres = [0, 1, 2, 3, 4, 0, 1, 2];
+        let want: Vec<Vec<[f64; 2]>> = fibres.iter().map(|&j| reference::fibre(&sde, 6, j)).collect();
+        let mut paths: Vec<(&str, SdeScratch)> = Vec::new();
+        let mut generic = SdeScratch::default();
+        assert_eq!(sde.sde_lanes(&model, 6, fibres, &mut generic), [false; 8]);
+        paths.push(("generic", generic));
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                let mut s = SdeScratch::default();
+                assert_eq!(unsafe { sde.sde_lanes_avx2(&model, 6, fibres, &mut s) }, [false; 8]);
+                paths.push(("avx2", s));
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                let mut s = SdeScratch::default();
+                assert_eq!(unsafe { sde.sde_lanes_avx512(&model, 6, fibres, &mut s) }, [false; 8]);
+                paths.push(("avx512f", s));
+            }
+        }
+        eprintln!("SDE lanes checked: {:?}", paths.iter().map(|p| p.0).collect::<Vec<_>>());
+        for (name, s) in &paths {
+            for (l, w) in want.iter().enumerate() {
+                assert!(s.nodes[l] == *w, "{name}: lane {l}");
+            }
+        }
+        let web = Web::new(params(3, 5, 9), vec![spectrum("spectrum2")]).unwrap();
+        for j in 0..3 {
+            let want = reference::fibre(&web, 1, j);
+            let mut scratch = FibreScratch::default();
+            let mut run = |name: &str, f: &dyn Fn(&Web, f64, &mut FibreScratch, &mut Vec<[f64; 2]>) -> bool| {
+                let theta_start = web.curvature_into(1, j, &mut scratch);
+                let mut nodes = Vec::new();
+                assert!(!f(&web, theta_start, &mut scratch, &mut nodes));
+                assert!(nodes == want, "{name}: fibre {j}");
+            };
+            run("generic", &|w, t, s, n| w.nodes_from_curvature(t, j, s, n));
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    run("avx2", &|w, t, s, n| unsafe { w.nodes_from_curvature_avx2(t, j, s, n) });
+                }
+                if std::arch::is_x86_feature_detected!("avx512f") {
+                    run("avx512f", &|w, t, s, n| unsafe { w.nodes_from_curvature_avx512(t, j, s, n) });
+                }
+            }
+        }
     }
 
     #[test]

@@ -1045,7 +1045,8 @@ mod bit_identity {
         for j in 0..3 {
             let want = reference::fibre(&web, 1, j);
             let mut scratch = FibreScratch::default();
-            let mut run = |name: &str, f: &dyn Fn(&Web, f64, &mut FibreScratch, &mut Vec<[f64; 2]>) -> bool| {
+            type NodePass<'a> = &'a dyn Fn(&Web, f64, &mut FibreScratch, &mut Vec<[f64; 2]>) -> bool;
+            let mut run = |name: &str, f: NodePass| {
                 let theta_start = web.curvature_into(1, j, &mut scratch);
                 let mut nodes = Vec::new();
                 assert!(!f(&web, theta_start, &mut scratch, &mut nodes));

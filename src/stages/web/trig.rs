@@ -6,6 +6,8 @@
 //! |x| ≤ 8e5 rad, falling back to `f64::sin_cos` beyond. Deterministic (no FMA
 //! contraction in Rust), so results are identical on every run and thread count.
 
+#![allow(clippy::excessive_precision)] // fdlibm's constants, digit for digit
+
 const TWO_OVER_PI: f64 = std::f64::consts::FRAC_2_PI;
 const PIO2_1: f64 = 1.570_796_326_734_125_614_17e+00; // first 33 bits of π/2
 const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11; // next 33 bits

@@ -89,13 +89,19 @@ pub(crate) fn sin_cos_lanes<const L: usize>(x: &[f64; L]) -> ([f64; L], [f64; L]
     (s, c)
 }
 
-/// sin and cos of every angle (the slices must have equal lengths). Uses AVX2 when
-/// the CPU has it: the same IEEE operations on wider registers (no FMA), so the
-/// results are bit-identical to the SSE2 path and to [`sin_cos`].
+/// sin and cos of every angle (the slices must have equal lengths). Uses AVX-512F or
+/// AVX2 when the CPU has it: the same IEEE operations on wider registers (no FMA), so
+/// the results are bit-identical to the SSE2 path and to [`sin_cos`].
 pub fn sin_cos_slices(angles: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     assert!(sin.len() == angles.len() && cos.len() == angles.len());
     let largest = angles.iter().fold(0.0f64, |m, a| m.max(a.abs()));
     if largest <= FAST_LIMIT {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            unsafe { kernel_slices_avx512(angles, sin, cos) };
+            return;
+        }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked just above).
@@ -115,6 +121,12 @@ fn kernel_slices(angles: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     for ((a, s), c) in angles.iter().zip(sin.iter_mut()).zip(cos.iter_mut()) {
         (*s, *c) = kernel(*a);
     }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn kernel_slices_avx512(angles: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+    kernel_slices(angles, sin, cos)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -148,6 +160,19 @@ mod tests {
         for i in 0..1000 {
             assert_eq!((s[i], c[i]), sin_cos(xs[i]));
             assert_eq!((s2[i], c2[i]), sin_cos(xs[i]));
+        }
+        #[cfg(target_arch = "x86_64")]
+        for (name, has) in [("avx2", std::arch::is_x86_feature_detected!("avx2")), ("avx512f", std::arch::is_x86_feature_detected!("avx512f"))] {
+            if has {
+                let (mut s3, mut c3) = (vec![0.0; 1000], vec![0.0; 1000]);
+                match name {
+                    "avx2" => unsafe { kernel_slices_avx2(&xs, &mut s3, &mut c3) },
+                    _ => unsafe { kernel_slices_avx512(&xs, &mut s3, &mut c3) },
+                }
+                for i in 0..1000 {
+                    assert_eq!((s3[i], c3[i]), sin_cos(xs[i]), "{name}");
+                }
+            }
         }
         assert_eq!(sin_cos(0.0), (0.0, 1.0));
         let big = 1e7_f64;

@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use rustfft::{Fft, FftPlanner};
 
-use super::trig::{sin_cos, sin_cos_slices};
+use super::trig::{beyond_fast_range, sin_cos_lanes, sin_cos_slices};
 use super::sde::{Draws, LayDownSde};
 use super::segments::LaidTemplates;
 use super::{Generator, SegmentJoin, SpectrumSelection, WebError, WebParams};
@@ -62,15 +62,23 @@ impl Prepared {
         Self { mean: k[0].re, nyquist, bins }
     }
 
-    /// Adds w·K'_r (random phases, eq 11) into `buf`, for w = 1 or i.
-    fn add_random(&self, rng: &mut ChaCha8Rng, w: Complex64, buf: &mut [Complex64]) {
+    /// Adds w·K'_r (random phases, eq 11) into `buf`, for w = 1 or i. The phases are
+    /// drawn first, in increasing r as always, then turned into sines and cosines in one
+    /// vectorised pass (2πu < 2π is always in the fast kernel's range, so the values are
+    /// [`sin_cos`](super::trig::sin_cos)'s).
+    fn add_random(&self, rng: &mut ChaCha8Rng, w: Complex64, buf: &mut [Complex64], phases: &mut Phases) {
         let n = buf.len();
         buf[0] += w * self.mean;
         if n % 2 == 0 {
             buf[n / 2] += w * self.nyquist;
         }
-        for &(r, magnitude) in &self.bins {
-            let (s, c) = sin_cos(2.0 * PI * uniform(rng));
+        let m = self.bins.len();
+        phases.angle.clear();
+        phases.angle.extend((0..m).map(|_| 2.0 * PI * uniform(rng)));
+        phases.sin.resize(m, 0.0);
+        phases.cos.resize(m, 0.0);
+        sin_cos_slices(&phases.angle, &mut phases.sin, &mut phases.cos);
+        for ((&(r, magnitude), s), c) in self.bins.iter().zip(&phases.sin).zip(&phases.cos) {
             let z = Complex64::new(magnitude * c, magnitude * s);
             buf[r] += w * z;
             buf[n - r] += w * z.conj();
@@ -78,9 +86,18 @@ impl Prepared {
     }
 }
 
+/// The random phases of one segment, their sines and cosines.
+#[derive(Default)]
+struct Phases {
+    angle: Vec<f64>,
+    sin: Vec<f64>,
+    cos: Vec<f64>,
+}
+
 /// Reusable buffers for generating one fibre at a time.
 #[derive(Default)]
 pub struct FibreScratch {
+    phases: Phases,
     curvature: Vec<f64>,
     spectrum: Vec<Complex64>,
     fft: Vec<Complex64>,
@@ -277,6 +294,8 @@ impl Web {
         let segments = self.params.segments_per_fibre;
         let mut rng = fibre_rng(self.params.seed, realisation, fibre as u32);
         let theta_start = 2.0 * PI * uniform(&mut rng);
+        // Room for the closing κ the node pass appends (no reallocation there).
+        scratch.curvature.reserve((segments * n + 1).saturating_sub(scratch.curvature.len()));
         scratch.curvature.resize(segments * n, 0.0);
         match &self.source {
             Source::Spectra { spectra, ifft } => {
@@ -290,10 +309,10 @@ impl Web {
                 for pair in (0..segments).step_by(2) {
                     let buf = &mut scratch.spectrum;
                     buf.fill(Complex64::default());
-                    choose(&mut rng).add_random(&mut rng, Complex64::new(1.0, 0.0), buf);
+                    choose(&mut rng).add_random(&mut rng, Complex64::new(1.0, 0.0), buf, &mut scratch.phases);
                     let second = pair + 1 < segments;
                     if second {
-                        choose(&mut rng).add_random(&mut rng, Complex64::new(0.0, 1.0), buf);
+                        choose(&mut rng).add_random(&mut rng, Complex64::new(0.0, 1.0), buf, &mut scratch.phases);
                     }
                     ifft.process_with_scratch(buf, &mut scratch.fft); // eq 12 (no 1/N)
                     let out = &mut scratch.curvature[pair * n..];
@@ -371,6 +390,123 @@ impl Web {
             }
             return;
         }
+        if let Source::Sde(model) = &self.source {
+            // One lane of the lockstep integration (angles, their trig and the nodes in one pass).
+            let mut lanes = SdeScratch { nodes: vec![std::mem::take(nodes)], ..SdeScratch::default() };
+            self.sde_batch(model, realisation, [fibre], &mut lanes, scratch);
+            *nodes = lanes.nodes.pop().unwrap();
+            return;
+        }
+        // Curvature, then θ, its sines and cosines and the nodes in one blocked pass.
+        let theta_start = self.curvature_into(realisation, fibre, scratch);
+        #[cfg(target_arch = "x86_64")]
+        let wide = if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            unsafe { self.nodes_from_curvature_avx512(theta_start, fibre, scratch, nodes) }
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            unsafe { self.nodes_from_curvature_avx2(theta_start, fibre, scratch, nodes) }
+        } else {
+            self.nodes_from_curvature(theta_start, fibre, scratch, nodes)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let wide = self.nodes_from_curvature(theta_start, fibre, scratch, nodes);
+        if wide {
+            // Some |θ| beyond the fast kernel: the whole fibre takes `f64::sin_cos`.
+            self.generate_fibre_scalar_into(realisation, fibre, scratch, nodes);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn nodes_from_curvature_avx512(&self, theta_start: f64, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) -> bool {
+        self.nodes_from_curvature(theta_start, fibre, scratch, nodes)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn nodes_from_curvature_avx2(&self, theta_start: f64, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) -> bool {
+        self.nodes_from_curvature(theta_start, fibre, scratch, nodes)
+    }
+
+    /// The nodes of a random_phase or laid_segments fibre from its curvature
+    /// (`scratch.curvature`) and start angle: θ by eq 13, sin θ and cos θ by the fast
+    /// kernel and the nodes by eqs 13-14, block by block so all three stay in L1 and the
+    /// kernel vectorises. The same operations in the same order as
+    /// [`Self::tangent_angles_into`] then [`Self::generate_fibre_scalar_into`]'s passes,
+    /// so the same bits, provided every |θ| ≤ [`FAST_LIMIT`](super::trig::FAST_LIMIT) (that path then uses the
+    /// kernel for all); returns `true` (nodes to be remade by the scalar path) if not.
+    #[inline(always)]
+    fn nodes_from_curvature(&self, theta_start: f64, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) -> bool {
+        const BLOCK: usize = 64;
+        let total = self.params.segments_per_fibre * self.points;
+        let half_ds = 0.5 * self.spacing();
+        let drift_ds = self.params.belt_speed_ratio * self.spacing();
+        // κ_total := the last segment's κ_0, so the closing step is the recurrence's last.
+        let kappa = &mut scratch.curvature;
+        kappa.push(kappa[total - self.points]);
+        let kappa = &kappa[..];
+        // Every node is written below, so the buffer is not zero-filled first.
+        nodes.clear();
+        nodes.reserve(total + 1);
+        let all = &mut nodes.spare_capacity_mut()[..total + 1];
+        let mut p = [0.0, self.params.start_y(fibre) + 0.0];
+        all[0].write(p);
+        let mut t = theta_start;
+        let mut wide = beyond_fast_range(t);
+        let (mut s0, mut c0) = super::trig::kernel(t);
+        let (mut theta, mut sin, mut cos) = ([0.0; BLOCK], [0.0; BLOCK], [0.0; BLOCK]);
+        // Block b holds nodes b·BLOCK + 1 ..= b·BLOCK + its length, node k having
+        // θ_k = θ_{k−1} + (κ_{k−1} + κ_k)Δs/2. Software-pipelined: the θ recurrence of
+        // block b + 1 runs in the same loop as the node recurrence of block b (two
+        // independent dependency chains), then the kernel turns block b + 1's θ into its
+        // sines and cosines (vectorised, the whole block: a short last block's tail holds
+        // earlier blocks' angles, already checked).
+        let blocks = total.div_ceil(BLOCK);
+        let turn = |theta: &mut [f64; BLOCK], sin: &mut [f64; BLOCK], cos: &mut [f64; BLOCK]| {
+            let mut w = false;
+            for i in 0..BLOCK {
+                (sin[i], cos[i]) = super::trig::kernel(theta[i]);
+                w |= beyond_fast_range(theta[i]);
+            }
+            w
+        };
+        {
+            let k = &kappa[..BLOCK.min(total) + 1];
+            for i in 0..k.len() - 1 {
+                t += (k[i] + k[i + 1]) * half_ds; // eq 13
+                theta[i] = t;
+            }
+            wide |= turn(&mut theta, &mut sin, &mut cos);
+        }
+        for (b, out) in all[1..].chunks_mut(BLOCK).enumerate() {
+            let next = if b + 1 < blocks { &kappa[(b + 1) * BLOCK..(b + 1) * BLOCK + BLOCK.min(total - (b + 1) * BLOCK) + 1] } else { &[][..] };
+            let both = next.len().saturating_sub(1); // ≤ out.len(): only the last block is short
+            for i in 0..both {
+                t += (next[i] + next[i + 1]) * half_ds; // eq 13, block b + 1
+                theta[i] = t;
+                p[0] += (c0 + cos[i]) * half_ds + drift_ds; // eqs 13-14, block b
+                p[1] += (s0 + sin[i]) * half_ds;
+                out[i].write(p);
+                (s0, c0) = (sin[i], cos[i]);
+            }
+            for i in both..out.len() {
+                p[0] += (c0 + cos[i]) * half_ds + drift_ds;
+                p[1] += (s0 + sin[i]) * half_ds;
+                out[i].write(p);
+                (s0, c0) = (sin[i], cos[i]);
+            }
+            if both > 0 {
+                wide |= turn(&mut theta, &mut sin, &mut cos);
+            }
+        }
+        // SAFETY: nodes 0..=total were all written above.
+        unsafe { nodes.set_len(total + 1) };
+        wide
+    }
+
+    /// The one-fibre path: tangent angles, their sines and cosines, nodes.
+    fn generate_fibre_scalar_into(&self, realisation: u32, fibre: usize, scratch: &mut FibreScratch, nodes: &mut Vec<[f64; 2]>) {
         // Three passes so the sin/cos loop vectorises: θ (eq 13 or the SDE), (sin θ, cos θ), nodes.
         let offset = self.tangent_angles_into(realisation, fibre, scratch);
         let total = scratch.theta.len() - 1;
@@ -404,13 +540,29 @@ impl Web {
     }
 
     /// Calls `visit(fibre, nodes)` for every fibre of a realisation, in parallel on
-    /// the current rayon pool, holding one fibre per worker. Call order is not fixed;
-    /// each fibre's nodes are.
+    /// the current rayon pool, holding one fibre per worker (a `lay_down_sde` web: eight,
+    /// integrated in lockstep). Call order is not fixed; each fibre's nodes are.
     pub fn par_for_each_fibre<F>(&self, realisation: u32, visit: F)
     where
         F: Fn(usize, &[[f64; 2]]) + Sync + Send,
     {
-        (0..self.params.fibres_across).into_par_iter().with_min_len(2).for_each_init(
+        let n_w = self.params.fibres_across;
+        if let Source::Sde(model) = &self.source {
+            let lanes = self.sde_width();
+            let batches = n_w.div_ceil(lanes);
+            // Few jobs per thread: each allocates its buffers once (init).
+            let min_len = (batches / (8 * rayon::current_num_threads())).max(1);
+            (0..batches).into_par_iter().with_min_len(min_len).for_each_init(
+                || (SdeScratch::default(), FibreScratch::default()),
+                |scratch, batch| {
+                    let first = batch * lanes;
+                    self.sde_visit(model, realisation, first, lanes.min(n_w - first), scratch, &visit);
+                },
+            );
+            return;
+        }
+        let min_len = (n_w / (8 * rayon::current_num_threads())).max(2);
+        (0..n_w).into_par_iter().with_min_len(min_len).for_each_init(
             || (FibreScratch::default(), Vec::new()),
             |(scratch, nodes), j| {
                 self.generate_fibre_into(realisation, j, scratch, nodes);
@@ -421,10 +573,564 @@ impl Web {
 
     /// Sequential [`Self::par_for_each_fibre`], fibres in index order.
     pub fn for_each_fibre<F: FnMut(usize, &[[f64; 2]])>(&self, realisation: u32, mut visit: F) {
+        if let Source::Sde(model) = &self.source {
+            let mut scratch = (SdeScratch::default(), FibreScratch::default());
+            let n_w = self.params.fibres_across;
+            let lanes = self.sde_width();
+            for first in (0..n_w).step_by(lanes) {
+                self.sde_visit(model, realisation, first, lanes.min(n_w - first), &mut scratch, &mut visit);
+            }
+            return;
+        }
         let (mut scratch, mut nodes) = (FibreScratch::default(), Vec::new());
         for j in 0..self.params.fibres_across {
             self.generate_fibre_into(realisation, j, &mut scratch, &mut nodes);
             visit(j, &nodes);
         }
+    }
+}
+
+/// Fibres of a `lay_down_sde` web integrated in lockstep, one per lane: the recurrence of
+/// one fibre is a dependent chain (two trig kernels per Heun step), so independent fibres
+/// side by side fill the vector units and hide its latency.
+const SDE_LANES: usize = 8;
+/// Most bytes of lane node buffers one worker holds: fibres longer than 2²² nodes
+/// (64 MiB / 8 lanes / 16 B) are integrated fewer at a time, down to one.
+const SDE_LANE_BYTES: usize = 64 << 20;
+
+/// Steps whose normal draws are made a block ahead of the integration.
+const SDE_BLOCK: usize = 128;
+
+/// Buffers of one worker integrating SDE fibres up to [`SDE_LANES`] at a time.
+#[derive(Default)]
+struct SdeScratch {
+    /// Normal draws of the block, lane by lane, then step by step (lanes adjacent).
+    draws: Vec<f64>,
+    lanes: Vec<f64>,
+    /// Each lane's nodes.
+    nodes: Vec<Vec<[f64; 2]>>,
+}
+
+impl Web {
+    /// Integrates the SDE fibres `fibres` (L of them, repeats allowed) of one realisation
+    /// in lockstep and fills `scratch.nodes[l]` with fibre `fibres[l]`'s nodes, unless its
+    /// tangent angle leaves the fast-trig range ([`FAST_LIMIT`](super::trig::FAST_LIMIT)), when `true` is returned
+    /// for that lane and its nodes are to be made by [`Self::generate_fibre_scalar_into`]
+    /// (the nodes' sines and cosines then come from `f64::sin_cos` for the whole fibre).
+    ///
+    /// Every lane performs exactly the IEEE operations of [`LayDownSde::tangent_angles_into`]
+    /// followed by the node pass of [`Self::generate_fibre_scalar_into`], in the same order
+    /// (Rust never contracts to FMA), on its own fibre's stream, so each fibre's bits are
+    /// those of the one-fibre path; the sines and cosines of the angles are those the node
+    /// pass would compute again, so they are reused.
+    #[inline(always)]
+    fn sde_lanes<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) -> [bool; L] {
+        let total = self.params.segments_per_fibre * self.points;
+        let spacing = self.spacing();
+        let b = model.potential_length;
+        let mut rngs = fibres.map(|j| fibre_rng(self.params.seed, realisation, j as u32));
+        let mut draws: Vec<Draws> = rngs.iter_mut().map(Draws::new).collect();
+        let (mut eta0, mut eta1, mut angle) = ([0.0; L], [0.0; L], [0.0; L]);
+        for l in 0..L {
+            eta0[l] = b * draws[l].normal();
+            eta1[l] = b * draws[l].normal();
+            angle[l] = 2.0 * PI * draws[l].uniform();
+        }
+        let (inv_b2, kick) = (1.0 / (b * b), model.noise * spacing.sqrt());
+        let (mut sin, mut cos) = sin_cos_lanes(&angle);
+        let half_ds = 0.5 * spacing;
+        let drift_ds = self.params.belt_speed_ratio * spacing;
+        let mut escaped = [false; L];
+        let (mut p0, mut p1) = ([0.0; L], [0.0; L]);
+        if scratch.nodes.len() < L {
+            scratch.nodes.resize_with(L, Vec::new);
+        }
+        for l in 0..L {
+            escaped[l] = beyond_fast_range(angle[l]);
+            p0[l] = eta0[l];
+            p1[l] = self.params.start_y(fibres[l]) + eta1[l];
+            let nodes = &mut scratch.nodes[l];
+            // Every node is written below, so the buffer is not zero-filled first.
+            nodes.clear();
+            nodes.reserve(total + 1);
+            nodes.spare_capacity_mut()[0].write([p0[l], p1[l]]);
+        }
+        scratch.draws.resize(L * SDE_BLOCK, 0.0);
+        scratch.lanes.resize(L * SDE_BLOCK, 0.0);
+        let mut done = 0;
+        while done < total {
+            let block = (total - done).min(SDE_BLOCK);
+            for (l, d) in draws.iter_mut().enumerate() {
+                d.fill_normals(&mut scratch.draws[l * SDE_BLOCK..l * SDE_BLOCK + block]);
+            }
+            for k in 0..block {
+                for l in 0..L {
+                    scratch.lanes[k * L + l] = scratch.draws[l * SDE_BLOCK + k];
+                }
+            }
+            let outs: [&mut [std::mem::MaybeUninit<[f64; 2]>]; L] = {
+                let mut it = scratch.nodes.iter_mut();
+                std::array::from_fn(|_| &mut it.next().unwrap().spare_capacity_mut()[done + 1..done + 1 + block])
+            };
+            for (k, z) in scratch.lanes[..block * L].chunks_exact(L).enumerate() {
+                // Stochastic Heun (additive noise), lane by lane as in tangent_angles_into.
+                let (mut noise, mut drift, mut predicted) = ([0.0; L], [0.0; L], [0.0; L]);
+                for l in 0..L {
+                    noise[l] = kick * z[l];
+                    drift[l] = -(-eta0[l] * sin[l] + eta1[l] * cos[l]) * inv_b2;
+                    predicted[l] = angle[l] + drift[l] * spacing + noise[l];
+                }
+                let (sin_p, cos_p) = sin_cos_lanes(&predicted);
+                for l in 0..L {
+                    let eta_p0 = eta0[l] + 0.5 * (cos[l] + cos_p[l]) * spacing;
+                    let eta_p1 = eta1[l] + 0.5 * (sin[l] + sin_p[l]) * spacing;
+                    let drift_p = -(-eta_p0 * sin_p[l] + eta_p1 * cos_p[l]) * inv_b2;
+                    angle[l] += 0.5 * (drift[l] + drift_p) * spacing + noise[l];
+                    escaped[l] |= beyond_fast_range(angle[l]);
+                }
+                let (sin1, cos1) = sin_cos_lanes(&angle);
+                for l in 0..L {
+                    eta0[l] += 0.5 * (cos[l] + cos1[l]) * spacing; // eq 13
+                    eta1[l] += 0.5 * (sin[l] + sin1[l]) * spacing;
+                    p0[l] += (cos[l] + cos1[l]) * half_ds + drift_ds; // eqs 13-14
+                    p1[l] += (sin[l] + sin1[l]) * half_ds;
+                }
+                for l in 0..L {
+                    outs[l][k].write([p0[l], p1[l]]);
+                }
+                (sin, cos) = (sin1, cos1);
+            }
+            done += block;
+        }
+        for nodes in &mut scratch.nodes[..L] {
+            // SAFETY: nodes 0..=total were all written above.
+            unsafe { nodes.set_len(total + 1) };
+        }
+        escaped
+    }
+
+    /// [`Self::sde_lanes`] with AVX2 when the CPU has it (the same IEEE operations on
+    /// wider registers, no FMA: the same bits), and the nodes of escaped lanes remade.
+    fn sde_batch<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch, fallback: &mut FibreScratch) {
+        #[cfg(target_arch = "x86_64")]
+        let escaped = if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            unsafe { self.sde_lanes_avx512(model, realisation, fibres, scratch) }
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            unsafe { self.sde_lanes_avx2(model, realisation, fibres, scratch) }
+        } else {
+            self.sde_lanes(model, realisation, fibres, scratch)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let escaped = self.sde_lanes(model, realisation, fibres, scratch);
+        for l in 0..L {
+            if escaped[l] {
+                self.generate_fibre_scalar_into(realisation, fibres[l], fallback, &mut scratch.nodes[l]);
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn sde_lanes_avx512<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) -> [bool; L] {
+        self.sde_lanes(model, realisation, fibres, scratch)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn sde_lanes_avx2<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) -> [bool; L] {
+        self.sde_lanes(model, realisation, fibres, scratch)
+    }
+
+    /// Fibres an SDE batch integrates at once: [`SDE_LANES`], fewer (a power of two) for
+    /// fibres so long that their node buffers would pass [`SDE_LANE_BYTES`].
+    fn sde_width(&self) -> usize {
+        let fibre_bytes = self.nodes_per_fibre() * std::mem::size_of::<[f64; 2]>();
+        let mut lanes = SDE_LANES;
+        while lanes > 1 && lanes * fibre_bytes > SDE_LANE_BYTES {
+            lanes /= 2;
+        }
+        lanes
+    }
+
+    /// Calls `visit(j, nodes)` for fibres `first..first + count` of an SDE web, integrated
+    /// [`Self::sde_width`] at a time (one lane for a lone fibre; a short batch repeats its
+    /// first fibre in the idle lanes).
+    fn sde_visit<F: FnMut(usize, &[[f64; 2]])>(&self, model: &LayDownSde, realisation: u32, first: usize, count: usize, scratch: &mut (SdeScratch, FibreScratch), mut visit: F) {
+        let (lanes, fallback) = scratch;
+        let fibres = |l: usize| if l < count { first + l } else { first };
+        match count {
+            1 => self.sde_batch(model, realisation, [first], lanes, fallback),
+            2 => self.sde_batch::<2>(model, realisation, std::array::from_fn(fibres), lanes, fallback),
+            3 | 4 => self.sde_batch::<4>(model, realisation, std::array::from_fn(fibres), lanes, fallback),
+            _ => self.sde_batch::<SDE_LANES>(model, realisation, std::array::from_fn(fibres), lanes, fallback),
+        }
+        for l in 0..count {
+            visit(first + l, &lanes.nodes[l]);
+        }
+    }
+}
+
+/// Bit-identity of every generator's fibres: each fibre of a set of webs (random_phase,
+/// laid_segments with and without mirroring, lay_down_sde at paper size and beyond the
+/// fast-trig range) is compared with a straightforward scalar implementation of the
+/// generators as they stood before the fibre-batched SDE (kept here, one fibre at a time,
+/// its own copy of the trig kernel), and the hashes of both with the ones recorded from
+/// that code (commit d053cab), so a change to the reference is caught too.
+#[cfg(test)]
+mod bit_identity {
+    use super::*;
+    use crate::stages::spectra::SquareWaveParams;
+    use std::sync::Mutex;
+
+    /// The scalar code of d053cab, one fibre at a time.
+    mod reference {
+        use super::super::{fibre_rng, Source, Web};
+        use crate::stages::web::SpectrumSelection;
+        use num_complex::Complex64;
+        use rand_chacha::rand_core::RngCore;
+        use rand_chacha::ChaCha8Rng;
+        use std::f64::consts::PI;
+
+        #[allow(clippy::excessive_precision)] // fdlibm's constants, as trig.rs writes them
+        fn kernel(x: f64) -> (f64, f64) {
+            const TWO_OVER_PI: f64 = std::f64::consts::FRAC_2_PI;
+            const PIO2_1: f64 = 1.570_796_326_734_125_614_17e+00;
+            const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11;
+            const PIO2_3: f64 = 2.022_266_248_711_166_455_80e-21;
+            const S: [f64; 6] = [-1.666_666_666_666_663_243_48e-01, 8.333_333_333_322_489_461_24e-03, -1.984_126_982_985_794_931_34e-04, 2.755_731_370_707_006_767_89e-06, -2.505_076_025_340_686_341_95e-08, 1.589_690_995_211_550_102_21e-10];
+            const C: [f64; 6] = [4.166_666_666_666_660_190_37e-02, -1.388_888_888_887_410_957_49e-03, 2.480_158_728_947_672_941_78e-05, -2.755_731_435_139_066_330_35e-07, 2.087_572_321_298_174_827_90e-09, -1.135_964_755_778_819_482_65e-11];
+            const MAGIC: f64 = 6_755_399_441_055_744.0;
+            let t = x * TWO_OVER_PI + MAGIC;
+            let q_bits = t.to_bits();
+            let q = t - MAGIC;
+            let r = ((x - q * PIO2_1) - q * PIO2_2) - q * PIO2_3;
+            let z = r * r;
+            let s = r + r * z * (S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5])))));
+            let c = 1.0 - 0.5 * z + z * z * (C[0] + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * C[5])))));
+            let (s, c) = if q_bits & 1 == 1 { (c, -s) } else { (s, c) };
+            if q_bits & 2 == 2 {
+                (-s, -c)
+            } else {
+                (s, c)
+            }
+        }
+        pub fn sin_cos(x: f64) -> (f64, f64) {
+            if x.abs() <= 8.0e5 {
+                kernel(x)
+            } else {
+                x.sin_cos()
+            }
+        }
+        fn uniform(rng: &mut ChaCha8Rng) -> f64 {
+            (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        }
+        fn index(rng: &mut ChaCha8Rng, n: usize) -> usize {
+            ((rng.next_u64() as u128 * n as u128) >> 64) as usize
+        }
+        struct Normals<'a>(&'a mut ChaCha8Rng, Option<f64>);
+        impl Normals<'_> {
+            fn next(&mut self) -> f64 {
+                if let Some(z) = self.1.take() {
+                    return z;
+                }
+                let u1 = 1.0 - uniform(self.0);
+                let u2 = uniform(self.0);
+                let r = (-2.0 * u1.ln()).sqrt();
+                let (s, c) = sin_cos(2.0 * PI * u2);
+                self.1 = Some(r * s);
+                r * c
+            }
+        }
+
+        /// The SDE's tangent angles and η_0 (stochastic Heun, eq 13).
+        pub fn sde_angles(b: f64, noise: f64, rng: &mut ChaCha8Rng, steps: usize, spacing: f64) -> (Vec<f64>, [f64; 2]) {
+            let mut draws = Normals(rng, None);
+            let start = [b * draws.next(), b * draws.next()];
+            let mut angle = 2.0 * PI * uniform(draws.0);
+            let (inv_b2, kick) = (1.0 / (b * b), noise * spacing.sqrt());
+            let mut eta = start;
+            let (mut sin, mut cos) = sin_cos(angle);
+            let mut alpha = vec![angle];
+            for _ in 0..steps {
+                let noise = kick * draws.next();
+                let drift = -(-eta[0] * sin + eta[1] * cos) * inv_b2;
+                let predicted = angle + drift * spacing + noise;
+                let (sin_p, cos_p) = sin_cos(predicted);
+                let eta_p = [eta[0] + 0.5 * (cos + cos_p) * spacing, eta[1] + 0.5 * (sin + sin_p) * spacing];
+                let drift_p = -(-eta_p[0] * sin_p + eta_p[1] * cos_p) * inv_b2;
+                angle += 0.5 * (drift + drift_p) * spacing + noise;
+                let (sin1, cos1) = sin_cos(angle);
+                eta[0] += 0.5 * (cos + cos1) * spacing;
+                eta[1] += 0.5 * (sin + sin1) * spacing;
+                (sin, cos) = (sin1, cos1);
+                alpha.push(angle);
+            }
+            (alpha, start)
+        }
+
+        /// Start angle and curvature of a random_phase or laid_segments fibre.
+        pub fn curvature(web: &Web, realisation: u32, fibre: usize) -> (f64, Vec<f64>) {
+            let (n, segments) = (web.points, web.params.segments_per_fibre);
+            let mut rng = fibre_rng(web.params.seed, realisation, fibre as u32);
+            let theta_start = 2.0 * PI * uniform(&mut rng);
+            let mut kappa = vec![0.0; segments * n];
+            match &web.source {
+                Source::Spectra { spectra, .. } => {
+                    let ifft = rustfft::FftPlanner::new().plan_fft_inverse(n);
+                    let add = |rng: &mut ChaCha8Rng, w: Complex64, buf: &mut [Complex64]| {
+                        let p = match web.params.spectrum_selection {
+                            SpectrumSelection::Single => &spectra[0],
+                            SpectrumSelection::PerSegment => &spectra[index(rng, spectra.len())],
+                        };
+                        buf[0] += w * p.mean;
+                        if n % 2 == 0 {
+                            buf[n / 2] += w * p.nyquist;
+                        }
+                        for &(r, m) in &p.bins {
+                            let (s, c) = sin_cos(2.0 * PI * uniform(rng));
+                            let z = Complex64::new(m * c, m * s);
+                            buf[r] += w * z;
+                            buf[n - r] += w * z.conj();
+                        }
+                    };
+                    for pair in (0..segments).step_by(2) {
+                        let mut buf = vec![Complex64::default(); n];
+                        add(&mut rng, Complex64::new(1.0, 0.0), &mut buf);
+                        let second = pair + 1 < segments;
+                        if second {
+                            add(&mut rng, Complex64::new(0.0, 1.0), &mut buf);
+                        }
+                        ifft.process(&mut buf);
+                        for m in 0..n {
+                            kappa[pair * n + m] = buf[m].re;
+                            if second {
+                                kappa[(pair + 1) * n + m] = buf[m].im;
+                            }
+                        }
+                    }
+                }
+                Source::Templates(templates) => {
+                    for out in kappa.chunks_exact_mut(n) {
+                        let template = &templates[index(&mut rng, templates.len())];
+                        let mirror = web.params.mirror && uniform(&mut rng) < 0.5;
+                        for (o, k) in out.iter_mut().zip(template) {
+                            *o = if mirror { -k } else { *k };
+                        }
+                    }
+                }
+                Source::Sde(_) | Source::Matched { .. } => unreachable!(),
+            }
+            (theta_start, kappa)
+        }
+
+        /// All nodes of one fibre.
+        pub fn fibre(web: &Web, realisation: u32, fibre: usize) -> Vec<[f64; 2]> {
+            let total = web.params.segments_per_fibre * web.points;
+            let (theta, offset) = match &web.source {
+                Source::Sde(m) => {
+                    let mut rng = fibre_rng(web.params.seed, realisation, fibre as u32);
+                    sde_angles(m.potential_length, m.noise, &mut rng, total, web.spacing())
+                }
+                _ => {
+                    let (t0, kappa) = curvature(web, realisation, fibre);
+                    let closing = kappa[total - web.points];
+                    let half_ds = 0.5 * web.spacing();
+                    let mut theta = vec![t0];
+                    let mut t = t0;
+                    for k in 0..total - 1 {
+                        t += (kappa[k] + kappa[k + 1]) * half_ds;
+                        theta.push(t);
+                    }
+                    theta.push(t + (kappa[total - 1] + closing) * half_ds);
+                    (theta, [0.0, 0.0])
+                }
+            };
+            let fast = theta.iter().all(|a| a.abs() <= 8.0e5);
+            let sc: Vec<(f64, f64)> = theta.iter().map(|&a| if fast { kernel(a) } else { a.sin_cos() }).collect();
+            let half_ds = 0.5 * web.spacing();
+            let drift_ds = web.params.belt_speed_ratio * web.spacing();
+            let mut p = [offset[0], web.params.start_y(fibre) + offset[1]];
+            let mut nodes = vec![p];
+            for w in sc.windows(2) {
+                let ((s, c), (s1, c1)) = (w[0], w[1]);
+                p[0] += (c + c1) * half_ds + drift_ds;
+                p[1] += (s + s1) * half_ds;
+                nodes.push(p);
+            }
+            nodes
+        }
+    }
+
+    fn hash_nodes(h: &mut blake3::Hasher, nodes: &[[f64; 2]]) {
+        for p in nodes {
+            h.update(&p[0].to_bits().to_le_bytes());
+            h.update(&p[1].to_bits().to_le_bytes());
+        }
+    }
+
+    fn spectrum(name: &str) -> crate::stages::spectra::CurvatureSpectrum {
+        SquareWaveParams::preset(name).unwrap().spectrum().unwrap()
+    }
+
+    fn params(n_w: usize, n_l: usize, seed: u64) -> WebParams {
+        WebParams { fibres_across: n_w, segments_per_fibre: n_l, belt_speed_ratio: 0.04, seed, ..WebParams::default() }
+    }
+
+    /// Every fibre of realisations 0 and 3 by every path (generate_fibre, the sequential
+    /// and the parallel visitors) equals the reference; returns the hash of all of them.
+    fn check(name: &str, web: &Web) -> String {
+        let n_w = web.params().fibres_across;
+        let mut h = blake3::Hasher::new();
+        for r in [0u32, 3] {
+            let expected: Vec<Vec<[f64; 2]>> = (0..n_w).map(|j| reference::fibre(web, r, j)).collect();
+            let par = Mutex::new(vec![Vec::new(); n_w]);
+            web.par_for_each_fibre(r, |j, nodes| par.lock().unwrap()[j] = nodes.to_vec());
+            let mut seq = vec![Vec::new(); n_w];
+            web.for_each_fibre(r, |j, nodes| seq[j] = nodes.to_vec());
+            for (j, want) in expected.iter().enumerate() {
+                assert!(web.generate_fibre(r, j) == *want, "{name}: generate_fibre({r}, {j})");
+                assert!(par.lock().unwrap()[j] == *want, "{name}: par_for_each_fibre({r}) fibre {j}");
+                assert!(seq[j] == *want, "{name}: for_each_fibre({r}) fibre {j}");
+                hash_nodes(&mut h, want);
+            }
+        }
+        h.finalize().to_hex()[..16].to_string()
+    }
+
+    fn sde_web(n_w: usize, n_l: usize, b: f64, noise: f64, seed: u64) -> Web {
+        Web::lay_down_sde(params(n_w, n_l, seed), LayDownSde { potential_length: b, noise }, 1e-3, 1000).unwrap()
+    }
+
+    #[test]
+    fn random_phase_fibres_are_unchanged() {
+        let mut got = Vec::new();
+        let web = Web::new(params(5, 3, 3), vec![spectrum("spectrum1")]).unwrap();
+        got.push(check("random_phase", &web));
+        let per = WebParams { spectrum_selection: SpectrumSelection::PerSegment, ..params(4, 5, 8) };
+        let web = Web::new(per, vec![spectrum("spectrum1"), spectrum("spectrum2")]).unwrap();
+        got.push(check("random_phase per_segment", &web));
+        // A laid-fibre-like spectrum: every bin non-zero, a negative mean, a Nyquist term.
+        let n = 512;
+        let mut k = vec![Complex64::new(0.0, 0.0); n];
+        k[0].re = -3.0;
+        for r in 1..n / 2 {
+            k[r] = Complex64::from_polar(40.0 / (1.0 + (r as f64 / 15.0).powi(2)), 0.1 * r as f64);
+            k[n - r] = k[r].conj();
+        }
+        k[n / 2].re = 0.5;
+        let full = crate::stages::spectra::CurvatureSpectrum::new(0.5, k).unwrap();
+        let web = Web::new(params(5, 7, 4), vec![full]).unwrap();
+        got.push(check("random_phase all bins", &web));
+        assert_eq!(got, ["385897f4f75cc268", "ad667dd12a8d93ef", "607c161fbc86f6f5"]);
+    }
+
+    #[test]
+    fn laid_segments_fibres_are_unchanged() {
+        let mut got = Vec::new();
+        let source = Web::new(params(9, 2, 1), vec![spectrum("spectrum2")]).unwrap();
+        let templates: Vec<Vec<f64>> = (0..7).map(|j| source.fibre_curvature(1, j).1[..1000].to_vec()).collect();
+        for mirror in [false, true] {
+            let web = Web::laid_segments(WebParams { mirror, segment_join: SegmentJoin::Curvature, ..params(6, 20, 5) }, templates.clone(), vec![], 1e-3).unwrap();
+            got.push(check(&format!("laid_segments mirror {mirror}"), &web));
+        }
+        assert_eq!(got, ["1328e2245dcfc970", "ecda30d14ebac161"]);
+    }
+
+    #[test]
+    fn lay_down_sde_fibres_are_unchanged() {
+        // Paper-size fibres (b = 5 mm, A = 2 at Δs = 1 mm, N = 1000, n_l = 100), a fibre
+        // count that is no multiple of any batch width, another model, and a noise so
+        // strong that some fibres' angles leave the fast-trig range and others do not.
+        let mut got = Vec::new();
+        let web = sde_web(13, 100, 5e-3, 2.0, 0);
+        got.push(check("lay_down_sde paper", &web));
+        let web = sde_web(3, 3, 1e-3, 5.0, 7);
+        got.push(check("lay_down_sde b = 1 mm", &web));
+        let web = sde_web(9, 10, 5e-3, 2e5, 2);
+        let escaped = (0..9).filter(|&j| reference::sde_angles(5e-3, 2e5, &mut fibre_rng(2, 0, j as u32), 10_000, 1e-3).0.iter().any(|a| a.abs() > 8.0e5)).count();
+        assert!(escaped > 0 && escaped < 9, "{escaped} of 9 fibres beyond the fast range");
+        got.push(check("lay_down_sde beyond the fast range", &web));
+        assert_eq!(got, ["b6b8730a13e1be34", "758f4e09ecab82be", "f3b288bbd61a6ea5"]);
+    }
+
+    #[test]
+    fn every_instruction_set_gives_the_same_fibres() {
+        // The dispatch picks one path per CPU; call each this CPU has directly.
+        let sde = sde_web(5, 4, 5e-3, 2.0, 3);
+        let model = sde.sde_model().unwrap();
+        let fibres = [0, 1, 2, 3, 4, 0, 1, 2];
+        let want: Vec<Vec<[f64; 2]>> = fibres.iter().map(|&j| reference::fibre(&sde, 6, j)).collect();
+        let mut paths: Vec<(&str, SdeScratch)> = Vec::new();
+        let mut generic = SdeScratch::default();
+        assert_eq!(sde.sde_lanes(&model, 6, fibres, &mut generic), [false; 8]);
+        paths.push(("generic", generic));
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                let mut s = SdeScratch::default();
+                assert_eq!(unsafe { sde.sde_lanes_avx2(&model, 6, fibres, &mut s) }, [false; 8]);
+                paths.push(("avx2", s));
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                let mut s = SdeScratch::default();
+                assert_eq!(unsafe { sde.sde_lanes_avx512(&model, 6, fibres, &mut s) }, [false; 8]);
+                paths.push(("avx512f", s));
+            }
+        }
+        eprintln!("SDE lanes checked: {:?}", paths.iter().map(|p| p.0).collect::<Vec<_>>());
+        for (name, s) in &paths {
+            for (l, w) in want.iter().enumerate() {
+                assert!(s.nodes[l] == *w, "{name}: lane {l}");
+            }
+        }
+        let web = Web::new(params(3, 5, 9), vec![spectrum("spectrum2")]).unwrap();
+        for j in 0..3 {
+            let want = reference::fibre(&web, 1, j);
+            let mut scratch = FibreScratch::default();
+            type NodePass<'a> = &'a dyn Fn(&Web, f64, &mut FibreScratch, &mut Vec<[f64; 2]>) -> bool;
+            let mut run = |name: &str, f: NodePass| {
+                let theta_start = web.curvature_into(1, j, &mut scratch);
+                let mut nodes = Vec::new();
+                assert!(!f(&web, theta_start, &mut scratch, &mut nodes));
+                assert!(nodes == want, "{name}: fibre {j}");
+            };
+            run("generic", &|w, t, s, n| w.nodes_from_curvature(t, j, s, n));
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    run("avx2", &|w, t, s, n| unsafe { w.nodes_from_curvature_avx2(t, j, s, n) });
+                }
+                if std::arch::is_x86_feature_detected!("avx512f") {
+                    run("avx512f", &|w, t, s, n| unsafe { w.nodes_from_curvature_avx512(t, j, s, n) });
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lay_down_sde_angles_and_calibration_are_unchanged() {
+        let model = LayDownSde { potential_length: 5e-3, noise: 2.0 };
+        let web = sde_web(4, 2, 5e-3, 2.0, 11);
+        let mut h = blake3::Hasher::new();
+        for j in 0..4 {
+            let (theta0, kappa) = web.fibre_curvature(1, j);
+            let (alpha, _) = reference::sde_angles(5e-3, 2.0, &mut fibre_rng(11, 1, j as u32), 2000, 1e-3);
+            assert_eq!(theta0.to_bits(), alpha[0].to_bits());
+            let want = crate::stages::web::sde::chord_curvature(&alpha, 1e-3);
+            assert!(kappa.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()) && kappa.len() == want.len(), "fibre {j}");
+            for k in &kappa {
+                h.update(&k.to_bits().to_le_bytes());
+            }
+        }
+        // `positions` (now through the fast trig kernel) and `measure` (S of the nodes, not of
+        // the rebuilt curve) changed on purpose after d053cab: their hash is main's since.
+        let positions = model.positions(&mut fibre_rng(1, 2, 3), 5000, 1e-3);
+        hash_nodes(&mut h, &positions);
+        let m = crate::stages::web::sde::measure(&model, 1e-3, 300, 4);
+        h.update(&m.radius_of_gyration.to_bits().to_le_bytes());
+        h.update(&m.bending_energy.to_bits().to_le_bytes());
+        assert_eq!(&h.finalize().to_hex()[..16], "36bf48684b2e9d2e");
     }
 }

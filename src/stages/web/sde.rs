@@ -57,7 +57,7 @@ use std::f64::consts::PI;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::trig::sin_cos;
+use super::trig::{kernel, sin_cos};
 use crate::geometry::radius_of_gyration;
 use crate::stages::spectra::integrate_curvature;
 
@@ -81,6 +81,7 @@ impl<'a> Draws<'a> {
         Self { rng, spare: None }
     }
     /// Uniform in [0, 1) with 53 random bits.
+    #[inline(always)]
     pub(crate) fn uniform(&mut self) -> f64 {
         (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
@@ -96,6 +97,49 @@ impl<'a> Draws<'a> {
         let (s, c) = sin_cos(2.0 * PI * u2);
         self.spare = Some(r * s);
         r * c
+    }
+    /// The next `out.len()` values of [`Self::normal`], the same bits in the same order
+    /// (a pending spare first; an odd tail leaves its pair's second variate as the
+    /// spare). The logarithms stay the scalar libm calls; the square roots and the
+    /// trig kernel (2πu₂ < 2π is always in its fast range) run over blocks of pairs.
+    #[inline(always)]
+    pub(crate) fn fill_normals(&mut self, mut out: &mut [f64]) {
+        if out.is_empty() {
+            return;
+        }
+        if let Some(z) = self.spare.take() {
+            out[0] = z;
+            out = &mut out[1..];
+        }
+        const BLOCK: usize = 64;
+        let (mut log, mut turn, mut cos, mut sin) = ([0.0; BLOCK], [0.0; BLOCK], [0.0; BLOCK], [0.0; BLOCK]);
+        while !out.is_empty() {
+            let pairs = out.len().div_ceil(2).min(BLOCK);
+            for p in 0..pairs {
+                let u1 = 1.0 - self.uniform(); // (0, 1]
+                let u2 = self.uniform();
+                log[p] = u1.ln();
+                turn[p] = 2.0 * PI * u2;
+            }
+            for p in 0..BLOCK {
+                // Whole blocks so the loop vectorises (the unused tail is never read).
+                let r = (-2.0 * log[p]).sqrt();
+                let (s, c) = kernel(turn[p]);
+                cos[p] = r * c;
+                sin[p] = r * s;
+            }
+            let (whole, odd) = if 2 * pairs > out.len() { (pairs - 1, true) } else { (pairs, false) };
+            for (o, (c, s)) in out.chunks_exact_mut(2).zip(cos.iter().zip(&sin)).take(whole) {
+                o[0] = *c;
+                o[1] = *s;
+            }
+            if odd {
+                out[2 * whole] = cos[whole];
+                self.spare = Some(sin[whole]);
+                return;
+            }
+            out = &mut out[2 * pairs..];
+        }
     }
 }
 
@@ -126,20 +170,28 @@ impl LayDownSde {
         alpha.clear();
         alpha.reserve(steps + 1);
         alpha.push(angle);
-        for _ in 0..steps {
-            // Stochastic Heun (additive noise): predictor, then the trapezoid of the drift.
-            let noise = kick * draws.normal();
-            let drift = -(-eta[0] * sin + eta[1] * cos) * inv_b2; // −∇V·τ⊥
-            let predicted = angle + drift * spacing + noise;
-            let (sin_p, cos_p) = sin_cos(predicted);
-            let eta_p = [eta[0] + 0.5 * (cos + cos_p) * spacing, eta[1] + 0.5 * (sin + sin_p) * spacing];
-            let drift_p = -(-eta_p[0] * sin_p + eta_p[1] * cos_p) * inv_b2;
-            angle += 0.5 * (drift + drift_p) * spacing + noise;
-            let (sin1, cos1) = sin_cos(angle);
-            eta[0] += 0.5 * (cos + cos1) * spacing; // eq 13
-            eta[1] += 0.5 * (sin + sin1) * spacing;
-            (sin, cos) = (sin1, cos1);
-            alpha.push(angle);
+        // The normal draws a block ahead (the same sequence as one `normal()` per step).
+        let mut normals = [0.0; 256];
+        let mut done = 0;
+        while done < steps {
+            let block = (steps - done).min(normals.len());
+            draws.fill_normals(&mut normals[..block]);
+            done += block;
+            for &z in &normals[..block] {
+                // Stochastic Heun (additive noise): predictor, then the trapezoid of the drift.
+                let noise = kick * z;
+                let drift = -(-eta[0] * sin + eta[1] * cos) * inv_b2; // −∇V·τ⊥
+                let predicted = angle + drift * spacing + noise;
+                let (sin_p, cos_p) = sin_cos(predicted);
+                let eta_p = [eta[0] + 0.5 * (cos + cos_p) * spacing, eta[1] + 0.5 * (sin + sin_p) * spacing];
+                let drift_p = -(-eta_p[0] * sin_p + eta_p[1] * cos_p) * inv_b2;
+                angle += 0.5 * (drift + drift_p) * spacing + noise;
+                let (sin1, cos1) = sin_cos(angle);
+                eta[0] += 0.5 * (cos + cos1) * spacing; // eq 13
+                eta[1] += 0.5 * (sin + sin1) * spacing;
+                (sin, cos) = (sin1, cos1);
+                alpha.push(angle);
+            }
         }
         start
     }

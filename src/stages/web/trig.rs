@@ -6,6 +6,8 @@
 //! |x| ≤ 8e5 rad, falling back to `f64::sin_cos` beyond. Deterministic (no FMA
 //! contraction in Rust), so results are identical on every run and thread count.
 
+#![allow(clippy::excessive_precision)] // fdlibm's constants, digit for digit
+
 const TWO_OVER_PI: f64 = std::f64::consts::FRAC_2_PI;
 const PIO2_1: f64 = 1.570_796_326_734_125_614_17e+00; // first 33 bits of π/2
 const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11; // next 33 bits
@@ -31,7 +33,7 @@ const MAGIC: f64 = 6_755_399_441_055_744.0;
 
 /// Branch-free kernel for |x| ≤ [`FAST_LIMIT`] (vectorisable in loops).
 #[inline(always)]
-fn kernel(x: f64) -> (f64, f64) {
+pub(crate) fn kernel(x: f64) -> (f64, f64) {
     let t = x * TWO_OVER_PI + MAGIC;
     let bits = t.to_bits(); // low bits hold q mod 4 (two's complement for q < 0)
     let q = t - MAGIC;
@@ -59,13 +61,47 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     }
 }
 
-/// sin and cos of every angle (the slices must have equal lengths). Uses AVX2 when
-/// the CPU has it: the same IEEE operations on wider registers (no FMA), so the
-/// results are bit-identical to the SSE2 path and to [`sin_cos`].
+/// True where [`sin_cos`] leaves the kernel for `f64::sin_cos`: |x| > [`FAST_LIMIT`] or NaN.
+#[inline(always)]
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must count as beyond
+pub(crate) fn beyond_fast_range(x: f64) -> bool {
+    !(x.abs() <= FAST_LIMIT)
+}
+
+/// [`sin_cos`] of L independent angles (lanes of a lockstep loop): the kernel on every
+/// lane, branch-free so it vectorises, then `f64::sin_cos` for any lane beyond
+/// [`FAST_LIMIT`] (NaN included), exactly as [`sin_cos`] decides per angle.
+#[inline(always)]
+pub(crate) fn sin_cos_lanes<const L: usize>(x: &[f64; L]) -> ([f64; L], [f64; L]) {
+    let (mut s, mut c) = ([0.0; L], [0.0; L]);
+    let mut wide = false;
+    for l in 0..L {
+        (s[l], c[l]) = kernel(x[l]);
+        wide |= beyond_fast_range(x[l]);
+    }
+    if wide {
+        for l in 0..L {
+            if beyond_fast_range(x[l]) {
+                (s[l], c[l]) = x[l].sin_cos();
+            }
+        }
+    }
+    (s, c)
+}
+
+/// sin and cos of every angle (the slices must have equal lengths). Uses AVX-512F or
+/// AVX2 when the CPU has it: the same IEEE operations on wider registers (no FMA), so
+/// the results are bit-identical to the SSE2 path and to [`sin_cos`].
 pub fn sin_cos_slices(angles: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     assert!(sin.len() == angles.len() && cos.len() == angles.len());
     let largest = angles.iter().fold(0.0f64, |m, a| m.max(a.abs()));
     if largest <= FAST_LIMIT {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            unsafe { kernel_slices_avx512(angles, sin, cos) };
+            return;
+        }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2 (checked just above).
@@ -85,6 +121,12 @@ fn kernel_slices(angles: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     for ((a, s), c) in angles.iter().zip(sin.iter_mut()).zip(cos.iter_mut()) {
         (*s, *c) = kernel(*a);
     }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn kernel_slices_avx512(angles: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+    kernel_slices(angles, sin, cos)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -118,6 +160,19 @@ mod tests {
         for i in 0..1000 {
             assert_eq!((s[i], c[i]), sin_cos(xs[i]));
             assert_eq!((s2[i], c2[i]), sin_cos(xs[i]));
+        }
+        #[cfg(target_arch = "x86_64")]
+        for (name, has) in [("avx2", std::arch::is_x86_feature_detected!("avx2")), ("avx512f", std::arch::is_x86_feature_detected!("avx512f"))] {
+            if has {
+                let (mut s3, mut c3) = (vec![0.0; 1000], vec![0.0; 1000]);
+                match name {
+                    "avx2" => unsafe { kernel_slices_avx2(&xs, &mut s3, &mut c3) },
+                    _ => unsafe { kernel_slices_avx512(&xs, &mut s3, &mut c3) },
+                }
+                for i in 0..1000 {
+                    assert_eq!((s3[i], c3[i]), sin_cos(xs[i]), "{name}");
+                }
+            }
         }
         assert_eq!(sin_cos(0.0), (0.0, 1.0));
         let big = 1e7_f64;

@@ -48,7 +48,7 @@ pub mod segments;
 mod stage;
 pub mod trig;
 
-pub use stage::{declared_webs, stored_bytes, web_from_input, DeclaredWeb, WebStage, SCRATCH_BYTES_PER_NODE};
+pub use stage::{declared_webs, stored_bytes, web_from_input, DeclaredWeb, WebStage, SCRATCH_BYTES_PER_NODE, SDE_SCRATCH_BYTES_PER_NODE};
 
 pub use generate::{fibre_rng, FibreScratch, Web};
 pub use segments::LaidTemplates;

@@ -104,7 +104,11 @@ impl LaidTemplates {
                 let mut best = (f64::INFINITY, 0);
                 for m1 in 0..last_entry.max(1) {
                     let q = place(t1, sign1, m1);
-                    let d = (q[0] - end[0]).powi(2) + (q[1] - end[1]).powi(2) + weight * wrap_angle(angle(t1, sign1, m1) - end_angle).powi(2);
+                    let position = (q[0] - end[0]).powi(2) + (q[1] - end[1]).powi(2);
+                    if position >= best.0 {
+                        continue; // the angle term only adds: this node cannot win
+                    }
+                    let d = position + weight * wrap_angle(angle(t1, sign1, m1) - end_angle).powi(2);
                     if d < best.0 {
                         best = (d, m1);
                     }

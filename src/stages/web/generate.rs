@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use rustfft::{Fft, FftPlanner};
 
-use super::trig::{beyond_fast_range, sin_cos_lanes, sin_cos_slices};
+use super::trig::{beyond_fast_range, sin_cos_lanes, sin_cos_slices, widest_isa};
 use super::sde::{Draws, LayDownSde};
 use super::segments::LaidTemplates;
 use super::{Generator, SegmentJoin, SpectrumSelection, WebError, WebParams};
@@ -399,18 +399,11 @@ impl Web {
         }
         // Curvature, then θ, its sines and cosines and the nodes in one blocked pass.
         let theta_start = self.curvature_into(realisation, fibre, scratch);
-        #[cfg(target_arch = "x86_64")]
-        let wide = if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked just above).
-            unsafe { self.nodes_from_curvature_avx512(theta_start, fibre, scratch, nodes) }
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked just above).
-            unsafe { self.nodes_from_curvature_avx2(theta_start, fibre, scratch, nodes) }
-        } else {
-            self.nodes_from_curvature(theta_start, fibre, scratch, nodes)
-        };
-        #[cfg(not(target_arch = "x86_64"))]
-        let wide = self.nodes_from_curvature(theta_start, fibre, scratch, nodes);
+        let wide = widest_isa!(
+            generic: self.nodes_from_curvature(theta_start, fibre, scratch, nodes),
+            avx2: self.nodes_from_curvature_avx2(theta_start, fibre, scratch, nodes),
+            avx512: self.nodes_from_curvature_avx512(theta_start, fibre, scratch, nodes),
+        );
         if wide {
             // Some |θ| beyond the fast kernel: the whole fibre takes `f64::sin_cos`.
             self.generate_fibre_scalar_into(realisation, fibre, scratch, nodes);
@@ -712,18 +705,11 @@ impl Web {
     /// [`Self::sde_lanes`] with AVX2 when the CPU has it (the same IEEE operations on
     /// wider registers, no FMA: the same bits), and the nodes of escaped lanes remade.
     fn sde_batch<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch, fallback: &mut FibreScratch) {
-        #[cfg(target_arch = "x86_64")]
-        let escaped = if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked just above).
-            unsafe { self.sde_lanes_avx512(model, realisation, fibres, scratch) }
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked just above).
-            unsafe { self.sde_lanes_avx2(model, realisation, fibres, scratch) }
-        } else {
-            self.sde_lanes(model, realisation, fibres, scratch)
-        };
-        #[cfg(not(target_arch = "x86_64"))]
-        let escaped = self.sde_lanes(model, realisation, fibres, scratch);
+        let escaped = widest_isa!(
+            generic: self.sde_lanes(model, realisation, fibres, scratch),
+            avx2: self.sde_lanes_avx2(model, realisation, fibres, scratch),
+            avx512: self.sde_lanes_avx512(model, realisation, fibres, scratch),
+        );
         for l in 0..L {
             if escaped[l] {
                 self.generate_fibre_scalar_into(realisation, fibres[l], fallback, &mut scratch.nodes[l]);

@@ -582,11 +582,16 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
     let (re, im) = (f("spectrum_real")?, f("spectrum_imag")?);
     let selection = crate::archive::hdf::read_strings(&g, "spectrum_selection")?;
     let seeds = crate::archive::hdf::read_strings(&g, "rng_seed")?;
-    // Archives written before the generators existed hold random-phase webs only.
     let spacing = f("node_spacing")?;
+    // Archives written before the generators existed hold random-phase webs only, without
+    // the datasets below; each is read once for every point.
     let joins = if g.link_exists("segment_join") { Some(crate::archive::hdf::read_strings(&g, "segment_join")?) } else { None };
     let mirror = if g.link_exists("mirror") { Some(crate::archive::hdf::read_u8(&g, "mirror")?) } else { None };
     let generators = if g.link_exists("generator") { crate::archive::hdf::read_strings(&g, "generator")? } else { vec!["random_phase".to_string(); n_w.len()] };
+    let uses = |kind: Generator| generators.iter().any(|n| n == kind.name());
+    let (template_count, template_curvature) = if uses(Generator::LaidSegments) { (Some(i("template_count")?), Some(f("template_curvature")?)) } else { (None, None) };
+    let template_position = if g.link_exists("template_position") { Some(f("template_position")?) } else { None };
+    let sde = if uses(Generator::LayDownSde) { Some((f("sde_potential_length")?, f("sde_noise")?)) } else { None };
     (0..n_w.len())
         .map(|p| {
             let params = WebParams {
@@ -617,11 +622,12 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
                     Ok(Web::new(params, spectra)?)
                 }
                 Generator::LaidSegments => {
-                    let (templates, kappa) = (i("template_count")?[[p]] as usize, f("template_curvature")?);
+                    let (Some(count), Some(kappa)) = (&template_count, &template_curvature) else { unreachable!("read above for laid_segments points") };
+                    let templates = count[[p]] as usize;
                     let rows = (0..templates).map(|t| (0..nn[[p]] as usize).map(|m| kappa[[p, t, m]]).collect()).collect();
                     let positions = match params.segment_join {
                         SegmentJoin::Matched => {
-                            let q = f("template_position")?;
+                            let q = template_position.as_ref().ok_or_else(|| anyhow!("{}: no template_position for a matched join", input.version.group_path()))?;
                             (0..templates).map(|t| (0..=nn[[p]] as usize).map(|m| [q[[p, t, m, 0]], q[[p, t, m, 1]]]).collect()).collect()
                         }
                         SegmentJoin::Curvature => vec![],
@@ -629,7 +635,8 @@ pub fn web_from_input(input: &Input) -> Result<Vec<Web>> {
                     Ok(Web::laid_segments(params, rows, positions, spacing)?)
                 }
                 Generator::LayDownSde => {
-                    let model = LayDownSde { potential_length: f("sde_potential_length")?[[p]], noise: f("sde_noise")?[[p]] };
+                    let Some((b, a)) = &sde else { unreachable!("read above for lay_down_sde points") };
+                    let model = LayDownSde { potential_length: b[[p]], noise: a[[p]] };
                     Ok(Web::lay_down_sde(params, model, spacing, nn[[p]] as usize)?)
                 }
             }

@@ -89,6 +89,36 @@ pub(crate) fn sin_cos_lanes<const L: usize>(x: &[f64; L]) -> ([f64; L], [f64; L]
     (s, c)
 }
 
+/// Evaluates the expression compiled for the widest vector extension this CPU has: the
+/// `avx512` one with AVX-512F, the `avx2` one with AVX2, else the `generic` one. The three
+/// are the same code under `#[target_feature]` (the same IEEE operations, no FMA), so the
+/// choice changes the speed, never the bits. The `avx*` expressions call `unsafe`
+/// target-feature functions; the detection just before makes them sound.
+macro_rules! widest_isa {
+    (generic: $generic:expr, avx2: $avx2:expr, avx512: $avx512:expr $(,)?) => {{
+        #[cfg(target_arch = "x86_64")]
+        let value = if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F (checked just above).
+            #[allow(unused_unsafe)]
+            unsafe {
+                $avx512
+            }
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            #[allow(unused_unsafe)]
+            unsafe {
+                $avx2
+            }
+        } else {
+            $generic
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let value = $generic;
+        value
+    }};
+}
+pub(crate) use widest_isa;
+
 /// sin and cos of every angle (the slices must have equal lengths). Uses AVX-512F or
 /// AVX2 when the CPU has it: the same IEEE operations on wider registers (no FMA), so
 /// the results are bit-identical to the SSE2 path and to [`sin_cos`].
@@ -96,19 +126,7 @@ pub fn sin_cos_slices(angles: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     assert!(sin.len() == angles.len() && cos.len() == angles.len());
     let largest = angles.iter().fold(0.0f64, |m, a| m.max(a.abs()));
     if largest <= FAST_LIMIT {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F (checked just above).
-            unsafe { kernel_slices_avx512(angles, sin, cos) };
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked just above).
-            unsafe { kernel_slices_avx2(angles, sin, cos) };
-            return;
-        }
-        kernel_slices(angles, sin, cos);
+        widest_isa!(generic: kernel_slices(angles, sin, cos), avx2: kernel_slices_avx2(angles, sin, cos), avx512: kernel_slices_avx512(angles, sin, cos));
     } else {
         for ((a, s), c) in angles.iter().zip(sin.iter_mut()).zip(cos.iter_mut()) {
             (*s, *c) = a.sin_cos();

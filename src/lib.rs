@@ -62,6 +62,7 @@ pub mod archive;
 pub mod cli;
 /// What source code each stage kind's results depend on, hashed at build time (see build.rs).
 pub mod code_hash;
+pub mod coordinates;
 pub mod error;
 pub mod executor;
 pub mod geometry;

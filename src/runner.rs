@@ -17,14 +17,12 @@
 //! `Archive::current`); stages outside an `--only`/`--from` selection use their current
 //! version and say why it is out of date when it is. A dry run makes the same decisions
 //! without computing or writing ([`Decision::dry_run`]).
-use crate::archive::data::{Attr, Output, Values};
+use crate::archive::data::Attr;
 use crate::archive::{provenance, Archive, Integrity, VersionInfo};
-use crate::params::ParamValue;
 use crate::pipeline::stage_run::{fingerprint, pipeline_dir, stage_context};
 use crate::pipeline::{Pipeline, StageDecl};
 use crate::stages::{self, BadInput};
 use anyhow::{anyhow, Result};
-use ndarray::{ArrayD, IxDyn};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -269,62 +267,6 @@ fn flatten_yaml(text: &str) -> BTreeMap<String, String> {
         walk("", &v, &mut out);
     }
     out
-}
-
-/// Add the swept parameters as coordinates along `point`.
-fn add_sweep_coordinates(out: &mut Output, sweep: &[(String, Vec<ParamValue>)]) -> Result<()> {
-    if sweep.is_empty() {
-        return Ok(());
-    }
-    let n = sweep[0].1.len();
-    if out.dimensions().map_err(|e| anyhow!(e))?.get("point").is_some_and(|&m| m != n) {
-        return Err(anyhow!("stage output has a `point` dimension of the wrong length"));
-    }
-    let mut names = vec![];
-    for (param, values) in sweep {
-        let mut name = param.replace('.', "_");
-        if out.get(&name).is_some() {
-            name = format!("sweep_{name}");
-        }
-        let long = format!("swept parameter {param}");
-        let var = if values.iter().all(|v| matches!(v, ParamValue::Float(_) | ParamValue::Int(_))) {
-            let data: Vec<f64> = values
-                .iter()
-                .map(|v| match v {
-                    ParamValue::Float(f) => *f,
-                    ParamValue::Int(i) => *i as f64,
-                    _ => f64::NAN,
-                })
-                .collect();
-            out.f64(&name, &["point"], ArrayD::from_shape_vec(IxDyn(&[n]), data)?, "", &long)
-        } else {
-            out.strings(&name, "point", values.iter().map(|v| v.to_string()).collect(), &long)
-        };
-        var.attrs.insert("parameter".into(), Attr::Str(param.clone()));
-        names.push(name);
-    }
-    let coords = names.join(" ");
-    for v in out.variables.iter_mut() {
-        if v.dims.iter().any(|d| d == "point") && !names.contains(&v.name) {
-            let joined = match v.attrs.get("coordinates") {
-                Some(Attr::Str(own)) => format!("{own} {coords}"),
-                _ => coords.clone(),
-            };
-            v.attrs.insert("coordinates".into(), Attr::Str(joined));
-        }
-    }
-    Ok(())
-}
-
-fn units_of_sweep(out: &mut Output, sweep: &[(String, Vec<ParamValue>)], specs: &[crate::params::ParamSpec]) {
-    for (param, _) in sweep {
-        let unit = specs.iter().find(|s| s.name == param).map(|s| s.unit).unwrap_or("");
-        for v in out.variables.iter_mut() {
-            if matches!(v.attrs.get("parameter"), Some(Attr::Str(p)) if p == param) && matches!(v.values, Values::F64(_)) {
-                v.units = if unit.is_empty() { "1".into() } else { unit.into() };
-            }
-        }
-    }
 }
 
 /// The `current` marks of the archive (`Archive::current`) as this run moves them: a
@@ -598,6 +540,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         let next_version = archive.next_version(&name).map_err(RunError::Runtime)?;
         let ctx = stage_context(pipeline, decl, &inputs, opts.progress, next_version);
         let sweep = ctx.sweep.clone();
+        let upstream = ctx.inputs.clone();
         let executor = opts.executor.clone().unwrap_or_else(|| pipeline.executor.clone());
         let job = crate::executor::StageJob { pipeline, stage_name: &name, fingerprint: &fp, inputs: &inputs };
         let start_utc = provenance::utc_now();
@@ -626,8 +569,8 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         let wall = t0.elapsed().as_secs_f64();
         let cpu = provenance::cpu_seconds() - cpu0;
         let t_commit = Instant::now();
-        add_sweep_coordinates(&mut out, &sweep).map_err(RunError::Runtime)?;
-        units_of_sweep(&mut out, &sweep, &stage.params());
+        crate::coordinates::add_sweep_coordinates(&mut out, &name, &sweep, &stage.params()).map_err(RunError::Runtime)?;
+        crate::coordinates::add_upstream_coordinates(&mut out, &upstream).map_err(RunError::Runtime)?;
         let hashes = crate::archive::hdf::dataset_hashes(&out);
         let content_hash = crate::archive::hdf::hash_of_dataset_hashes(&hashes);
 

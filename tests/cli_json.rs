@@ -83,7 +83,8 @@ fn stages_json_lists_kinds_and_typed_parameter_tables() {
     assert!(p("fibres_across")["default"].is_i64(), "{}", p("fibres_across"));
     assert_eq!(p("preset")["type"], "choice");
     assert_eq!(p("preset")["schema"]["enum"], serde_json::json!(["none", "spectrum1", "spectrum2", "spectrum3"]));
-    assert!(p("fibre_diameter")["default"].is_f64() && p("fibre_diameter")["unit"] == "m", "{}", p("fibre_diameter"));
+    assert!(p("fibre_spacing")["default"].is_f64() && p("fibre_spacing")["unit"] == "m", "{}", p("fibre_spacing"));
+    assert!(p("fibre_diameter")["auto"] == true && p("fibre_diameter")["unit"] == "m", "{}", p("fibre_diameter"));
     // every parameter of the text table, in order
     let text_params: Vec<String> = ok(tmp.path(), &["stages", "web"])
         .lines()

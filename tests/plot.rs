@@ -71,7 +71,7 @@ fn every_stage_plots_as_png_and_svg() {
     assert!(o.status.success(), "{err}");
     let paths: Vec<&str> = out.lines().collect();
     for expected in ["fibre/v1/fibre.png", "fibre/v1/sweep_fibres.png", "fibre/v1/radius_of_gyration_bending_energy.png", "spectra/v1/energy_spectrum.png", "ideal/v1/curvature.png",
-        "web/v1/fibres.png", "grid/v1/density.png", "grid/v1/zone_size.png", "grid/v1/uniformity_vs_sweep_belt_speed_ratio.png",
+        "web/v1/fibres.png", "grid/v1/density.png", "grid/v1/zone_size.png", "grid/v1/uniformity_vs_belt_speed_ratio.png",
         "scans/v1/sample000.png", "scans/v1/cv.png", "swept_scans/v1/point001_sample000.png", "swept_scans/v1/cv.png",
         "laid/v1/laid_web.png", "laid/v1/fibre_shapes.png"] {
         let p = paths.iter().find(|p| p.ends_with(expected)).unwrap_or_else(|| panic!("{expected} missing from {out}"));

@@ -182,7 +182,7 @@ stages:
     replicates: 2
 ";
     run_ok(tmp.path(), yaml, 2);
-    assert_eq!(read(tmp.path(), "grid", "sweep_belt_speed_ratio").iter().copied().collect::<Vec<_>>(), vec![0.05, 0.1]);
+    assert_eq!(read(tmp.path(), "grid", "belt_speed_ratio").iter().copied().collect::<Vec<_>>(), vec![0.05, 0.1]);
     let rho = read(tmp.path(), "grid", "mean_areal_density_mean");
     assert!(rho[[0]] > 1.5 * rho[[1]], "doubling c roughly halves ρ_av: {rho}");
     // The grid may not sweep on top of a swept web.

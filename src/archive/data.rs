@@ -102,6 +102,11 @@ impl Output {
         self.files.push((name.into(), bytes));
     }
 
+    /// Add a variable of any type; returns it for further attributes.
+    pub fn push_values(&mut self, name: &str, dims: &[&str], values: Values, units: &str, long_name: &str) -> &mut Variable {
+        self.push(name, dims, values, units, long_name)
+    }
+
     fn push(&mut self, name: &str, dims: &[&str], values: Values, units: &str, long_name: &str) -> &mut Variable {
         let shape = values.shape();
         assert_eq!(
@@ -168,6 +173,10 @@ impl Output {
 
     pub fn get(&self, name: &str) -> Option<&Variable> {
         self.variables.iter().find(|v| v.name == name)
+    }
+
+    pub fn get_mut(&mut self, name: &str) -> Option<&mut Variable> {
+        self.variables.iter_mut().find(|v| v.name == name)
     }
 
     pub fn set_attr(&mut self, key: &str, value: impl Into<Attr>) {

@@ -5,7 +5,7 @@
 //! point, replicate count, seed, input versions) into an [`Output`]. It knows nothing
 //! of YAML, files or versions: the pipeline runner and the archive do that.
 use crate::error::InvalidParam;
-use crate::archive::data::Output;
+use crate::archive::data::{Attr, Output};
 use crate::archive::{hdf, VersionInfo};
 use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec, ParamValue};
@@ -262,6 +262,7 @@ pub fn mean_std(values: &[f64]) -> (f64, f64) {
 }
 
 /// An upstream stage version a stage reads from.
+#[derive(Clone)]
 pub struct Input {
     pub name: String,
     pub kind: String,
@@ -287,6 +288,27 @@ impl Input {
     }
     pub fn has(&self, name: &str) -> bool {
         self.version.open().map(|f| f.link_exists(name)).unwrap_or(false)
+    }
+
+    /// The value of the input stage's numeric parameter `name` at each of its `points`
+    /// points: its sweep coordinate (the variable whose `parameter` attribute is `name`)
+    /// where it was swept, else its resolved value from the version's `params_yaml`.
+    /// `None` when the input has no such parameter.
+    pub fn parameter_per_point(&self, name: &str, points: usize) -> Result<Option<Vec<f64>>> {
+        let g = self.version.open()?;
+        for member in g.member_names()? {
+            let Ok(ds) = g.dataset(&member) else { continue };
+            let attrs = hdf::read_attrs(&ds)?;
+            let own = !matches!(attrs.get("stage"), Some(Attr::Str(s)) if *s != self.name);
+            if own && matches!(attrs.get("parameter"), Some(Attr::Str(p)) if p == name) {
+                let values = hdf::read_f64(&g, &member)?;
+                if values.ndim() == 1 && values.len() == points {
+                    return Ok(Some(values.iter().copied().collect()));
+                }
+            }
+        }
+        let params: Option<serde_yaml_ng::Value> = self.version.attr_str("params_yaml").and_then(|t| serde_yaml_ng::from_str(t).ok());
+        Ok(params.as_ref().and_then(|p| p.get(name)).and_then(|v| v.as_f64()).map(|v| vec![v; points]))
     }
 }
 

@@ -177,7 +177,8 @@ fn grid_rows(ctx: &RunContext, points: &Points, source: &Source, range: std::ops
 }
 
 /// The stage output from the rows of every unit ([`Stage::reduce`]), with the
-/// regeneration check, the web's swept parameters and the optional Table 4.
+/// regeneration check and the optional Table 4 (the runner copies the web's sweep
+/// coordinates along `input_point`, see [`crate::coordinates`]).
 fn grid_output(ctx: &RunContext, points: &Points, source: &Source, rows: Output) -> Result<Output> {
     let input = ctx.input(0);
     let regen = match source {
@@ -186,10 +187,6 @@ fn grid_output(ctx: &RunContext, points: &Points, source: &Source, rows: Output)
     };
     let expected: Vec<f64> = (0..source.len()).map(|w| source.expected_interior_density(w)).collect();
     let mut out = assemble(points, &expected, &rows, ctx.replicates, ctx.points[0].bool("store_density"))?;
-    if source.len() > 1 {
-        let web_points: Vec<usize> = points.iter().map(|u| u.0).collect();
-        copy_web_sweep(input, &mut out, &web_points)?;
-    }
     if ctx.points[0].text("compare_with") == "table4" {
         add_table4(&mut out);
     }
@@ -394,7 +391,7 @@ fn assemble(units: &[(usize, GridParams)], expected_density: &[f64], rows: &Outp
         out.f64("window_corner_md", &["point"], corner("window_corner_md")?, "m", "MD position of the window's lower edge in web coordinates (fibres start at x = 0)");
         out.f64("window_corner_cd", &["point"], corner("window_corner_cd")?, "m", "CD position of the window's lower edge (web centre line y = 0)");
     }
-    out.i64("web_point", &["point"], Array1::from_iter(units.iter().map(|u| u.0 as i64)), "1", "point of the input web evaluated");
+    out.i64("input_point", &["point"], Array1::from_iter(units.iter().map(|u| u.0 as i64)), "1", "point of the input web (or laid web) gridded");
     out.f64("expected_interior_density", &["point"], Array1::from_iter(units.iter().map(|u| expected_density[u.0] * 1e3)), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
     let rho = per_rep("mean_areal_density")?;
     let cv = per_rep("cv")?;
@@ -440,40 +437,6 @@ fn mean_std(v: &Array2<f64>) -> (Array1<f64>, Array1<f64>) {
         }
     }));
     (m, s)
-}
-
-/// Copies the web's sweep coordinates (variables carrying a `parameter` attribute).
-fn copy_web_sweep(input: &crate::stages::Input, out: &mut Output, web_points: &[usize]) -> Result<()> {
-    let g = input.version.open()?;
-    let mut names = vec![];
-    for name in g.member_names()? {
-        let Ok(ds) = g.dataset(&name) else { continue };
-        let attrs = crate::archive::hdf::read_attrs(&ds)?;
-        let Some(Attr::Str(param)) = attrs.get("parameter") else { continue };
-        let long = format!("swept parameter {param} of the input web");
-        let var = if let Ok(v) = crate::archive::hdf::read_f64(&g, &name) {
-            let unit = match attrs.get("units") {
-                Some(Attr::Str(u)) => u.clone(),
-                _ => "1".into(),
-            };
-            let picked: Vec<f64> = web_points.iter().map(|&w| v[[w]]).collect();
-            out.f64(&name, &["point"], ArrayD::from_shape_vec(IxDyn(&[picked.len()]), picked)?, &unit, &long)
-        } else {
-            let all = crate::archive::hdf::read_strings(&g, &name)?;
-            out.strings(&name, "point", web_points.iter().map(|&w| all[w].clone()).collect(), &long)
-        };
-        var.attrs.insert("parameter".into(), Attr::Str(param.clone()));
-        names.push(name);
-    }
-    let coords = names.join(" ");
-    if !coords.is_empty() {
-        for v in out.variables.iter_mut() {
-            if v.dims.iter().any(|d| d == "point") && !names.contains(&v.name) {
-                v.attrs.insert("coordinates".into(), Attr::Str(coords.clone()));
-            }
-        }
-    }
-    Ok(())
 }
 
 fn add_table4(out: &mut Output) {

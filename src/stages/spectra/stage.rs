@@ -137,8 +137,29 @@ impl Stage for SpectraStage {
             }
             laid(ctx, &ctx.points[0])?
         };
-        assemble(&rows)
+        let mut out = assemble(&rows)?;
+        if let Some(input) = ctx.inputs.first() {
+            laid_fibre_parameters(input, rows.len(), ctx.points[0].bool("belt_removed"), &mut out)?;
+        }
+        Ok(out)
     }
+}
+
+/// Records per point the physical parameters of the laid fibres analysed (d, ρ, c =
+/// v_b/v_f), which a web built on these spectra takes unless its pipeline sets them, and
+/// whether the belt motion was removed.
+fn laid_fibre_parameters(input: &crate::stages::Input, points: usize, belt_removed: bool, out: &mut Output) -> Result<()> {
+    let per_point = |name: &str| -> Result<Array1<f64>> {
+        let values = input.parameter_per_point(name, points)?.ok_or_else(|| anyhow!("{} {} records no parameter `{name}`", input.kind, input.version.group_path()))?;
+        Ok(Array1::from(values))
+    };
+    let (belt_speed, fibre_speed) = (per_point("belt_speed")?, per_point("fibre_speed")?);
+    out.f64("fibre_diameter", &["point"], per_point("diameter")?, "m", "d of the laid fibres");
+    out.f64("fibre_density", &["point"], per_point("density")?, "kg m-3", "ρ of the laid fibres");
+    out.f64("belt_speed_ratio", &["point"], &belt_speed / &fibre_speed, "1", "c = v_b/v_f the fibres were laid at");
+    out.i64("input_point", &["point"], Array1::from_iter(0..points as i64), "1", "point of the input whose laid fibres are analysed");
+    out.flags("belt_removed", &[], ndarray::arr0(belt_removed), "the fibres were analysed with the belt motion removed (x − v_b(T − t_landing))");
+    Ok(())
 }
 
 fn idealised(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Row>> {

@@ -22,6 +22,11 @@
 //! each segment draws one uniformly, the draw being part of the fibre's random stream),
 //! or `preset: spectrum1|2|3` (the paper's idealised square waves, N = `points_per_segment`).
 //!
+//! **Physical parameters.** `fibre_diameter`, `fibre_density` and `belt_speed_ratio` left
+//! `auto` are those of the input's laid fibres (the spectra stage records them per point),
+//! else the paper's web values; `inherited_parameters` and stderr say what was taken
+//! ([`physical_parameters`]).
+//!
 //! **Seed.** Every point uses the stage's seed (pipeline `seed`, or the stage's own):
 //! sweep points share their fibres' random phases (common random numbers), as the other
 //! stages do. Realisation k of a web is fibre streams (seed, k, ·).
@@ -118,6 +123,10 @@ struct PointWeb {
     /// The input's first laid fibre, belt removed, rebuilt by eq 13 about its centroid
     /// (for the figure beside a generated segment).
     example_input_fibre: Option<Vec<[f64; 2]>>,
+    /// Physical parameters taken from the input's laid fibres ([`physical_parameters`]).
+    inherited: Option<String>,
+    /// The point of the input spectra stage used (None without an input).
+    input_point: Option<usize>,
 }
 
 /// Fibres of realisation 0 whose segment windows give a point's generated S and e.
@@ -143,7 +152,9 @@ impl Stage for WebStage {
             ParamSpec::int("input_point", "1", 0, 0, i64::MAX, "which point of the input spectra stage to use (auto: its only point)").auto_default(),
         ];
         for p in WEB_PARAMS {
-            if p.name != "seed" {
+            if let Some(&(_, doc)) = INHERITED_DOCS.iter().find(|(name, _)| *name == p.name) {
+                v.push(ParamSpec { doc, ..ParamSpec::from(p).auto_default() });
+            } else if p.name != "seed" {
                 v.push(p.into());
             }
         }
@@ -200,13 +211,18 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     let bad = |e: &dyn std::fmt::Display| BadInput(format!("point {index}: {e}"));
     let selection = SpectrumSelection::from_name(p.text("spectrum_selection")).map_err(|e| bad(&e))?;
     let generator = Generator::from_name(p.text("generator")).map_err(|e| bad(&e))?;
+    let physical = physical_parameters(ctx, p)?;
+    if let Some(note) = &physical.inherited {
+        eprintln!("{}: point {index}: {note}", ctx.stage_name);
+    }
+    let [belt_speed_ratio, fibre_diameter, fibre_density] = physical.values;
     let params = WebParams {
         fibres_across: p.usize("fibres_across"),
         segments_per_fibre: p.usize("segments_per_fibre"),
         fibre_spacing: p.f64("fibre_spacing"),
-        belt_speed_ratio: p.f64("belt_speed_ratio"),
-        fibre_diameter: p.f64("fibre_diameter"),
-        fibre_density: p.f64("fibre_density"),
+        belt_speed_ratio,
+        fibre_diameter,
+        fibre_density,
         spectrum_selection: selection,
         generator,
         mirror: p.bool("mirror"),
@@ -251,7 +267,55 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     };
     let generated_shape = generated_shape(&web);
     let example_input_fibre = example.map(|nodes| crate::geometry::centred(&nodes));
-    Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration, example_input_fibre })
+    let input_point = if ctx.inputs.is_empty() { None } else { Some(input_point(ctx, p)?) };
+    Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration, example_input_fibre, inherited: physical.inherited, input_point })
+}
+
+/// The physical parameters a web takes from the laid fibres of its input spectra stage
+/// when the pipeline leaves them `auto`: c = v_b/v_f, d, ρ, in this order.
+const INHERITED: [&str; 3] = ["belt_speed_ratio", "fibre_diameter", "fibre_density"];
+
+/// Their documentation, with what `auto` means.
+const INHERITED_DOCS: [(&str, &str); 3] = [
+    ("belt_speed_ratio", "c = v_b/v_f, belt drift per unit fibre length (eqs 14-15); auto: the laid fibres' c (0 if their spectra keep the belt motion), without laid fibres 0.04 = Table 1"),
+    ("fibre_diameter", "d, fibre diameter (point mass ρπd²/4·Δs); auto: the laid fibres' d, without laid fibres 20 µm (§3.2)"),
+    ("fibre_density", "ρ, fibre material density; auto: the laid fibres' ρ, without laid fibres 950 kg/m³"),
+];
+
+/// A point's physical parameters: as given; else (`auto`) the laid fibres' (the spectra
+/// stage records them per point), with c = 0 for fibres analysed with the belt motion
+/// in them (their curve already drifts, eq 14 would add it twice); else the table's
+/// defaults (the paper's web, §3.3).
+struct Physical {
+    values: [f64; 3],
+    /// What was taken from the input, for the archive and the log (None: nothing).
+    inherited: Option<String>,
+}
+
+fn physical_parameters(ctx: &RunContext, p: &ParamSet) -> Result<Physical> {
+    let laid = match ctx.inputs.first() {
+        Some(input) if input.has("fibre_diameter") => Some((input, input_point(ctx, p)?)),
+        _ => None,
+    };
+    let (mut values, mut taken) = ([0.0; 3], vec![]);
+    for (value, name) in values.iter_mut().zip(INHERITED) {
+        let row = WEB_PARAMS.iter().find(|r| r.name == name).expect("inherited parameters are in the web table");
+        *value = match (p.f64_or_auto(name), laid) {
+            (Some(given), _) => given,
+            (None, Some((input, point))) => {
+                let belt_kept = name == "belt_speed_ratio" && input.has("belt_removed") && input.read_u8("belt_removed")?.iter().all(|&b| b == 0);
+                let laid_value = if belt_kept { 0.0 } else { input.read_f64(name)?[[point]] };
+                taken.push(format!("{name} = {laid_value:e} {}{}", row.unit, if belt_kept { " (the laid curves keep the belt drift)" } else { "" }));
+                laid_value
+            }
+            (None, None) => match row.default {
+                crate::param_table::ParamDefault::Real(v) => v,
+                _ => unreachable!("inherited parameters are real"),
+            },
+        };
+    }
+    let inherited = laid.filter(|_| !taken.is_empty()).map(|(input, point)| format!("from the laid fibres of {} point {point}: {}", input.version.group_path(), taken.join(", ")));
+    Ok(Physical { values, inherited })
 }
 
 /// A `laid_segments` web of the input's laid fibres, and where they came from.
@@ -491,6 +555,10 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
     out.strings("spectrum_selection", "point", webs.iter().map(|w| w.web.params().spectrum_selection.name().to_string()).collect(), "single: first spectrum for every segment; per_segment: each segment draws one of the set");
     out.strings("rng_seed", "point", webs.iter().map(|w| w.web.params().seed.to_string()).collect(), "master seed of the fibre streams (decimal u64): fibre j of realisation k uses ChaCha8 stream k·2^32 + j");
     out.strings("spectrum_source", "point", webs.iter().map(|w| w.source.clone()).collect(), "where the spectrum came from");
+    if webs.iter().all(|w| w.input_point.is_some()) {
+        out.i64("input_point", &["point"], Array1::from_iter(webs.iter().map(|w| w.input_point.unwrap_or(0) as i64)), "1", "point of the input spectra stage used");
+    }
+    out.strings("inherited_parameters", "point", webs.iter().map(|w| w.inherited.clone().unwrap_or_default()).collect(), "physical parameters left auto and taken from the input's laid fibres, with their values (empty: none)");
     out.i64("points_per_segment", &["point"], per_i(&|w| w.points_per_segment() as i64), "1", "N, samples per segment");
     out.f64("segment_length", &["point"], per(&|w| w.segment_length()), "m", "L, segment length");
     out.f64("node_spacing", &["point"], per(&|w| w.spacing()), "m", "Δs = L/N, arc length between nodes");

@@ -1,6 +1,7 @@
 //! Result of one replicate and the shape measures of the laid fibre.
 
 use super::integrator::{EnergySample, TimeStepLimits};
+use serde::{Deserialize, Serialize};
 use crate::geometry::{bending_energy, radius_of_gyration};
 
 /// A column of the stored energy diagnostics: its name and its value in a record.
@@ -50,7 +51,9 @@ pub struct LaydownResult {
     pub radius_of_gyration: f64,
     /// e = V_b L / EI (eq 6) of the laid nodes projected on the belt plane.
     pub bending_energy: f64,
-    /// S with the belt motion removed: x − v_belt (t_end − landing_time) per laid node.
+    /// The laid nodes with the belt motion removed (by the scene's `belt_removal`).
+    pub laid_belt_removed: Vec<[f64; 3]>,
+    /// S of `laid_belt_removed` (m).
     pub radius_of_gyration_belt_removed: f64,
     /// e with the belt motion removed.
     pub bending_energy_belt_removed: f64,
@@ -107,6 +110,7 @@ impl LaydownResult {
             laid_length: 0.0,
             radius_of_gyration: 0.0,
             bending_energy: 0.0,
+            laid_belt_removed: Vec::new(),
             radius_of_gyration_belt_removed: 0.0,
             bending_energy_belt_removed: 0.0,
             diagnostics: Vec::new(),
@@ -133,19 +137,66 @@ impl LaydownResult {
     }
 }
 
-/// Laid nodes (finite landing time) projected on the belt plane, in fibre order;
-/// with `belt_speed_removed = Some((v_belt, t_end))` each node is shifted back by
-/// v_belt (t_end − landing_time) along x (the paper's dashed lines, Figs 5-6).
-pub fn laid_polyline(positions: &[[f64; 3]], landing_time: &[f64], belt_removed: Option<(f64, f64)>) -> Vec<[f64; 3]> {
-    positions
-        .iter()
-        .zip(landing_time)
-        .filter(|(_, t)| t.is_finite())
-        .map(|(p, &t)| {
-            let shift = belt_removed.map_or(0.0, |(vb, te)| vb * (te - t));
-            [p[0] - shift, p[1], 0.0]
-        })
-        .collect()
+/// How the belt motion is taken off laid nodes (the paper's dashed lines, Figs 5-6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BeltRemoval {
+    /// x − v_b (t_end − t_land): the belt travel since each node *landed*. Neighbours do
+    /// not land in arc-length order to within Δs/v_b, so this adds a node-scale jitter
+    /// v_b δt_land along x that the curvature sees: e grows with refinement.
+    #[default]
+    Landing,
+    /// x + (v_b/v_f)·s, s the node's material coordinate: the belt travel since each node
+    /// was *fed* (eq 14's drift taken off), smooth in s, so e converges with the mesh;
+    /// shifted as a whole onto the landing definition's centroid (S and e do not see the
+    /// shift), so the nodes stay about the feed axis.
+    Feed,
+}
+
+impl BeltRemoval {
+    pub const NAMES: [&'static str; 2] = ["landing", "feed"];
+    pub fn name(self) -> &'static str {
+        match self {
+            BeltRemoval::Landing => "landing",
+            BeltRemoval::Feed => "feed",
+        }
+    }
+}
+
+/// The belt motion under one laid fibre, for [`laid_polyline`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BeltMotion {
+    /// v_b (m/s).
+    pub belt_speed: f64,
+    /// v_f (m/s): the fibre's material passes the feed point at this speed.
+    pub fibre_speed: f64,
+    /// t_end (s): the time the positions are taken at.
+    pub end_time: f64,
+    /// Δs (m): node i has material coordinate s = iΔs (node 0 fed first).
+    pub element_length: f64,
+}
+
+/// Laid nodes (finite landing time) projected on the belt plane, in fibre order; with
+/// `belt_removed = Some((rule, motion))` the belt travel is taken off by `rule`.
+pub fn laid_polyline(positions: &[[f64; 3]], landing_time: &[f64], belt_removed: Option<(BeltRemoval, BeltMotion)>) -> Vec<[f64; 3]> {
+    let laid = positions.iter().zip(landing_time).enumerate().filter(|(_, (_, t))| t.is_finite());
+    let Some((rule, m)) = belt_removed else {
+        return laid.map(|(_, (p, _))| [p[0], p[1], 0.0]).collect();
+    };
+    let since_landing: Vec<[f64; 3]> = laid.clone().map(|(_, (p, &t))| [p[0] - m.belt_speed * (m.end_time - t), p[1], 0.0]).collect();
+    match rule {
+        BeltRemoval::Landing => since_landing,
+        BeltRemoval::Feed => {
+            let c = m.belt_speed / m.fibre_speed;
+            let mut since_feed: Vec<[f64; 3]> = laid.map(|(i, (p, _))| [p[0] + c * i as f64 * m.element_length, p[1], 0.0]).collect();
+            let n = since_feed.len().max(1) as f64;
+            let shift = (since_landing.iter().map(|q| q[0]).sum::<f64>() - since_feed.iter().map(|q| q[0]).sum::<f64>()) / n;
+            for q in &mut since_feed {
+                q[0] += shift;
+            }
+            since_feed
+        }
+    }
 }
 
 /// (S, e) of a laid polyline (S eq 5, e eq 6 via [`crate::geometry`]).
@@ -154,4 +205,64 @@ pub fn shape_measures(laid: &[[f64; 3]]) -> (f64, f64) {
         return (0.0, 0.0);
     }
     (radius_of_gyration(laid), bending_energy(laid))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// A fibre laid as a circle of radius R about the feed axis (deposition point at the
+    /// origin), fed at v_f, carried by the belt: node i was fed at t_i = iΔs/v_f, so at t_end
+    /// it lies at its circle point + v_b (t_end − t_i). Its landing time is t_i plus a hanging
+    /// time with node-scale jitter (a coil touching down as a whole).
+    fn carried_circle(jitter: f64) -> (Vec<[f64; 3]>, Vec<f64>, BeltMotion, Vec<[f64; 3]>) {
+        let (n, radius, ds) = (400, 5e-3, 1e-4);
+        let motion = BeltMotion { belt_speed: 0.2, fibre_speed: 5.0, end_time: 0.05, element_length: ds };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let circle: Vec<[f64; 3]> = (0..n).map(|i| {
+            let phi = i as f64 * ds / radius;
+            [radius * phi.cos(), radius * phi.sin(), 0.0]
+        }).collect();
+        let fed = |i: usize| i as f64 * ds / motion.fibre_speed;
+        let positions = circle.iter().enumerate().map(|(i, q)| [q[0] + motion.belt_speed * (motion.end_time - fed(i)), q[1], 0.0]).collect();
+        let landing = (0..n).map(|i| fed(i) + 0.01 + jitter * rng.random_range(-1.0..1.0)).collect();
+        (positions, landing, motion, circle)
+    }
+
+    #[test]
+    fn feed_removal_recovers_the_laid_curve_whatever_the_landing_order() {
+        let (positions, landing, motion, circle) = carried_circle(2e-4);
+        let feed = laid_polyline(&positions, &landing, Some((BeltRemoval::Feed, motion)));
+        let by_landing = laid_polyline(&positions, &landing, Some((BeltRemoval::Landing, motion)));
+        // The circle's shape exactly, shifted as a whole.
+        let (s0, e0) = shape_measures(&circle);
+        let (s, e) = shape_measures(&feed);
+        assert!((s / s0 - 1.0).abs() < 1e-9 && (e / e0 - 1.0).abs() < 1e-9, "S {s} / {s0}, e {e} / {e0}");
+        let shift = feed[0][0] - circle[0][0];
+        assert!(feed.iter().zip(&circle).all(|(a, b)| (a[0] - b[0] - shift).abs() < 1e-12 && a[1] == b[1]));
+        // ... onto the landing definition's centroid.
+        let mean = |q: &[[f64; 3]]| q.iter().map(|p| p[0]).sum::<f64>() / q.len() as f64;
+        assert!((mean(&feed) - mean(&by_landing)).abs() < 1e-15);
+        // The landing definition sees the jitter v_b δt (±40 µm here) as curvature.
+        let (_, e_landing) = shape_measures(&by_landing);
+        assert!(e_landing > 10.0 * e0, "e by landing {e_landing}, laid {e0}");
+    }
+
+    #[test]
+    fn both_removals_agree_without_jitter_or_without_a_belt() {
+        // Landing exactly a fixed time after feeding: the two differ by a constant shift.
+        let (positions, landing, motion, _) = carried_circle(0.0);
+        let feed = laid_polyline(&positions, &landing, Some((BeltRemoval::Feed, motion)));
+        let by_landing = laid_polyline(&positions, &landing, Some((BeltRemoval::Landing, motion)));
+        for (a, b) in feed.iter().zip(&by_landing) {
+            assert!((a[0] - b[0]).abs() < 1e-15, "{a:?} {b:?}");
+        }
+        // No belt: both are the laid nodes themselves.
+        let still = BeltMotion { belt_speed: 0.0, ..motion };
+        let plain = laid_polyline(&positions, &landing, None);
+        for rule in [BeltRemoval::Feed, BeltRemoval::Landing] {
+            assert_eq!(laid_polyline(&positions, &landing, Some((rule, still))), plain);
+        }
+    }
 }

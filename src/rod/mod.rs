@@ -130,6 +130,6 @@ mod energy_tests;
 mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
-pub use metrics::{laid_polyline, shape_measures, LaydownResult};
+pub use metrics::{laid_polyline, shape_measures, BeltMotion, BeltRemoval, LaydownResult};
 pub use params::{parameter_table_markdown, AirField, BounceCheck, Effects, Integrator, LaydownParams, ParamError, PARAMETERS};
 pub use scene::{prepared_simulator, replicate_rng, run_jobs, simulate, LaydownJob};

@@ -199,6 +199,8 @@ pub struct LaydownParams {
     pub integrator: Integrator,
     /// Which lift of landed nodes `bounce_tolerance` applies to.
     pub bounce_check: BounceCheck,
+    /// How the belt motion is taken off the laid nodes for the belt-removed S and e.
+    pub belt_removal: super::metrics::BeltRemoval,
     /// Physical effects switched on.
     pub effects: Effects,
 }
@@ -238,6 +240,7 @@ impl Default for LaydownParams {
             duration: 0.0,
             integrator: Integrator::default(),
             bounce_check: BounceCheck::default(),
+            belt_removal: super::metrics::BeltRemoval::default(),
             effects: Effects::default(),
         }
     }
@@ -386,7 +389,7 @@ impl LaydownParams {
     }
 
     /// From resolved pipeline parameters: the names of [`PARAMETERS`], `integrator`,
-    /// `bounce_check` and the `effects.X` flags; the names in `skip` (a stage's own
+    /// `bounce_check`, `belt_removal` and the `effects.X` flags; the names in `skip` (a stage's own
     /// parameters) are ignored, any other name is an error.
     pub fn from_param_set(p: &crate::params::ParamSet, skip: &[&str]) -> Result<Self, String> {
         use crate::params::ParamValue;
@@ -559,6 +562,11 @@ pub fn parameter_table_markdown() -> String {
         "| bounce_check | | {} | | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
         BounceCheck::default().name(),
         BounceCheck::NAMES.join(", ")
+    );
+    s += &format!(
+        "| belt_removal | | {} | | | one of {}: belt travel taken off since each node landed (the paper's reading) or since it was fed (x + (v_b/v_f) s; converges with the mesh) |\n",
+        super::metrics::BeltRemoval::default().name(),
+        super::metrics::BeltRemoval::NAMES.join(", ")
     );
     s += &format!(
         "| air_field | | {} | | | one of {}: air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height |\n",

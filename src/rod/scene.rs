@@ -4,7 +4,7 @@ use super::air::{AirField, ImpingingAir, JetShape};
 use super::contact::BeltContact;
 use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
-use super::metrics::{laid_polyline, shape_measures, LaydownResult};
+use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
 use super::params::{BounceCheck, Integrator, LaydownParams};
 use super::state::{Rod, Workspace};
 use crate::geometry::arc_length;
@@ -252,7 +252,8 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     }
     let t_end = sim.t;
     let laid = laid_polyline(&sim.rod.x, &sim.landing_time, None);
-    let laid_removed = laid_polyline(&sim.rod.x, &sim.landing_time, Some((p.belt_speed, t_end)));
+    let motion = BeltMotion { belt_speed: p.belt_speed, fibre_speed: p.fibre_speed, end_time: t_end, element_length: sim.rod.rest.iter().sum::<f64>() / sim.rod.rest.len() as f64 };
+    let laid_removed = laid_polyline(&sim.rod.x, &sim.landing_time, Some((p.belt_removal, motion)));
     let (s, e) = shape_measures(&laid);
     let (sr, er) = shape_measures(&laid_removed);
     let mut invalid_reason = error.clone();
@@ -304,6 +305,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         radius_of_gyration: s,
         bending_energy: e,
         radius_of_gyration_belt_removed: sr,
+        laid_belt_removed: laid_removed,
         bending_energy_belt_removed: er,
         diagnostics,
         steps: sim.steps,

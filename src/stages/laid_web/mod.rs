@@ -42,7 +42,7 @@ pub use stage::LaidWebStage;
 
 use crate::error::InvalidParam;
 use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings};
-use crate::rod::{laid_polyline, shape_measures, LaydownParams};
+use crate::rod::{laid_polyline, shape_measures, BeltMotion, LaydownParams};
 use crate::rng::stream_rng;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -214,11 +214,13 @@ pub struct LaidFibre {
     pub frequency_scale: f64,
     pub amplitude_scale: f64,
     /// S (eq 5) and e (eq 6) of the laid fibre as it lies on the belt, and with the belt
-    /// motion removed (x − v_b (t_end − landing time)).
+    /// motion removed (by the scene's `belt_removal`).
     pub radius_of_gyration: f64,
     pub bending_energy: f64,
     pub radius_of_gyration_belt_removed: f64,
     pub bending_energy_belt_removed: f64,
+    /// x of each laid node with the belt motion removed (y is unchanged), in fibre order.
+    pub x_belt_removed: Vec<f64>,
     /// Completed, and no landed node above `bounce_tolerance` at the end (the paper's rule).
     pub valid: bool,
     pub invalid_reason: Option<String>,
@@ -276,7 +278,8 @@ fn draw_turbulence<R: Rng + ?Sized>(p: &LaidWebParams, rng: &mut R) -> (f64, f64
 
 fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibre, turbulence: (f64, f64, f64)) -> LaidFibre {
     let laid = laid_polyline(&fed.positions, &fed.landing_time, None);
-    let removed = laid_polyline(&fed.positions, &fed.landing_time, Some((scene.belt_speed, fed.end_time)));
+    let motion = BeltMotion { belt_speed: scene.belt_speed, fibre_speed: scene.fibre_speed, end_time: fed.end_time, element_length: fed.element_length };
+    let removed = laid_polyline(&fed.positions, &fed.landing_time, Some((scene.belt_removal, motion)));
     let (s, e) = shape_measures(&laid);
     let (sr, er) = shape_measures(&removed);
     let invalid_reason = if let Some(err) = &fed.error {
@@ -300,6 +303,7 @@ fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibr
         bending_energy: e,
         radius_of_gyration_belt_removed: sr,
         bending_energy_belt_removed: er,
+        x_belt_removed: removed.iter().map(|q| q[0]).collect(),
         valid: invalid_reason.is_none(),
         invalid_reason,
         fed,

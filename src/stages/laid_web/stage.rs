@@ -44,9 +44,9 @@ const OWN: &[&str] = &[
 ];
 
 /// Bytes per laid node until the output is written: the fed fibre's positions and
-/// landing time, its row and the copy placed on (point, replicate), 32 B each, and the
-/// write buffer.
-const KEPT_BYTES_PER_NODE: f64 = 128.0;
+/// landing time, its row and the copy placed on (point, replicate), 32 B each, the write
+/// buffer, and the belt-removed x (8 B).
+const KEPT_BYTES_PER_NODE: f64 = 136.0;
 
 /// The typed parameters of one sweep point.
 pub fn laid_web_params(p: &ParamSet) -> Result<LaidWebParams, String> {
@@ -187,6 +187,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     let nodes = webs.iter().map(|w| w.2.fibres.iter().map(|f| f.fed.laid_nodes()).sum::<usize>()).max().unwrap_or(0);
     let mut laid = crate::memory::try_array((n, nodes, 3), f64::NAN, "the webs' laid nodes")?;
     let mut landing = crate::memory::try_array((n, nodes), f64::NAN, "the webs' landing times")?;
+    let mut x_removed = crate::memory::try_array((n, nodes), f64::NAN, "the webs' belt-removed x")?;
     let mut start = Array2::from_elem((n, nf), -1i64);
     let mut count = Array2::from_elem((n, nf), 0i64);
     let mut valid = Array2::from_elem((n, nf), false);
@@ -196,8 +197,10 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
         let mut k = 0;
         for (j, f) in web.fibres.iter().enumerate() {
             start[[u, j]] = k as i64;
+            let mut removed = f.x_belt_removed.iter();
             for (x, &t) in f.fed.positions.iter().zip(&f.fed.landing_time) {
                 if t.is_finite() {
+                    x_removed[[u, k]] = *removed.next().expect("one belt-removed x per laid node");
                     laid[[u, k, 0]] = x[0];
                     laid[[u, k, 1]] = x[1] + f.feed_cd;
                     laid[[u, k, 2]] = x[2];
@@ -221,6 +224,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     out.i64("unit_replicate", &[UNIT_DIM], Array1::from_iter(webs.iter().map(|w| w.1 as i64)), "1", "replicate of the row");
     out.f64("laid_positions", &[UNIT_DIM, "laid_node", "xyz"], laid, "m", "");
     out.f64("landing_time", &[UNIT_DIM, "laid_node"], landing, "s", "");
+    out.f64("laid_x_belt_removed", &[UNIT_DIM, "laid_node"], x_removed, "m", "");
     out.i64("fibre_node_start", &[UNIT_DIM, "fibre"], start, "1", "");
     out.i64("fibre_laid_nodes", &[UNIT_DIM, "fibre"], count, "1", "");
     out.flags("valid", &[UNIT_DIM, "fibre"], valid, "");
@@ -251,6 +255,7 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
     out.strings("xyz", "xyz", vec!["x".into(), "y".into(), "z".into()], "axis: x machine direction (belt motion), y cross direction, z up");
     out.f64("laid_positions", &["point", "replicate", "laid_node", "xyz"], f("laid_positions")?, "m", "landed nodes in belt coordinates at the end of the run, fibre after fibre (x from the feed point, y not folded onto the CD period)");
     out.f64("landing_time", &["point", "replicate", "laid_node"], f("landing_time")?, "s", "time each laid node first touched the belt");
+    out.f64("laid_x_belt_removed", &["point", "replicate", "laid_node"], f("laid_x_belt_removed")?, "m", "x of each laid node with the belt motion removed (by belt_removal; y as laid), as the belt-removed S and e are measured");
     out.i64("fibre_node_start", &["point", "replicate", "fibre"], i("fibre_node_start", -1)?, "1", "index of the fibre's first node on the laid_node axis");
     out.i64("fibre_laid_nodes", &["point", "replicate", "fibre"], i("fibre_laid_nodes", 0)?, "1", "laid nodes of the fibre");
     let valid = place(get::u8(rows, "valid")?, &index, np, reps, 0).mapv(|v| v != 0);

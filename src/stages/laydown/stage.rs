@@ -127,6 +127,12 @@ impl Stage for LaydownStage {
             BounceCheck::default().name(),
             "final: a landed node above bounce_tolerance in the final profile invalidates the replicate (the paper's test); transient: at any time after landing",
         ));
+        v.push(ParamSpec::choice(
+            "belt_removal",
+            &crate::rod::BeltRemoval::NAMES,
+            crate::rod::BeltRemoval::default().name(),
+            "belt-removed S and e (Figs 5-6 dashed): landing takes off the belt travel since each node landed, x − v_b(t_end − t_land) (the paper's reading; e grows with the mesh); feed since it was fed, x + (v_b/v_f)s (converges)",
+        ));
         let defaults = Effects::default();
         let on = serde_json::to_value(defaults).unwrap();
         for (flag, doc) in Effects::FLAGS {
@@ -197,7 +203,7 @@ impl Stage for LaydownStage {
         } else {
             ctx.par_units(range, |p, r| (p, r, sim(p, r)))
         };
-        unit_rows(&scenes, &rows)
+        unit_rows(&rows)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
@@ -264,7 +270,7 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 /// everything of a replicate that the stage output holds, with the laid polylines
 /// computed here. Node, laid-node and record axes are padded with NaN to the longest
 /// replicate (the laid axis to the node count, as the output's is).
-fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]) -> Result<Output> {
+fn unit_rows(results: &[(usize, usize, LaydownResult)]) -> Result<Output> {
     let nan = f64::NAN;
     let n = results.len();
     let nodes = results.iter().map(|r| r.2.positions.len()).max().unwrap_or(0);
@@ -283,13 +289,13 @@ fn unit_rows(scenes: &[LaydownParams], results: &[(usize, usize, LaydownResult)]
             a.slice_mut(ndarray::s![u, i, ..]).assign(&ndarray::aview1(x));
         }
     };
-    for (u, (p, _, res)) in results.iter().enumerate() {
+    for (u, (_, _, res)) in results.iter().enumerate() {
         put(&mut positions, u, &res.positions);
         for (i, &t) in res.landing_time.iter().enumerate() {
             landing[[u, i]] = t;
         }
         put(&mut laid, u, &laid_polyline(&res.positions, &res.landing_time, None));
-        put(&mut laid_removed, u, &laid_polyline(&res.positions, &res.landing_time, Some((scenes[*p].belt_speed, res.end_time))));
+        put(&mut laid_removed, u, &res.laid_belt_removed);
         for (i, d) in res.diagnostics.iter().enumerate() {
             for (k, (_, value)) in ENERGY_COLUMNS.iter().enumerate() {
                 diag[[u, i, k]] = value(d);
@@ -396,7 +402,7 @@ fn assemble(rows: &Output, targets: &[(usize, usize)]) -> Result<Output> {
     out.strings("xyz", "xyz", vec!["x".into(), "y".into(), "z".into()], "axis: x machine direction (belt motion), y cross direction, z up");
     out.f64("positions", &["point", "replicate", "node", "xyz"], positions, "m", "final node positions");
     out.f64("laid_positions", &["point", "replicate", "laid_node", "xyz"], laid, "m", "landed nodes in fibre order, projected on the belt plane (z = 0)");
-    out.f64("laid_positions_belt_removed", &["point", "replicate", "laid_node", "xyz"], laid_removed, "m", "landed nodes with the belt motion removed: x - v_belt (t_end - landing_time)");
+    out.f64("laid_positions_belt_removed", &["point", "replicate", "laid_node", "xyz"], laid_removed, "m", "landed nodes with the belt motion removed (by belt_removal: landing, x − v_b(t_end − t_land); feed, x + (v_b/v_f)s)");
     out.f64("landing_time", &["point", "replicate", "node"], landing, "s", "time each node first touched the belt (NaN: never)");
     out.flags("valid", &["point", "replicate"], valid.clone(), "replicate valid: completed and no landed node above bounce_tolerance (see bounce_check)");
     out.flags("used", &["point", "replicate"], used.clone(), "replicate enters the per-point statistics: the first valid_replicates_target valid ones (all valid ones without a target)");

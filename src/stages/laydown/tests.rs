@@ -57,8 +57,16 @@ fn metrics_straight_circle_arc() {
     // laid_polyline keeps only landed nodes and removes the belt motion
     let pos = vec![[1.0, 2.0, 0.0], [3.0, 4.0, 0.5], [5.0, 6.0, 0.0]];
     let lt = vec![0.1, f64::NAN, 0.3];
-    let laid = laid_polyline(&pos, &lt, Some((2.0, 0.5)));
+    let motion = crate::rod::BeltMotion { belt_speed: 2.0, fibre_speed: 5.0, end_time: 0.5, element_length: 0.1 };
+    let laid = laid_polyline(&pos, &lt, Some((crate::rod::BeltRemoval::Landing, motion)));
     assert_eq!(laid, vec![[1.0 - 0.8, 2.0, 0.0], [5.0 - 0.4, 6.0, 0.0]]);
+    // by feed: x + (v_b/v_f)·iΔs (nodes 0 and 2), shifted onto the same centroid
+    let laid = laid_polyline(&pos, &lt, Some((crate::rod::BeltRemoval::Feed, motion)));
+    let (a, b) = (1.0, 5.0 + 0.4 * 0.2);
+    let shift = (0.2 + 4.6 - a - b) / 2.0;
+    for (got, want) in laid.iter().zip([[a + shift, 2.0, 0.0], [b + shift, 6.0, 0.0]]) {
+        assert!((got[0] - want[0]).abs() < 1e-14 && got[1] == want[1], "{laid:?}");
+    }
 }
 
 // ---------------------------------------------------------------- cantilever

@@ -26,9 +26,9 @@ const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
 const ROW_BYTES_PER_SAMPLE: f64 = 56.0;
 /// Bytes per sample of the output: K_r real and imaginary, S_r, κ and θ.
 const OUTPUT_BYTES_PER_SAMPLE: f64 = 40.0;
-/// Bytes per laid node of the input: the stored positions and landing time read
-/// whole, and the fibre copied out of them.
-const INPUT_BYTES_PER_NODE: f64 = 64.0;
+/// Bytes per laid node of the input: the stored positions, landing time and belt-removed
+/// x read whole, and the fibre copied out of them.
+const INPUT_BYTES_PER_NODE: f64 = 72.0;
 
 /// The spectra of a declared spectra stage, per output point: (spectra, N samples each).
 pub fn declared_spectra(stage: &Declared) -> Vec<(f64, f64)> {
@@ -158,7 +158,7 @@ fn laid_fibre_parameters(input: &crate::stages::Input, points: usize, belt_remov
     out.f64("fibre_density", &["point"], per_point("density")?, "kg m-3", "ρ of the laid fibres");
     out.f64("belt_speed_ratio", &["point"], &belt_speed / &fibre_speed, "1", "c = v_b/v_f the fibres were laid at");
     out.i64("input_point", &["point"], Array1::from_iter(0..points as i64), "1", "point of the input whose laid fibres are analysed");
-    out.flags("belt_removed", &[], ndarray::arr0(belt_removed), "the fibres were analysed with the belt motion removed (x − v_b(T − t_landing))");
+    out.flags("belt_removed", &[], ndarray::arr0(belt_removed), "the fibres were analysed with the belt motion removed (as their stage's belt_removal takes it off)");
     Ok(())
 }
 
@@ -252,25 +252,22 @@ fn laydown_fibres(input: &crate::stages::Input, belt_removed: bool) -> Result<Po
 }
 
 /// A laid web's valid fibres of every replicate, projected on the belt plane; belt
-/// removed: x − v_b (T − landing time).
+/// removed: the x the laid web stored (`laid_x_belt_removed`, by its `belt_removal`).
 fn laid_web_fibres(input: &crate::stages::Input, belt_removed: bool) -> Result<PointFibres> {
     let positions = input.read_f64("laid_positions")?; // (point, replicate, laid_node, xyz)
-    let landing = input.read_f64("landing_time")?; // (point, replicate, laid_node)
     let start = input.read_i64("fibre_node_start")?; // (point, replicate, fibre)
     let count = input.read_i64("fibre_laid_nodes")?;
     let valid = input.read_u8("valid")?;
-    let (belt_speed, feed_time) = (input.read_f64("belt_speed")?, input.read_f64("feed_time")?);
+    // x with the belt motion removed, as the laid web measured its belt-removed S and e.
+    let x = if belt_removed { input.read_f64("laid_x_belt_removed")? } else { positions.index_axis(Axis(3), 0).to_owned() };
     let (npoints, nreps, nf) = (start.shape()[0], start.shape()[1], start.shape()[2]);
     Ok((0..npoints)
         .map(|pt| {
             let (mut fibres, mut which) = (vec![], vec![]);
-            let shift = |t: f64| if belt_removed { belt_speed[[pt]] * (feed_time[[pt]] - t) } else { 0.0 };
             for r in 0..nreps {
                 for j in (0..nf).filter(|&j| valid[[pt, r, j]] != 0 && start[[pt, r, j]] >= 0) {
                     let a = start[[pt, r, j]] as usize;
-                    let nodes = (a..a + count[[pt, r, j]] as usize)
-                        .map(|k| [positions[[pt, r, k, 0]] - shift(landing[[pt, r, k]]), positions[[pt, r, k, 1]], 0.0])
-                        .collect();
+                    let nodes = (a..a + count[[pt, r, j]] as usize).map(|k| [x[[pt, r, k]], positions[[pt, r, k, 1]], 0.0]).collect();
                     fibres.push(nodes);
                     which.push(format!("replicate {r} fibre {j}"));
                 }

@@ -58,3 +58,48 @@ fn feed_removal_takes_off_a_smooth_drift_and_keeps_the_dynamics() {
         assert!((resampled[[p, 0, 0, 0]] - removed[[p, 0, 0, 0]]).abs() < 1e-12, "point {p}");
     }
 }
+
+/// `mesh_error_estimate` (issue 15): every replicate again at half its elements; the
+/// stored estimate is the first-order Richardson error of the stored means, and switching
+/// it off removes the run and its datasets, leaving the fibres bit for bit.
+#[test]
+fn the_mesh_error_is_stated_next_to_each_mean() {
+    let dir = tempfile::tempdir().unwrap();
+    let yaml = "pipeline: mesh
+archive: mesh.h5
+seed: 2
+stages:
+  - name: with
+    kind: laydown
+    params: {length: 0.3, elements: 200, coil_resolution: 0}
+    replicates: 3
+  - name: without
+    kind: laydown
+    params: {length: 0.3, elements: 200, coil_resolution: 0, mesh_error_estimate: false}
+    replicates: 3
+";
+    write_pipeline(dir.path(), "p.yaml", yaml);
+    let out = run_in(dir.path(), &["run", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    let a = Archive::open_read(&dir.path().join("mesh.h5")).unwrap();
+    let with = a.version("with", None).unwrap().open().unwrap();
+    let without = a.version("without", None).unwrap().open().unwrap();
+    let read = |g: &hdf5::Group, name: &str| hdf::read_f64(g, name).unwrap();
+    for name in ["radius_of_gyration", "bending_energy", "radius_of_gyration_belt_removed", "bending_energy_belt_removed"] {
+        let (fine, half) = (read(&with, name), read(&with, &format!("{name}_half_mesh"))); // (point, replicate)
+        let used = hdf::read_u8(&with, "used").unwrap();
+        let mean = |a: &ndarray::ArrayD<f64>| {
+            let v: Vec<f64> = (0..3).filter(|&r| used[[0, r]] != 0 && a[[0, r]].is_finite()).map(|r| a[[0, r]]).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        let stored = read(&with, &format!("{name}_mesh_error"))[[0]];
+        let expected = (mean(&fine) - mean(&half)) / mean(&fine);
+        assert!((stored - expected).abs() < 1e-12, "{name}: stored {stored}, from the stored means {expected}");
+        assert!(read(&with, &format!("{name}_mesh_error_std"))[[0]] > 0.0);
+        assert!(!without.link_exists(&format!("{name}_mesh_error")) && !without.link_exists(&format!("{name}_half_mesh")), "{name}");
+        // The fibres themselves do not depend on the estimate.
+        let bits = |a: ndarray::ArrayD<f64>| a.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(fine), bits(read(&without, name)), "{name}");
+    }
+    assert!(read(&with, "wall_seconds_half_mesh").iter().all(|w| *w > 0.0));
+}

@@ -107,7 +107,7 @@ fn no_progress_bars_when_stderr_is_not_a_terminal() {
     // Children here write stderr to a pipe: a progress bar's frame would show as `[00:00:0`.
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
-    write_pipeline(d, "p.yaml", "pipeline: bars\narchive: out/study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60}\n    replicates: 2\n");
+    write_pipeline(d, "p.yaml", "pipeline: bars\narchive: out/study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60, mesh_error_estimate: false}\n    replicates: 2\n");
     let out = run_in(d, &["run", "p.yaml"]);
     let e = text(&out).1;
     assert_eq!(out.status.code(), Some(0), "{e}");
@@ -123,7 +123,7 @@ fn on_a_terminal_bars_are_drawn_and_quiet_hides_them() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
-    write_pipeline(d, "p.yaml", "pipeline: bars\narchive: out/study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60}\n    replicates: 2\n");
+    write_pipeline(d, "p.yaml", "pipeline: bars\narchive: out/study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60, mesh_error_estimate: false}\n    replicates: 2\n");
     let on_tty = |args: &str| {
         let cmd = format!("{} {args}", env!("CARGO_BIN_EXE_laydown"));
         let out = std::process::Command::new("script").args(["-qec", &cmd, "/dev/null"]).current_dir(d).output().unwrap();

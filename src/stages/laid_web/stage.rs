@@ -28,7 +28,7 @@ use ndarray::{Array1, Array2, ArrayD};
 pub struct LaidWebStage;
 
 /// Parameters of the laydown stage that a laid web sets itself.
-const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration", "diagnostic_stride", "valid_replicates_target", "max_replicates"];
+const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration", "diagnostic_stride", "valid_replicates_target", "max_replicates", "mesh_error_estimate"];
 /// The laid web's own parameters (not scene parameters).
 const OWN: &[&str] = &[
     "fibres_across",

@@ -20,6 +20,14 @@
 //! replicate) axes with the statistics by [`Stage::reduce`], for the local run and for a
 //! gathered Slurm array alike.
 //!
+//! **Discretisation error** (`mesh_error_estimate`, on by default): every replicate is
+//! also simulated at half its elements (its own random stream, a quarter of its cost at
+//! 1000 elements), and per point the relative error of the mean S and e (raw and belt
+//! removed) is estimated by Richardson extrapolation, (m_N − m_{N/2}) / ((2^p − 1) m_N)
+//! with p = [`MESH_ORDER`],
+//! with its standard error from the replicate scatter ([`mesh_error`]); points whose e
+//! is more than [`MESH_ERROR_WARNING`] off are counted in one warning on stderr.
+//!
 //! **Memory** ([`Stage::estimate_memory`]): every replicate's nodes are kept until the
 //! output is written (result, per-replicate row, placed copy: [`KEPT_BYTES_PER_NODE`]),
 //! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
@@ -39,6 +47,16 @@ use ndarray::{Array1, Array2, Array3};
 /// Stage-level parameters (not scene parameters): the valid-replicate target and its cap.
 const TARGET: &str = "valid_replicates_target";
 const CAP: &str = "max_replicates";
+const MESH: &str = "mesh_error_estimate";
+/// Order p of the Richardson estimate. The scheme is second order for smooth curves, but
+/// the laid curve's e converged at orders 0.7-1.8 in the measurements (within their noise,
+/// pipelines/paper/LAYDOWN_MEASUREMENTS.md); first order lies between, where second order
+/// would make the estimate a third as large, too small in both.
+const MESH_ORDER: f64 = 1.0;
+/// Points whose estimated error of e exceeds this are counted in a warning on stderr.
+pub const MESH_ERROR_WARNING: f64 = 0.02;
+/// The measures whose discretisation error is estimated.
+const MESH_METRICS: [&str; 4] = ["radius_of_gyration", "bending_energy", "radius_of_gyration_belt_removed", "bending_energy_belt_removed"];
 
 pub struct LaydownStage;
 
@@ -75,7 +93,7 @@ pub fn declared_fibres(stage: &Declared) -> Vec<DeclaredFibres> {
 /// The scene of one sweep point, from its resolved parameters (names are the fields of
 /// [`LaydownParams`]; `effects.X` are the [`Effects`] flags).
 pub fn scene(p: &ParamSet) -> Result<LaydownParams, String> {
-    LaydownParams::from_param_set(p, &[TARGET, CAP])
+    LaydownParams::from_param_set(p, &[TARGET, CAP, MESH])
 }
 
 impl Stage for LaydownStage {
@@ -120,6 +138,11 @@ impl Stage for LaydownStage {
             1,
             100_000,
             "with valid_replicates_target: most replicates attempted per point (shortfall recorded in valid_shortfall)",
+        ));
+        v.push(ParamSpec::flag(
+            MESH,
+            true,
+            "also simulate every replicate at half its elements (a quarter of the cost at 1000 elements) and estimate the discretisation error of the mean S and e by Richardson extrapolation (first order), per point (`*_mesh_error`); points whose e is off by more than 2 % are counted in a warning",
         ));
         v.push(ParamSpec::choice(
             "bounce_check",
@@ -193,12 +216,16 @@ impl Stage for LaydownStage {
     fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
         let units = self.units(ctx)?.expect("laydown has units");
         let scenes: Vec<LaydownParams> = ctx.points.iter().map(|p| scene(p).expect("checked")).collect();
-        let sim = |p: usize, r: usize| simulate(&scenes[p], &mut ctx.rng(r, 0));
-        let rows: Vec<(usize, usize, LaydownResult)> = if units.per_point == 1 {
+        let sim = |p: usize, r: usize| {
+            let fine = simulate(&scenes[p], &mut ctx.rng(r, 0));
+            let half = ctx.points[p].bool(MESH).then(|| half_mesh(&scenes[p], &fine, &mut ctx.rng(r, 1))).flatten();
+            Replicate { fine, half }
+        };
+        let rows: Vec<(usize, usize, Replicate)> = if units.per_point == 1 {
             // Whole points, with their rounds of extra replicates.
             let (a, b) = (range.start, range.end);
             let targets: Vec<(usize, usize)> = ctx.points[a..b].iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
-            let results = run_until_valid(&scenes[a..b], &targets, ctx.replicates, ctx.progress, &ctx.stage_name, |p, r| sim(a + p, r));
+            let results = run_until_valid(&targets, ctx.replicates, ctx.progress, &ctx.stage_name, |p, r| sim(a + p, r), |rep| rep.fine.valid && rep.fine.error.is_none());
             results.into_iter().enumerate().flat_map(|(p, rs)| rs.into_iter().enumerate().map(move |(r, res)| (a + p, r, res))).collect()
         } else {
             ctx.par_units(range, |p, r| (p, r, sim(p, r)))
@@ -207,7 +234,8 @@ impl Stage for LaydownStage {
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
-        assemble(&rows, &targets)
+        let mesh = ctx.points.iter().any(|p| p.bool(MESH));
+        assemble(&rows, &targets, &ctx.stage_name, mesh)
     }
 }
 
@@ -217,21 +245,64 @@ impl Stage for LaydownStage {
 /// far, at least ¼), capped; it depends only on earlier results, so the set of runs and
 /// the output are independent of the number of threads. `sim(point, replicate)` must be
 /// a pure function of its arguments.
-pub(crate) fn run_until_valid(
-    scenes: &[LaydownParams],
+/// One replicate: the fibre at the scene's mesh and, with `mesh_error_estimate`, the
+/// measures of the same scene at half the elements.
+#[derive(Clone)]
+struct Replicate {
+    fine: LaydownResult,
+    half: Option<HalfMesh>,
+}
+
+/// S and e (raw, belt removed) of a replicate simulated at half the elements.
+#[derive(Clone, Copy)]
+struct HalfMesh {
+    measures: [f64; 4],
+    wall_seconds: f64,
+}
+
+/// The scene at half the elements `fine` used (coil_resolution off, so the halving
+/// holds), simulated on its own stream; None when the fine run failed, the coarse one
+/// failed or bounced, or the mesh is too coarse to halve (under 8 elements).
+fn half_mesh(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha::ChaCha8Rng) -> Option<HalfMesh> {
+    if fine.error.is_some() || fine.elements < 8 {
+        return None;
+    }
+    let coarse = LaydownParams { elements: fine.elements / 2, coil_resolution: 0.0, ..scene.clone() };
+    let r = simulate(&coarse, rng);
+    (r.valid && r.error.is_none()).then_some(HalfMesh {
+        measures: [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed],
+        wall_seconds: r.wall_seconds,
+    })
+}
+
+/// Richardson estimate of the relative discretisation error of a mean over replicates,
+/// (m_N − m_{N/2}) / ((2^p − 1) m_N): the converged value is about m_N (1 + error). With
+/// its standard error from the two samples' scatter. NaN with fewer than two of either.
+pub fn mesh_error(fine: &[f64], half: &[f64]) -> (f64, f64) {
+    let (mf, sf, nf) = mean_std(fine.iter().copied());
+    let (mh, sh, nh) = mean_std(half.iter().copied());
+    if nf < 2 || nh < 2 {
+        return (f64::NAN, f64::NAN);
+    }
+    let scale = (2f64.powf(MESH_ORDER) - 1.0) * mf;
+    ((mf - mh) / scale, (sf * sf / nf as f64 + sh * sh / nh as f64).sqrt() / scale.abs())
+}
+
+pub(crate) fn run_until_valid<T: Send + Clone>(
     targets: &[(usize, usize)],
     replicates: usize,
     progress: bool,
     stage_name: &str,
-    sim: impl Fn(usize, usize) -> LaydownResult + Sync + Send,
-) -> Vec<Vec<LaydownResult>> {
-    let npoints = scenes.len();
-    let mut results: Vec<Vec<LaydownResult>> = vec![Vec::new(); npoints];
+    sim: impl Fn(usize, usize) -> T + Sync + Send,
+    is_valid: impl Fn(&T) -> bool,
+) -> Vec<Vec<T>> {
+    let npoints = targets.len();
+    let mut results: Vec<Vec<T>> = vec![Vec::new(); npoints];
     let mut jobs: Vec<(usize, usize)> = (0..npoints).flat_map(|p| (0..replicates).map(move |r| (p, r))).collect();
     let mut round = 0;
     while !jobs.is_empty() {
         let label = if round == 0 { format!("{stage_name} units") } else { format!("{stage_name} extra {round}") };
-        let out: Vec<LaydownResult> = crate::progress::par_map_shown(progress, &label, &jobs, |&(p, r)| sim(p, r));
+        let out: Vec<T> = crate::progress::par_map_shown(progress, &label, &jobs, |&(p, r)| sim(p, r));
         for (&(p, _), res) in jobs.iter().zip(out) {
             results[p].push(res);
         }
@@ -242,7 +313,7 @@ pub(crate) fn run_until_valid(
                 continue;
             }
             let attempted = results[p].len();
-            let valid = results[p].iter().filter(|r| r.valid && r.error.is_none()).count();
+            let valid = results[p].iter().filter(|r| is_valid(r)).count();
             if valid >= target || attempted >= cap {
                 continue;
             }
@@ -270,7 +341,8 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 /// everything of a replicate that the stage output holds, with the laid polylines
 /// computed here. Node, laid-node and record axes are padded with NaN to the longest
 /// replicate (the laid axis to the node count, as the output's is).
-fn unit_rows(results: &[(usize, usize, LaydownResult)]) -> Result<Output> {
+fn unit_rows(replicates: &[(usize, usize, Replicate)]) -> Result<Output> {
+    let results: Vec<(usize, usize, &LaydownResult)> = replicates.iter().map(|(p, r, rep)| (*p, *r, &rep.fine)).collect();
     let nan = f64::NAN;
     let n = results.len();
     let nodes = results.iter().map(|r| r.2.positions.len()).max().unwrap_or(0);
@@ -281,7 +353,7 @@ fn unit_rows(results: &[(usize, usize, LaydownResult)]) -> Result<Output> {
     let mut laid_removed = crate::memory::try_array((n, nodes, 3), nan, what)?;
     let mut landing = crate::memory::try_array((n, nodes), nan, what)?;
     let mut diag = Array3::from_elem((n, ndiag, ENERGY_COLUMNS.len()), nan);
-    let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(&r.2)));
+    let column = |f: &dyn Fn(&LaydownResult) -> f64| Array1::from_iter(results.iter().map(|r| f(r.2)));
     let ok = |r: &LaydownResult, v: f64| if r.error.is_none() { v } else { f64::NAN };
     // Row u of an (unit, node, xyz) array from a polyline (the rest stays NaN).
     let put = |a: &mut Array3<f64>, u: usize, nodes: &[[f64; 3]]| {
@@ -325,14 +397,55 @@ fn unit_rows(results: &[(usize, usize, LaydownResult)]) -> Result<Output> {
     out.f64("laid_length", &[unit], column(&|r| r.laid_length), "m", "");
     out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
+    let half = |f: &dyn Fn(&HalfMesh) -> f64| Array1::from_iter(replicates.iter().map(|r| r.2.half.as_ref().map_or(f64::NAN, f)));
+    for (k, name) in MESH_METRICS.iter().enumerate() {
+        out.f64(&format!("{name}_half_mesh"), &[unit], half(&|h| h.measures[k]), "", "");
+    }
+    out.f64("wall_seconds_half_mesh", &[unit], half(&|h| h.wall_seconds), "s", "");
     Ok(out)
+}
+
+/// Per point, the Richardson estimate ([`mesh_error`]) of the discretisation error of each
+/// mean measure over the used replicates, beside the half-mesh values and their cost.
+fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>>, used: &Array2<bool>, fine: [&Array2<f64>; 4], stage_name: &str) -> Result<()> {
+    let (npoints, nreps) = used.dim();
+    for (k, name) in MESH_METRICS.iter().enumerate() {
+        let half = per_rep(&format!("{name}_half_mesh"))?;
+        let (mut error, mut error_std) = (vec![], vec![]);
+        for p in 0..npoints {
+            let pick = |a: &Array2<f64>| (0..nreps).filter(|&r| used[[p, r]]).map(|r| a[[p, r]]).collect::<Vec<f64>>();
+            let (err, sd) = mesh_error(&pick(fine[k]), &pick(&half));
+            error.push(err);
+            error_std.push(sd);
+        }
+        if *name == "bending_energy" {
+            let off: Vec<usize> = (0..npoints).filter(|&p| error[p].abs() > MESH_ERROR_WARNING).collect();
+            if let Some(&worst) = off.iter().max_by(|&&a, &&b| error[a].abs().total_cmp(&error[b].abs())) {
+                eprintln!(
+                    "{stage_name}: warning: e is estimated more than {:.0} % off its converged value at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % (bending_energy_mesh_error; Richardson from N and N/2 elements); raise elements or coil_resolution",
+                    100.0 * MESH_ERROR_WARNING,
+                    off.len(),
+                    100.0 * error[worst],
+                    100.0 * error_std[worst]
+                );
+            }
+        }
+        let unit = if name.starts_with("radius") { "m" } else { "1" };
+        out.f64(&format!("{name}_half_mesh"), &["point", "replicate"], half, unit, &format!("{name} at half the elements"));
+        out.f64(&format!("{name}_mesh_error"), &["point"], Array1::from(error), "1", &format!("discretisation error of {name}_mean"))
+            .attrs
+            .insert("description".into(), crate::archive::data::Attr::Str(format!("estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run")));
+        out.f64(&format!("{name}_mesh_error_std"), &["point"], Array1::from(error_std), "1", &format!("standard error of {name}_mesh_error"));
+    }
+    out.f64("wall_seconds_half_mesh", &["point", "replicate"], per_rep("wall_seconds_half_mesh")?, "s", "wall time of the half-mesh run");
+    Ok(())
 }
 
 /// The stage output from the per-replicate rows of every point ([`unit_rows`], whole or
 /// gathered from the parts of a job array): the replicates placed on the (point,
 /// replicate) axes, `used` (the first T valid in replicate order), the shortfall, and the
 /// per-point means and standard deviations over the used replicates.
-fn assemble(rows: &Output, targets: &[(usize, usize)]) -> Result<Output> {
+fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_error_estimate: bool) -> Result<Output> {
     use crate::stages::rows as get;
     let nan = f64::NAN;
     let index = get::index(rows)?;
@@ -430,6 +543,9 @@ fn assemble(rows: &Output, targets: &[(usize, usize)]) -> Result<Output> {
         if name == "radius_of_gyration" {
             out.i64("valid_replicates", &["point"], Array1::from(counts), "1", "number of valid replicates entering the statistics per point (the `used` ones)");
         }
+    }
+    if mesh_error_estimate {
+        add_mesh_error(&mut out, &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name)?;
     }
     out.f64("steps", &["point", "replicate"], steps, "1", "time steps taken");
     out.f64("time_step", &["point", "replicate"], dt, "s", "time step used (largest allowed for adaptive schemes)");

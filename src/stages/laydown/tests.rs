@@ -444,9 +444,7 @@ fn valid_replicate_target_is_deterministic_and_capped() {
     let targets = vec![(3, 10), (2, 10)];
     let go = |threads: usize| {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
-            super::stage::run_until_valid(&scenes, &targets, 2, false, "t", |pt, r| {
-                simulate(&scenes[pt], &mut replicate_rng(5, r as u64))
-            })
+            super::stage::run_until_valid(&targets, 2, false, "t", |pt, r| simulate(&scenes[pt], &mut replicate_rng(5, r as u64)), |r| r.valid && r.error.is_none())
         })
     };
     let (one, two) = (go(1), go(2));
@@ -469,4 +467,18 @@ fn valid_replicate_target_is_deterministic_and_capped() {
     }
     // the strict point needed more than its first two replicates
     assert!(one[0].len() > 2, "expected extra rounds at the strict tolerance");
+}
+
+#[test]
+fn mesh_error_is_richardson_of_first_order_with_its_standard_error() {
+    use super::stage::mesh_error;
+    // Means 11 and 8: the refinement N/2 → N gained 3, so first order expects 3 more.
+    let (err, se) = mesh_error(&[10.0, 12.0], &[8.0, 8.0]);
+    assert!((err - 3.0 / 11.0).abs() < 1e-15, "{err}");
+    // s.e. of the difference of means: sqrt(2/2 + 0/2), relative to the mean.
+    assert!((se - 1.0 / 11.0).abs() < 1e-15, "{se}");
+    // A converged measure: no error; too few replicates: undefined, not zero.
+    assert_eq!(mesh_error(&[5.0, 5.0], &[5.0, 5.0]).0, 0.0);
+    assert!(mesh_error(&[5.0], &[4.0, 4.5]).0.is_nan());
+    assert!(mesh_error(&[5.0, 5.2], &[f64::NAN, 4.5]).0.is_nan(), "one valid half-mesh run is not enough");
 }

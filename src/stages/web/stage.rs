@@ -213,7 +213,7 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     let generator = Generator::from_name(p.text("generator")).map_err(|e| bad(&e))?;
     let physical = physical_parameters(ctx, p)?;
     if let Some(note) = &physical.inherited {
-        eprintln!("{}: point {index}: {note}", ctx.stage_name);
+        crate::info!("{}: point {index}: {note}", ctx.stage_name);
     }
     let [belt_speed_ratio, fibre_diameter, fibre_density] = physical.values;
     let params = WebParams {

@@ -89,10 +89,7 @@ pub fn add_upstream_coordinates(out: &mut Output, inputs: &[Input]) -> Result<()
         let values = match ds.dtype()?.to_descriptor()? {
             hdf5::types::TypeDescriptor::Float(_) => Values::F64(pick(&hdf::read_f64(&g, &member)?, &map)),
             hdf5::types::TypeDescriptor::Integer(_) => Values::I64(pick(&hdf::read_i64(&g, &member)?, &map)),
-            _ => Values::Str({
-                let all = hdf::read_strings(&g, &member)?;
-                map.iter().map(|&i| all[i].clone()).collect()
-            }),
+            _ => Values::Str(pick(&hdf::read_strings_nd(&g, &member)?, &map)),
         };
         let name = match out.get(&member) {
             None => member.clone(),
@@ -113,8 +110,8 @@ pub fn add_upstream_coordinates(out: &mut Output, inputs: &[Input]) -> Result<()
     Ok(())
 }
 
-fn pick<T: Copy>(all: &ArrayD<T>, map: &[usize]) -> ArrayD<T> {
-    ArrayD::from_shape_vec(IxDyn(&[map.len()]), map.iter().map(|&i| all[[i]]).collect()).expect("1-D")
+fn pick<T: Clone>(all: &ArrayD<T>, map: &[usize]) -> ArrayD<T> {
+    ArrayD::from_shape_vec(IxDyn(&[map.len()]), map.iter().map(|&i| all[[i]].clone()).collect()).expect("1-D")
 }
 
 /// Sweep values in their type: integers as i64, numbers as f64, anything else as text.
@@ -134,7 +131,7 @@ fn typed(values: &[ParamValue], n: usize) -> Values {
             .collect();
         Values::F64(ArrayD::from_shape_vec(shape, floats).expect("one value per point"))
     } else {
-        Values::Str(values.iter().map(|v| v.to_string()).collect())
+        Values::Str(ArrayD::from_shape_vec(shape, values.iter().map(|v| v.to_string()).collect()).expect("one value per point"))
     }
 }
 

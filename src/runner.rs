@@ -17,7 +17,7 @@
 //! `Archive::current`); stages outside an `--only`/`--from` selection use their current
 //! version and say why it is out of date when it is. A dry run makes the same decisions
 //! without computing or writing ([`Decision::dry_run`]).
-use crate::archive::data::Attr;
+use crate::archive::data::{Attr, Output};
 use crate::archive::{provenance, Archive, Integrity, VersionInfo};
 use crate::pipeline::stage_run::{fingerprint, pipeline_dir, stage_context};
 use crate::pipeline::{Pipeline, StageDecl};
@@ -401,14 +401,15 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             Err(_) if !selected.contains(&name) => vec![],
             Err(e) => return Err(e),
         };
-        let fp = inputs.as_ref().map(|inputs| {
+        let fp_inputs = inputs.as_ref().map(|inputs| {
             let mut fp_inputs: Vec<(String, String)> = inputs
                 .iter()
                 .map(|v| (v.stage.clone(), v.attr_str("content_hash").unwrap_or("").to_string()))
                 .collect();
             fp_inputs.extend(files.iter().map(|(p, h)| (format!("file:{p}"), h.clone())));
-            fingerprint(decl, stage.cache_version(), seed, &fp_inputs)
+            fp_inputs
         });
+        let fp = fp_inputs.as_ref().map(|fp_inputs| fingerprint(decl, stage.cache_version(), seed, fp_inputs));
         // The current version when it matches (the mark stays), else the newest that does.
         let current = current_of(&name, &complete, marks);
         let matches = |v: &VersionInfo| fp.as_deref().is_some_and(|fp| v.attr_str("fingerprint") == Some(fp));
@@ -522,6 +523,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             }
         }
         let input_versions: Vec<(String, u32)> = inputs.iter().map(|v| (v.stage.clone(), v.number)).collect();
+        let damaged_or_forced = damaged.is_some() || forced;
         let why = if let Some(d) = damaged {
             d
         } else if forced && cached.is_some() {
@@ -542,11 +544,35 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         let sweep = ctx.sweep.clone();
         let upstream = ctx.inputs.clone();
         let executor = opts.executor.clone().unwrap_or_else(|| pipeline.executor.clone());
+        // A complete version that differs only in having fewer replicates: only the new
+        // replicates are computed (crate::executor::incremental), on the local executor.
+        let grown_from = match (&fp_inputs, damaged_or_forced, executor.kind) {
+            (Some(fp_inputs), false, crate::executor::ExecutorKind::Local) => complete.iter().rev().find_map(|v| {
+                let stored = v.attr_f64("replicates")? as usize;
+                let same = StageDecl { replicates: stored, ..decl.clone() };
+                (stored < decl.replicates && v.attr_str("fingerprint") == Some(fingerprint(&same, stage.cache_version(), seed, fp_inputs).as_str())).then_some((*v, stored))
+            }),
+            _ => None,
+        };
+        if let Some((v, stored)) = grown_from {
+            crate::status!("{name}: computes replicates {stored}..{} only; replicates 0..{stored} are read from v{}", decl.replicates, v.number);
+        }
         let job = crate::executor::StageJob { pipeline, stage_name: &name, fingerprint: &fp, inputs: &inputs };
         let start_utc = provenance::utc_now();
         let cpu0 = provenance::cpu_seconds();
         let t0 = Instant::now();
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| crate::executor::run_stage(&executor, stage, &ctx, &job)));
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| -> Result<(Output, BTreeMap<String, Attr>)> {
+            if let Some((v, stored)) = grown_from {
+                match crate::executor::incremental::run(stage, &ctx, v, stored)? {
+                    Ok(out) => {
+                        let note = format!("v{}: replicates 0..{stored} read from it, {stored}..{} computed", v.number, decl.replicates);
+                        return Ok((out, BTreeMap::from([("incremental_from".to_string(), Attr::Str(note))])));
+                    }
+                    Err(why) => crate::status!("{name}: computes all replicates after all: {why}"),
+                }
+            }
+            crate::executor::run_stage(&executor, stage, &ctx, &job)
+        }));
         let (mut out, executor_attrs) = match result {
             Ok(Ok(r)) => r,
             Ok(Err(e)) => {

@@ -7,41 +7,7 @@ use common::*;
 use laydown::archive::{hdf, Archive};
 use std::path::Path;
 
-const PIPELINE: &str = "pipeline: flow
-archive: flow.h5
-seed: 3
-stages:
-  - name: fibre
-    kind: laydown
-    params: {length: 0.3, elements: 300, density: 1200, belt_speed: 0.3}
-    sweep: {diameter: [3.0e-5, 5.0e-5]}
-    replicates: 2
-  - name: spectra
-    kind: spectra
-    input: fibre
-  - name: kept_belt
-    kind: spectra
-    input: fibre
-    params: {belt_removed: false}
-  - name: web
-    kind: web
-    input: spectra
-    params: {WEB}
-    sweep: {input_point: [0, 1]}
-  - name: web_given
-    kind: web
-    input: spectra
-    params: {input_point: 1, fibre_diameter: 2.0e-5, WEB}
-  - name: web_kept_belt
-    kind: web
-    input: kept_belt
-    params: {input_point: 0, WEB}
-  - name: grid
-    kind: grid
-    input: web
-    params: {window_side: 0.04, cell_size: 0.002, edge_margin_spreads: 0}
-";
-const WEB: &str = "fibres_across: 60, fibre_spacing: 0.001, segments_per_fibre: 4";
+const PIPELINE: &str = include_str!("fixtures/parameter_flow.yaml");
 
 fn f64s(dir: &Path, stage: &str, name: &str) -> Vec<f64> {
     let a = Archive::open_read(&dir.join("flow.h5")).unwrap();
@@ -57,7 +23,7 @@ fn strings(dir: &Path, stage: &str, name: &str) -> Vec<String> {
 fn physical_parameters_are_inherited_unless_given() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
-    write_pipeline(dir, "p.yaml", &PIPELINE.replace("WEB", WEB));
+    write_pipeline(dir, "p.yaml", PIPELINE);
     let out = run_in(dir, &["run", "p.yaml"]);
     let (_, err) = text(&out);
     assert_eq!(out.status.code(), Some(0), "{err}");
@@ -109,7 +75,7 @@ fn coordinate(dir: &Path, stage: &str, name: &str) -> (Vec<f64>, String, String,
 fn swept_parameters_reach_every_stage_downstream() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
-    write_pipeline(dir, "p.yaml", &PIPELINE.replace("WEB", WEB));
+    write_pipeline(dir, "p.yaml", PIPELINE);
     let out = run_in(dir, &["run", "p.yaml"]);
     assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
     let diameter = (vec![3e-5, 5e-5], "diameter".to_string(), "fibre".to_string(), false);

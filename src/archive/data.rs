@@ -11,7 +11,7 @@ pub enum Values {
     /// Flags (booleans stored as 0/1 bytes).
     U8(ArrayD<u8>),
     /// Text along one dimension (variable-length UTF-8).
-    Str(Vec<String>),
+    Str(ArrayD<String>),
 }
 
 impl Values {
@@ -20,7 +20,7 @@ impl Values {
             Values::F64(a) => a.shape().to_vec(),
             Values::I64(a) => a.shape().to_vec(),
             Values::U8(a) => a.shape().to_vec(),
-            Values::Str(v) => vec![v.len()],
+            Values::Str(a) => a.shape().to_vec(),
         }
     }
     pub fn type_name(&self) -> &'static str {
@@ -75,6 +75,12 @@ pub struct Variable {
 impl Variable {
     pub fn attr(mut self, key: &str, value: impl Into<Attr>) -> Self {
         self.attrs.insert(key.to_string(), value.into());
+        self
+    }
+    /// The full explanation (`description` attribute) beside a short `long_name`, which
+    /// xarray and plotting tools use as an axis label.
+    pub fn describe(&mut self, text: impl Into<String>) -> &mut Self {
+        self.attrs.insert("description".into(), Attr::Str(text.into()));
         self
     }
 }
@@ -163,7 +169,12 @@ impl Output {
         v
     }
     pub fn strings(&mut self, name: &str, dim: &str, data: Vec<String>, long_name: &str) -> &mut Variable {
-        self.push(name, &[dim], Values::Str(data), "", long_name)
+        let n = data.len();
+        self.push(name, &[dim], Values::Str(ArrayD::from_shape_vec(IxDyn(&[n]), data).expect("1-D")), "", long_name)
+    }
+    /// Text on any dimensions (e.g. a reason per point and replicate).
+    pub fn strings_nd<D: ndarray::Dimension>(&mut self, name: &str, dims: &[&str], data: ndarray::Array<String, D>, long_name: &str) -> &mut Variable {
+        self.push(name, dims, Values::Str(data.into_dyn()), "", long_name)
     }
     /// A coordinate: a 1-D variable named after its own dimension.
     pub fn coord(&mut self, dim: &str, data: Vec<f64>, units: &str, long_name: &str) -> &mut Variable {

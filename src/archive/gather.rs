@@ -61,14 +61,10 @@ pub fn gather(parts: &[Output], stack_dims: &[&str]) -> Result<Output> {
                     Values::U8(a) => Some(a),
                     _ => None,
                 }, None, &v0.name)?),
-                Values::Str(_) => Values::Str(
-                    vs.iter()
-                        .flat_map(|v| match &v.values {
-                            Values::Str(s) => s.clone(),
-                            _ => vec![],
-                        })
-                        .collect(),
-                ),
+                Values::Str(_) => Values::Str(concat(&vs, |v| match &v.values {
+                    Values::Str(a) => Some(a),
+                    _ => None,
+                }, Some(String::new()), &v0.name)?),
             }
         };
         out.variables.push(Variable { values, ..(*v0).clone() });
@@ -147,7 +143,7 @@ pub(crate) mod tests {
     #[test]
     fn gather_refuses_differing_shared_variables() {
         let mut b = part(&[&[1.0]], "a");
-        b.variables[0].values = Values::Str(vec!["y".into()]);
+        b.variables[0].values = Values::Str(ndarray::arr1(&["y".to_string()]).into_dyn());
         assert!(gather(&[part(&[&[1.0]], "a"), b], &["point", "run"]).is_err());
     }
 }

@@ -100,7 +100,7 @@ pub fn write_values(group: &hdf5::Group, name: &str, values: &Values) -> Result<
                 .iter()
                 .map(|s| VarLenUnicode::from_str(s).map_err(|e| anyhow!("{name}: {e}")))
                 .collect::<Result<Vec<_>>>()?;
-            let arr = ArrayD::from_shape_vec(IxDyn(&[vs.len()]), vs)?;
+            let arr = ArrayD::from_shape_vec(IxDyn(items.shape()), vs)?;
             Ok(group.new_dataset_builder().with_data(arr.view()).create(name)?)
         }
     }
@@ -283,6 +283,12 @@ pub fn read_u8(group: &hdf5::Group, name: &str) -> Result<ArrayD<u8>> {
 pub fn read_strings(group: &hdf5::Group, name: &str) -> Result<Vec<String>> {
     let ds = group.dataset(name).with_context(|| format!("no dataset `{name}` in {}", group.name()))?;
     Ok(ds.read_raw::<VarLenUnicode>()?.into_iter().map(|s| s.as_str().to_string()).collect())
+}
+
+/// Text of any shape.
+pub fn read_strings_nd(group: &hdf5::Group, name: &str) -> Result<ArrayD<String>> {
+    let ds = group.dataset(name).with_context(|| format!("no dataset `{name}` in {}", group.name()))?;
+    Ok(ds.read_dyn::<VarLenUnicode>()?.mapv(|s| s.as_str().to_string()))
 }
 
 /// The dimension names of every dataset of a group, read back from its dimension scales

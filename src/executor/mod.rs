@@ -14,6 +14,7 @@
 //! keyed by a unit's global point and replicate, never by the process that computes it,
 //! so both give exactly the same output, which is committed through the normal archive
 //! path.
+pub mod incremental;
 pub mod local;
 pub mod partial;
 pub mod slurm;

@@ -71,7 +71,7 @@ pub fn read(path: &Path) -> Result<(Output, BTreeMap<String, Attr>)> {
             "f64" => Values::F64(hdf::read_f64(&vars, &name)?),
             "i64" => Values::I64(hdf::read_i64(&vars, &name)?),
             "u8" => Values::U8(hdf::read_u8(&vars, &name)?),
-            "str" => Values::Str(hdf::read_strings(&vars, &name)?),
+            "str" => Values::Str(hdf::read_strings_nd(&vars, &name)?),
             other => bail!("{}: `{name}` has unknown type {other}", path.display()),
         };
         indexed.push((index, Variable { name, dims, values, units, long_name, attrs: a }));

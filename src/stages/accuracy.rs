@@ -257,8 +257,8 @@ impl Stage for AccuracyStage {
 
         let n = cands.len();
         let mut out = Output::new();
-        out.strings("metric", "metric", metrics.clone(), "compared quantity (`<metric>_mean` of the inputs)");
-        out.strings("reference_metric", "metric", reference_metrics.clone(), "what the metric is compared with in the reference (`<name>_mean`)");
+        out.strings("metric", "metric", metrics.clone(), "compared quantity").describe("compared quantity (`<metric>_mean` of the inputs)");
+        out.strings("reference_metric", "metric", reference_metrics.clone(), "reference quantity").describe("what the metric is compared with in the reference (`<name>_mean`)");
         out.strings("candidate_stage", "candidate", cands.iter().map(|c| c.stage.clone()).collect(), "input stage of the candidate");
         out.i64("candidate_point", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.point as i64)), "1", "sweep point of the candidate in its stage");
         out.strings("candidate_label", "candidate", cands.iter().map(|c| c.label.clone()).collect(), "swept parameters of the candidate");
@@ -268,7 +268,7 @@ impl Stage for AccuracyStage {
         let error = Array2::from_shape_fn((n, metrics.len()), |(c, m)| (cands[c].values[m] - reference_values[m]) / reference_values[m].abs());
         out.f64("value", &["candidate", "metric"], value, "", "candidate's value (units of the metric)");
         out.f64("relative_error", &["candidate", "metric"], error, "1", "(candidate - reference) / |reference|");
-        out.f64("wall_seconds", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.wall_seconds)), "s", "wall time per unit of work (replicate, realisation)");
+        out.f64("wall_seconds", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.wall_seconds)), "s", "wall time per unit of work").describe("wall time per unit of work (replicate, realisation)");
         out.f64("speedup", &["candidate"], Array1::from_iter(cands.iter().map(|c| reference_wall / c.wall_seconds)), "1", "reference wall time / candidate wall time");
 
         let md = table(&metrics, &reference_metrics, &reference_values, reference_wall, &cands);

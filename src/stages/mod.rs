@@ -222,10 +222,16 @@ pub mod rows {
             _ => bail!("`{name}` in the per-replicate rows is not a flag"),
         }
     }
-    pub fn strings<'a>(rows: &'a Output, name: &str) -> Result<&'a [String]> {
+    pub fn strings_nd<'a>(rows: &'a Output, name: &str) -> Result<&'a ArrayD<String>> {
         match var(rows, name)? {
             Values::Str(a) => Ok(a),
             _ => bail!("`{name}` in the per-replicate rows is not text"),
+        }
+    }
+    pub fn strings<'a>(rows: &'a Output, name: &str) -> Result<&'a [String]> {
+        match var(rows, name)? {
+            Values::Str(a) if a.ndim() == 1 => Ok(a.as_slice().expect("a 1-D array built in order")),
+            _ => bail!("`{name}` in the per-replicate rows is not 1-D text"),
         }
     }
     /// The row values of a per-row array `a` (rows, rest…) placed at (point,

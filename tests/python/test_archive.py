@@ -1,7 +1,13 @@
 """The archive as researchers read it: h5py, xarray (h5netcdf), numpy recomputation."""
+import pathlib
+import subprocess
+
 import h5py
 import numpy as np
+import pytest
 import xarray as xr
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 PROVENANCE = [
     "stage_kind", "cache_version", "params_yaml", "params_hash", "inputs", "seed", "rng_scheme",
@@ -137,3 +143,132 @@ def test_a_repacked_archive_reads_the_same_in_xarray(quickstart_archive, laydown
         xr.testing.assert_identical(a, b)
         a.close()
         b.close()
+
+
+
+
+@pytest.fixture(scope="session")
+def flow_archive(laydown_bin, tmp_path_factory):
+    """A laydown sweep of the fibre diameter carried through spectra, web and grid."""
+    d = tmp_path_factory.mktemp("flow")
+    (d / "p.yaml").write_text((ROOT / "tests" / "fixtures" / "parameter_flow.yaml").read_text())
+    subprocess.run([laydown_bin, "run", "p.yaml"], check=True, cwd=d, capture_output=True)
+    return d / "flow.h5"
+
+
+def test_swept_parameters_are_coordinates_of_every_stage_downstream(flow_archive):
+    """One naming rule: a coordinate is named after its parameter, typed, with `parameter`
+    and `stage` attributes; xarray makes it a coordinate of the point dimension, in every
+    stage below the one that swept it."""
+    for stage in ["fibre", "spectra", "web", "grid"]:
+        ds = xr.open_dataset(flow_archive, group=current_group(flow_archive, stage), engine="h5netcdf")
+        assert "diameter" in ds.coords, (stage, list(ds.coords))
+        d = ds.coords["diameter"]
+        assert d.dims == ("point",) and d.dtype.kind == "f", stage
+        assert d.attrs["parameter"] == "diameter" and d.attrs["stage"] == "fibre", (stage, d.attrs)
+        np.testing.assert_array_equal(d.values, [3e-5, 5e-5])
+        ds.close()
+    grid = xr.open_dataset(flow_archive, group=current_group(flow_archive, "grid"), engine="h5netcdf")
+    # CV against the laydown's diameter, no index bookkeeping.
+    cv = grid["cv_mean"].swap_dims({"point": "diameter"})
+    assert list(cv.coords["diameter"].values) == [3e-5, 5e-5]
+    # The web's integer sweep stays an integer, renamed after its stage where the grid has
+    # its own `input_point`.
+    assert grid.coords["web_input_point"].dtype.kind == "i"
+    attrs = grid.coords["web_input_point"].attrs
+    assert (attrs["parameter"], attrs["stage"]) == ("input_point", "web"), attrs
+    with h5py.File(flow_archive, "r") as f:
+        for stage in f:
+            g = f[stage][f[stage].attrs["current"]]
+            for name, ds_ in g.items():
+                if "parameter" in ds_.attrs:
+                    assert "stage" in ds_.attrs, f"{stage}/{name}"
+                    plain = ds_.attrs["parameter"].replace(".", "_")
+                    assert name in (plain, f"sweep_{plain}", f"{ds_.attrs['stage']}_{plain}"), f"{stage}/{name}"
+
+
+def test_physical_parameters_of_the_laid_fibres_reach_the_web(flow_archive):
+    web = xr.open_dataset(flow_archive, group=current_group(flow_archive, "web"), engine="h5netcdf")
+    np.testing.assert_array_equal(web["fibre_diameter"].values, [3e-5, 5e-5])
+    np.testing.assert_array_equal(web["fibre_density"].values, [1200.0, 1200.0])
+    assert all("fibre_diameter" in s for s in web["inherited_parameters"].values)
+
+
+def test_per_replicate_values_are_on_point_and_replicate(quickstart_archive):
+    """No flattened `run` or `web_fibre` axis: text per replicate (or fibre) has the same
+    dimensions as the numbers beside it."""
+    with h5py.File(quickstart_archive, "r") as f:
+        paths = [p for p, _ in version_groups(f)]
+    for path in paths:
+        ds = xr.open_dataset(quickstart_archive, group=path, engine="h5netcdf")
+        assert not {"run", "web_fibre"} & set(ds.sizes), (path, dict(ds.sizes))
+        ds.close()
+    fibre = xr.open_dataset(quickstart_archive, group=current_group(quickstart_archive, "fibre"), engine="h5netcdf")
+    assert fibre["invalid_reason"].dims == fibre["valid"].dims == ("point", "replicate")
+    assert ((fibre["invalid_reason"] == "") == fibre["valid"].astype(bool)).all()
+    laid = xr.open_dataset(quickstart_archive, group=current_group(quickstart_archive, "laid"), engine="h5netcdf")
+    assert laid["invalid_reason"].dims == laid["valid"].dims == ("point", "replicate", "fibre")
+
+
+def test_flags_are_cf_flag_values(quickstart_archive):
+    """Every flag is uint8 0/1 with flag_values and flag_meanings."""
+    with h5py.File(quickstart_archive, "r") as f:
+        found = 0
+        for path, g in version_groups(f):
+            for name, ds in g.items():
+                if "flag_values" in ds.attrs:
+                    found += 1
+                    assert ds.dtype == np.uint8, f"{path}/{name}"
+                    assert str(ds.attrs["flag_meanings"]) == "false true", f"{path}/{name}"
+                    assert set(np.unique(ds[...])) <= {0, 1}, f"{path}/{name}"
+                elif ds.dtype == np.uint8:
+                    raise AssertionError(f"{path}/{name} is uint8 without flag attributes")
+        assert found >= 3
+
+
+LONG_NAME_LIMIT = 48
+
+
+@pytest.mark.parametrize("archive", ["quickstart_archive", "flow_archive"])
+def test_long_names_are_labels_and_descriptions_explain(archive, request):
+    """A long_name is a short label (xarray puts it on plot axes); the explanation, where
+    there is more to say, is the `description` attribute."""
+    path = request.getfixturevalue(archive)
+    too_long = []
+    with h5py.File(path, "r") as f:
+        for group, g in version_groups(f):
+            for name, ds in g.items():
+                label = str(ds.attrs["long_name"])
+                if len(label) > LONG_NAME_LIMIT or ";" in label:
+                    too_long.append(f"{group}/{name}: {label}")
+                if "description" in ds.attrs:
+                    assert len(str(ds.attrs["description"])) > 0, f"{group}/{name}"
+    assert not too_long, "\n".join(too_long)
+    grid = xr.open_dataset(path, group=current_group(path, "grid"), engine="h5netcdf")
+    assert grid["expected_interior_density"].attrs["long_name"] == "expected interior areal density"
+    assert "mass conservation" in grid["expected_interior_density"].attrs["description"]
+
+
+CARTESIAN_PIPELINE = """pipeline: cartesian
+archive: cartesian.h5
+stages:
+  - name: ideal
+    kind: spectra
+    params: {preset: none}
+    sweep: {bending_energy: [2500.0, 25000.0, 250000.0], cutoff_number: [20, 50]}
+    sweep_mode: cartesian
+"""
+
+
+def test_a_cartesian_sweep_unstacks_into_one_dimension_per_parameter(laydown_bin, tmp_path):
+    """The swept parameters are typed coordinates along `point`, so xarray's own
+    set_index/unstack turns a cartesian sweep into one dimension per parameter."""
+    (tmp_path / "p.yaml").write_text(CARTESIAN_PIPELINE)
+    subprocess.run([laydown_bin, "run", "p.yaml"], check=True, cwd=tmp_path, capture_output=True)
+    path = tmp_path / "cartesian.h5"
+    ds = xr.open_dataset(path, group=current_group(path, "ideal"), engine="h5netcdf")
+    assert ds["cutoff_number"].dtype.kind == "i" and ds["bending_energy"].dtype.kind == "f"
+    grid = ds.set_index(point=["bending_energy", "cutoff_number"]).unstack("point")
+    e = grid["bending_energy_from_spectrum"].isel(fibre=0)
+    assert e.dims == ("bending_energy", "cutoff_number")
+    np.testing.assert_allclose(e.sel(bending_energy=25000.0, cutoff_number=50), 25000.0, rtol=1e-9)

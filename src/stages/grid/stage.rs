@@ -375,8 +375,8 @@ fn assemble(units: &[(usize, GridParams)], expected_density: &[f64], rows: &Outp
     let nz = row_f("zone_size")?.shape()[1];
     let mut out = Output::new();
     let centres = Array1::from_iter((0..cells).map(|k| (k as f64 + 0.5) * h));
-    out.f64("md", &["md"], centres.clone(), "m", "machine-direction cell centre, measured from the window's lower MD edge window_corner_md");
-    out.f64("cd", &["cd"], centres, "m", "cross-direction cell centre, measured from the window's lower CD edge window_corner_cd");
+    out.f64("md", &["md"], centres.clone(), "m", "MD cell centre").describe("machine-direction cell centre, measured from the window's lower MD edge window_corner_md");
+    out.f64("cd", &["cd"], centres, "m", "CD cell centre").describe("cross-direction cell centre, measured from the window's lower CD edge window_corner_cd");
     out.f64("cell_size", &[], ndarray::arr0(h), "m", "Δh, grid cell side");
     out.f64("window_side", &[], ndarray::arr0(g0.window_side), "m", "H, window side");
     if store_density && reps > 0 {
@@ -388,36 +388,36 @@ fn assemble(units: &[(usize, GridParams)], expected_density: &[f64], rows: &Outp
         Ok(Array1::from_iter((0..np).map(|p| a[[p * reps]])))
     };
     if reps > 0 {
-        out.f64("window_corner_md", &["point"], corner("window_corner_md")?, "m", "MD position of the window's lower edge in web coordinates (fibres start at x = 0)");
-        out.f64("window_corner_cd", &["point"], corner("window_corner_cd")?, "m", "CD position of the window's lower edge (web centre line y = 0)");
+        out.f64("window_corner_md", &["point"], corner("window_corner_md")?, "m", "window MD edge").describe("MD position of the window's lower edge in web coordinates (fibres start at x = 0)");
+        out.f64("window_corner_cd", &["point"], corner("window_corner_cd")?, "m", "window CD edge").describe("CD position of the window's lower edge (web centre line y = 0)");
     }
     out.i64("input_point", &["point"], Array1::from_iter(units.iter().map(|u| u.0 as i64)), "1", "point of the input web (or laid web) gridded");
-    out.f64("expected_interior_density", &["point"], Array1::from_iter(units.iter().map(|u| expected_density[u.0] * 1e3)), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
+    out.f64("expected_interior_density", &["point"], Array1::from_iter(units.iter().map(|u| expected_density[u.0] * 1e3)), "g m-2", "expected interior areal density").describe("ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
     let rho = per_rep("mean_areal_density")?;
     let cv = per_rep("cv")?;
-    for (name, values, unit, long) in [
-        ("mean_areal_density", &rho, "g m-2", "ρ_av = Σ m_k / H² over the window (eq 16)"),
-        ("cv", &cv, "1", "coefficient of variation of the cell densities"),
+    for (name, values, unit, label, long) in [
+        ("mean_areal_density", &rho, "g m-2", "areal density ρ_av", "ρ_av = Σ m_k / H² over the window (eq 16)"),
+        ("cv", &cv, "1", "CV", "coefficient of variation of the cell densities"),
     ] {
-        out.f64(name, &["point", "realisation"], values.clone(), unit, long);
+        out.f64(name, &["point", "realisation"], values.clone(), unit, label).describe(long);
         let (m, s) = mean_std(values);
-        out.f64(&format!("{name}_mean"), &["point"], m, unit, &format!("mean over realisations of {long}"));
-        out.f64(&format!("{name}_std"), &["point"], s, unit, &format!("sample standard deviation over realisations of {long}"));
+        out.f64(&format!("{name}_mean"), &["point"], m, unit, &format!("mean {label}")).describe(format!("mean over realisations of {long}"));
+        out.f64(&format!("{name}_std"), &["point"], s, unit, &format!("std of {label}")).describe(format!("sample standard deviation over realisations of {long}"));
     }
-    out.f64("fibre_length_per_area", &["point", "realisation"], per_rep("fibre_length_per_area")?, "m-1", "L_A = ρ_av/(ρπd²/4), fibre length per window area");
-    out.f64("spread_cd", &["point", "realisation"], per_rep("spread_cd")?, "m", "σ_CD, RMS CD displacement of the fibres where the drift reaches the window's far edge");
-    out.f64("spread_md", &["point", "realisation"], per_rep("spread_md")?, "m", "σ_MD, RMS MD displacement of the fibre ends from c·n_l·L");
+    out.f64("fibre_length_per_area", &["point", "realisation"], per_rep("fibre_length_per_area")?, "m-1", "fibre length per area").describe("L_A = ρ_av/(ρπd²/4), fibre length per window area");
+    out.f64("spread_cd", &["point", "realisation"], per_rep("spread_cd")?, "m", "RMS CD fibre displacement").describe("σ_CD, RMS CD displacement of the fibres where the drift reaches the window's far edge");
+    out.f64("spread_md", &["point", "realisation"], per_rep("spread_md")?, "m", "RMS MD fibre-end displacement").describe("σ_MD, RMS MD displacement of the fibre ends from c·n_l·L");
     out.f64("nodes_generated", &["point", "realisation"], per_rep("nodes_generated")?, "1", "fibre nodes generated for the realisation");
-    out.f64("wall_seconds", &["point", "realisation"], per_rep("wall_seconds")?, "s", "wall time of generating and gridding the realisation");
+    out.f64("wall_seconds", &["point", "realisation"], per_rep("wall_seconds")?, "s", "wall time of the realisation").describe("wall time of generating and gridding the realisation");
     if nz > 0 {
         // The zone sizes of the first realisation (they depend only on the parameters).
-        out.f64("zone_size", &["zone_size"], row_f("zone_size")?.index_axis(Axis(0), 0).to_owned(), "m", "zone side x = cells·Δh (log-spaced from zone_size_min, sizes below Δh skipped)");
+        out.f64("zone_size", &["zone_size"], row_f("zone_size")?.index_axis(Axis(0), 0).to_owned(), "m", "zone size").describe("zone side x = cells·Δh (log-spaced from zone_size_min, sizes below Δh skipped)");
         out.i64("zone_cells", &["zone_size"], get::i64(rows, "zone_cells")?.index_axis(Axis(0), 0).to_owned(), "1", "cells per zone side");
         out.i64("zone_count", &["zone_size"], get::i64(rows, "zone_count")?.index_axis(Axis(0), 0).to_owned(), "1", "zones the CV is taken over");
         let cvz = by_rep(row_f("cv_zone")?)?;
         let nf = by_rep(row_f("formation_number")?)?;
         out.f64("cv_zone", &["point", "realisation", "zone_size"], cvz.clone(), "1", "CV of the zone densities at zone size x");
-        out.f64("random_line_cv", &["point", "realisation", "zone_size"], by_rep(row_f("random_line_cv")?)?, "1", "CV of a Poisson network of straight lines with the same L_A: sqrt(E1/(π L_A x)) (REFERENCE.md §2)");
+        out.f64("random_line_cv", &["point", "realisation", "zone_size"], by_rep(row_f("random_line_cv")?)?, "1", "CV of a random line network").describe("CV of a Poisson network of straight lines with the same L_A: sqrt(E1/(π L_A x)) (REFERENCE.md §2)");
         out.f64("formation_number", &["point", "realisation", "zone_size"], nf.clone(), "1", "n_f(x) = CV²/CV²_random-line");
         out.f64("cv_zone_mean", &["point", "zone_size"], cvz.mean_axis(Axis(1)).unwrap(), "1", "mean over realisations of cv_zone");
         out.f64("formation_number_mean", &["point", "zone_size"], nf.mean_axis(Axis(1)).unwrap(), "1", "mean over realisations of formation_number");

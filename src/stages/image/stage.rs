@@ -498,7 +498,7 @@ fn stack_points(mut parts: Vec<Output>, swept: bool) -> Result<Output> {
                 continue;
             }
             v.dims.insert(0, "point".into());
-            v.values = match std::mem::replace(&mut v.values, Values::Str(vec![])) {
+            v.values = match std::mem::replace(&mut v.values, Values::U8(ndarray::ArrayD::zeros(ndarray::IxDyn(&[0])))) {
                 Values::F64(a) => Values::F64(a.insert_axis(Axis(0))),
                 Values::I64(a) => Values::I64(a.insert_axis(Axis(0))),
                 Values::U8(a) => Values::U8(a.insert_axis(Axis(0))),
@@ -783,42 +783,43 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
     let nan = f64::NAN;
     let mut out = Output::new();
     let col = |f: &dyn Fn(&ImageAnalysis) -> f64| Array1::from_iter(kept.iter().map(|k| f(&k.a)));
-    out.i64("sample", &["sample"], Array1::from_iter(0..n as i64), "1", "sample index (files in list order, globs sorted; or grid point × realisation)");
+    out.i64("sample", &["sample"], Array1::from_iter(0..n as i64), "1", "sample index").describe("sample index (files in list order, globs sorted; or grid point × realisation)");
     out.strings("group", "sample", samples.iter().map(|s| s.group.clone()).collect(), "condition (group) of each sample");
     out.strings("file", "sample", samples.iter().map(|s| s.file.clone()).collect(), "image file (empty for rendered grid samples)");
-    out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point index of a rendered sample (−1 for files and synthetic images)");
-    out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "grid realisation of a rendered sample, or index of a synthetic image (−1 for files)");
+    out.i64("grid_point", &["sample"], Array1::from_iter(samples.iter().map(|s| s.grid_point)), "1", "grid point of the sample").describe("grid point index of a rendered sample (−1 for files and synthetic images)");
+    out.i64("realisation", &["sample"], Array1::from_iter(samples.iter().map(|s| s.realisation)), "1", "realisation of the sample").describe("grid realisation of a rendered sample, or index of a synthetic image (−1 for files)");
     out.f64("pixel_size", &["sample"], Array1::from_iter(kept.iter().map(|k| k.pixel)), "m", "pixel size used (see pixel_size_source)");
     out.strings(
         "pixel_size_source",
         "sample",
         kept.iter().map(|k| k.pixel_source.as_str().to_string()).collect(),
-        "where pixel_size came from: file (declared by the image file), dpi, pixel_size (parameters, overriding the file), default (297/871 mm), grid (the grid's cell_size)",
-    );
-    out.f64("file_pixel_size", &["sample"], Array1::from_iter(kept.iter().map(|k| k.file_pixel)), "m", "pixel size the image file declares (NaN: none, or not a file)");
-    out.i64("rows", &["sample"], Array1::from_iter(kept.iter().map(|k| k.rows as i64)), "1", "image height (pixels; rows = MD for grid samples)");
+        "pixel size source",
+    )
+    .describe("where pixel_size came from: file (declared by the image file), dpi, pixel_size (parameters, overriding the file), default (297/871 mm), grid (the grid's cell_size)");
+    out.f64("file_pixel_size", &["sample"], Array1::from_iter(kept.iter().map(|k| k.file_pixel)), "m", "declared pixel size").describe("pixel size the image file declares (NaN: none, or not a file)");
+    out.i64("rows", &["sample"], Array1::from_iter(kept.iter().map(|k| k.rows as i64)), "1", "image height").describe("image height (pixels; rows = MD for grid samples)");
     out.i64("cols", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cols as i64)), "1", "image width (pixels)");
-    out.f64("mean_grey", &["sample"], col(&|a| a.mean), "1", "mean grey level (full scale 1; kept by the filter)");
-    out.f64("cv_raw", &["sample"], col(&|a| a.cv_raw), "1", "CV of the raw grey levels (population std / mean)");
-    out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr, the reported uniformity, chosen by the version attribute cv_corr_rule: cv_corr_compensated");
-    out.f64("cv_corr_plain", &["sample"], col(&|a| a.cv_corr_plain), "1", "CV of the notch-filtered image, mean kept, interior only (the paper's CV_corr; biased low by the web variance under the notches)");
-    out.f64("cv_corr_compensated", &["sample"], col(&|a| a.cv_corr_compensated), "1", "CV_corr with the web variance removed under the notches added back (background model)");
-    out.f64("cv_corr_one_sided", &["sample"], col(&|a| nan_if_none(a.cv_corr_one_sided)), "1", "compensated CV about the mean without an estimated one-sided bond brightening (NaN when undefined)");
-    out.f64("bond_mean_estimate", &["sample"], col(&|a| a.bond_mean_estimate), "1", "grey level the bonds add on average if they are one-sided");
-    out.f64("cv_web", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cv_web)), "1", "CV of the same rendering without bonds: the truth (grid and synthetic samples; NaN for files)");
-    out.i64("notches", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.notch_count as i64)), "1", "Gaussian notches applied (2 per peak: peak and conjugate)");
+    out.f64("mean_grey", &["sample"], col(&|a| a.mean), "1", "mean grey level").describe("mean grey level (full scale 1; kept by the filter)");
+    out.f64("cv_raw", &["sample"], col(&|a| a.cv_raw), "1", "raw CV").describe("CV of the raw grey levels (population std / mean)");
+    out.f64("cv_corr", &["sample"], col(&|a| a.cv_corr), "1", "CV_corr, reported").describe("CV_corr, the reported uniformity, chosen by the version attribute cv_corr_rule: cv_corr_compensated");
+    out.f64("cv_corr_plain", &["sample"], col(&|a| a.cv_corr_plain), "1", "CV_corr, plain notch filter").describe("CV of the notch-filtered image, mean kept, interior only (the paper's CV_corr; biased low by the web variance under the notches)");
+    out.f64("cv_corr_compensated", &["sample"], col(&|a| a.cv_corr_compensated), "1", "CV_corr, compensated").describe("CV_corr with the web variance removed under the notches added back (background model)");
+    out.f64("cv_corr_one_sided", &["sample"], col(&|a| nan_if_none(a.cv_corr_one_sided)), "1", "CV_corr without one-sided bond brightening").describe("compensated CV about the mean without an estimated one-sided bond brightening (NaN when undefined)");
+    out.f64("bond_mean_estimate", &["sample"], col(&|a| a.bond_mean_estimate), "1", "one-sided bond brightening").describe("grey level the bonds add on average if they are one-sided");
+    out.f64("cv_web", &["sample"], Array1::from_iter(kept.iter().map(|k| k.cv_web)), "1", "CV without bonds (truth)").describe("CV of the same rendering without bonds: the truth (grid and synthetic samples; NaN for files)");
+    out.i64("notches", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.notch_count as i64)), "1", "notches applied").describe("Gaussian notches applied (2 per peak: peak and conjugate)");
     out.i64("peak_count", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.peaks.len() as i64)), "1", "detected bond peaks (half plane)");
     out.f64("variance_removed_fraction", &["sample"], col(&|a| a.fraction_variance_removed), "1", "1 − Var(filtered)/Var(raw), whole images");
-    out.f64("web_variance_notched", &["sample"], col(&|a| a.web_variance_notched), "1", "expected web variance removed by the notches, Σ(1−g²)B/N²");
-    out.f64("threshold", &["sample"], col(&|a| a.threshold), "1", "whitened-power detection threshold ln(M·passes/α)");
-    out.i64("edge_margin", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.margin_px as i64)), "1", "edge band (pixels) left out of the filtered statistics");
+    out.f64("web_variance_notched", &["sample"], col(&|a| a.web_variance_notched), "1", "web variance removed by the notches").describe("expected web variance removed by the notches, Σ(1−g²)B/N²");
+    out.f64("threshold", &["sample"], col(&|a| a.threshold), "1", "peak detection threshold").describe("whitened-power detection threshold ln(M·passes/α)");
+    out.i64("edge_margin", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.margin_px as i64)), "1", "edge band left out").describe("edge band (pixels) left out of the filtered statistics");
     let lat = |f: &dyn Fn(&super::Lattice) -> Option<f64>| Array1::from_iter(kept.iter().map(|k| k.a.lattice.as_ref().and_then(f).unwrap_or(nan)));
-    out.f64("lattice_period1", &["sample"], lat(&|l| l.periods.first().copied()), "m", "first detected bond repeat distance (NaN: no lattice)");
-    out.f64("lattice_period2", &["sample"], lat(&|l| l.periods.get(1).copied()), "m", "second detected bond repeat distance (NaN: line pattern or none)");
-    out.f64("lattice_angle1", &["sample"], lat(&|l| l.angles_deg.first().copied()), "degree", "direction of the first lattice vector from +x (columns) towards +y (rows)");
+    out.f64("lattice_period1", &["sample"], lat(&|l| l.periods.first().copied()), "m", "first bond repeat distance").describe("first detected bond repeat distance (NaN: no lattice)");
+    out.f64("lattice_period2", &["sample"], lat(&|l| l.periods.get(1).copied()), "m", "second bond repeat distance").describe("second detected bond repeat distance (NaN: line pattern or none)");
+    out.f64("lattice_angle1", &["sample"], lat(&|l| l.angles_deg.first().copied()), "degree", "first lattice vector direction").describe("direction of the first lattice vector from +x (columns) towards +y (rows)");
     out.f64("lattice_angle2", &["sample"], lat(&|l| l.angles_deg.get(1).copied()), "degree", "direction of the second lattice vector");
     out.f64("lattice_angle_between", &["sample"], lat(&|l| l.angle_between_deg), "degree", "angle between the lattice vectors");
-    out.f64("wall_seconds", &["sample"], Array1::from_iter(kept.iter().map(|k| k.wall_seconds)), "s", "wall time of reading or rendering and analysing the image (on one thread of the pool)");
+    out.f64("wall_seconds", &["sample"], Array1::from_iter(kept.iter().map(|k| k.wall_seconds)), "s", "wall time of the image").describe("wall time of reading or rendering and analysing the image (on one thread of the pool)");
     out.i64("lattice_explained", &["sample"], Array1::from_iter(kept.iter().map(|k| k.a.lattice.as_ref().map(|l| l.explained as i64).unwrap_or(0))), "1", "peaks explained by the lattice");
 
     // Peak table, padded with NaN (pass −1).
@@ -826,12 +827,12 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
     let peak = |f: &dyn Fn(&super::Peak) -> f64| {
         Array2::from_shape_fn((n, np), |(i, j)| kept[i].a.peaks.get(j).map(f).unwrap_or(nan))
     };
-    out.f64("peak_kx", &["sample", "peak"], peak(&|q| q.kx), "m-1", "peak spatial frequency along x (columns), cycles per metre");
-    out.f64("peak_ky", &["sample", "peak"], peak(&|q| q.ky), "m-1", "peak spatial frequency along y (rows), cycles per metre");
+    out.f64("peak_kx", &["sample", "peak"], peak(&|q| q.kx), "m-1", "peak frequency along x").describe("peak spatial frequency along x (columns), cycles per metre");
+    out.f64("peak_ky", &["sample", "peak"], peak(&|q| q.ky), "m-1", "peak frequency along y").describe("peak spatial frequency along y (rows), cycles per metre");
     out.f64("peak_period", &["sample", "peak"], peak(&|q| q.period), "m", "fringe period 1/|k|");
     out.f64("peak_angle", &["sample", "peak"], peak(&|q| q.angle_deg), "degree", "wave-vector direction from +x towards +y");
     out.f64("peak_strength", &["sample", "peak"], peak(&|q| q.strength), "1", "whitened power |F|²/B at the peak bin");
-    out.f64("peak_variance_fraction", &["sample", "peak"], peak(&|q| q.variance_fraction), "1", "share of the image variance in the peak and its conjugate above background");
+    out.f64("peak_variance_fraction", &["sample", "peak"], peak(&|q| q.variance_fraction), "1", "variance share of the peak").describe("share of the image variance in the peak and its conjugate above background");
     out.f64("peak_notch_sigma", &["sample", "peak"], peak(&|q| q.notch_sigma), "1", "notch standard deviation (frequency bins)");
     out.i64("peak_pass", &["sample", "peak"], Array2::from_shape_fn((n, np), |(i, j)| kept[i].a.peaks.get(j).map(|q| q.pass as i64).unwrap_or(-1)), "1", "detection pass (−1: padding)");
 
@@ -849,10 +850,10 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
             c.get(j).map(|z| z.cv).unwrap_or(nan)
         })
     };
-    out.f64("zone_size", &["sample", "zone"], Array2::from_shape_fn((n, nz), |(i, j)| sizes[i].get(j).map(|z| z.zone_size).unwrap_or(nan)), "m", "zone side actually used: zone_cells × pixel_size, from zone_min to zone_max rounded to whole pixels, each size once (NaN padding after a sample's last size)");
+    out.f64("zone_size", &["sample", "zone"], Array2::from_shape_fn((n, nz), |(i, j)| sizes[i].get(j).map(|z| z.zone_size).unwrap_or(nan)), "m", "zone size used").describe("zone side actually used: zone_cells × pixel_size, from zone_min to zone_max rounded to whole pixels, each size once (NaN padding after a sample's last size)");
     out.i64("zone_cells", &["sample", "zone"], Array2::from_shape_fn((n, nz), |(i, j)| sizes[i].get(j).map(|z| z.cells_per_side as i64).unwrap_or(0)), "1", "pixels per zone side (0: padding)");
-    out.f64("zone_cv_raw", &["sample", "zone"], zc(true), "1", "CV of zone means of the raw image at zone_size (NaN padding: fewer than 4 zones fit)");
-    out.f64("zone_cv_filtered", &["sample", "zone"], zc(false), "1", "CV of zone means of the filtered image interior at zone_size (NaN padding: fewer than 4 zones fit the interior)");
+    out.f64("zone_cv_raw", &["sample", "zone"], zc(true), "1", "raw CV at zone size").describe("CV of zone means of the raw image at zone_size (NaN padding: fewer than 4 zones fit)");
+    out.f64("zone_cv_filtered", &["sample", "zone"], zc(false), "1", "filtered CV at zone size").describe("CV of zone means of the filtered image interior at zone_size (NaN padding: fewer than 4 zones fit the interior)");
 
     // Per-group statistics.
     let groups = group_stats(samples, kept);
@@ -900,7 +901,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
         out.i64("stored_sample", &["stored"], Array1::from_iter(stored.iter().map(|&i| i as i64)), "1", "sample index of each stored image");
         out.f64("raw_image", &["stored", "row", "col"], stack(&|a| &a.raw), "1", "raw grey levels (NaN padding)");
         out.f64("filtered_image", &["stored", "row", "col"], stack(&|a| &a.filtered), "1", "notch-filtered grey levels (NaN padding)");
-        out.f64("log_spectrum_raw", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_raw), "1", "log10 energy spectrum |F|²/N² before notching, fftshifted (DC at row ⌊H/2⌋, col ⌊W/2⌋)");
+        out.f64("log_spectrum_raw", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_raw), "1", "log10 energy spectrum before notching").describe("log10 energy spectrum |F|²/N² before notching, fftshifted (DC at row ⌊H/2⌋, col ⌊W/2⌋)");
         out.f64("log_spectrum_notched", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_notched), "1", "log10 energy spectrum after notching, fftshifted");
     }
     out.set_attr("max_stored_images", p.int("max_stored_images"));

@@ -156,32 +156,29 @@ impl Stage for LaidWebStage {
     }
 }
 
-/// Per-fibre scalar columns: (name, unit, long name, value).
-type FibreColumn = (&'static str, &'static str, &'static str, fn(&super::LaidFibre) -> f64);
+/// Per-fibre scalar columns: (name, unit, label (the long_name), description, value).
+type FibreColumn = (&'static str, &'static str, &'static str, &'static str, fn(&super::LaidFibre) -> f64);
 const FIBRE_COLUMNS: &[FibreColumn] = &[
-    ("radius_of_gyration", "m", "S of the laid fibre as it lies on the belt (eq 5)", |f| f.radius_of_gyration),
-    ("bending_energy", "1", "e = V_b L / EI of the laid fibre as it lies on the belt (eq 6)", |f| f.bending_energy),
-    ("radius_of_gyration_belt_removed", "m", "S with the belt motion removed: spread around the deposition point", |f| f.radius_of_gyration_belt_removed),
-    ("bending_energy_belt_removed", "1", "e with the belt motion removed", |f| f.bending_energy_belt_removed),
-    ("phase", "rad", "oscillation phase φ of the fibre, u0 sin(ωt + φ)", |f| f.phase),
-    ("frequency_scale", "1", "oscillation frequency of the fibre over oscillation_frequency (jitter)", |f| f.frequency_scale),
-    ("amplitude_scale", "1", "oscillation amplitude of the fibre over oscillation_amplitude (jitter)", |f| f.amplitude_scale),
-    ("feed_cd", "m", "CD position of the fibre's feed point", |f| f.feed_cd),
-    ("laid_length", "m", "arc length of the laid fibre", |f| f.fed.laid_nodes().saturating_sub(1) as f64 * f.fed.element_length),
-    ("frozen_nodes", "1", "nodes frozen (stuck, carried with the belt at no cost) during the run", |f| f.fed.frozen_nodes as f64),
-    ("final_lift_of_landed", "m", "highest landed node above the belt at the end", |f| f.fed.final_lift_of_landed),
-    ("steps", "1", "time steps", |f| f.fed.steps as f64),
-    ("node_steps", "1", "sum over steps of the active nodes (the work done)", |f| f.fed.node_steps as f64),
-    ("max_active_nodes", "1", "most nodes integrated at once", |f| f.fed.max_active_nodes as f64),
-    ("wall_seconds", "s", "wall time of the fibre", |f| f.fed.wall_seconds),
+    ("radius_of_gyration", "m", "S", "S of the laid fibre as it lies on the belt (eq 5)", |f| f.radius_of_gyration),
+    ("bending_energy", "1", "e", "e = V_b L / EI of the laid fibre as it lies on the belt (eq 6)", |f| f.bending_energy),
+    ("radius_of_gyration_belt_removed", "m", "S, belt removed", "S with the belt motion removed: spread around the deposition point", |f| f.radius_of_gyration_belt_removed),
+    ("bending_energy_belt_removed", "1", "e, belt removed", "e with the belt motion removed", |f| f.bending_energy_belt_removed),
+    ("phase", "rad", "oscillation phase φ", "oscillation phase φ of the fibre, u0 sin(ωt + φ)", |f| f.phase),
+    ("frequency_scale", "1", "relative oscillation frequency", "oscillation frequency of the fibre over oscillation_frequency (jitter)", |f| f.frequency_scale),
+    ("amplitude_scale", "1", "relative oscillation amplitude", "oscillation amplitude of the fibre over oscillation_amplitude (jitter)", |f| f.amplitude_scale),
+    ("feed_cd", "m", "feed point CD position", "CD position of the fibre's feed point", |f| f.feed_cd),
+    ("laid_length", "m", "laid length", "arc length of the laid fibre", |f| f.fed.laid_nodes().saturating_sub(1) as f64 * f.fed.element_length),
+    ("frozen_nodes", "1", "frozen nodes", "nodes frozen (stuck, carried with the belt at no cost) during the run", |f| f.fed.frozen_nodes as f64),
+    ("final_lift_of_landed", "m", "highest landed node at the end", "highest landed node above the belt at the end", |f| f.fed.final_lift_of_landed),
+    ("steps", "1", "time steps", "time steps", |f| f.fed.steps as f64),
+    ("node_steps", "1", "node steps", "sum over steps of the active nodes (the work done)", |f| f.fed.node_steps as f64),
+    ("max_active_nodes", "1", "most active nodes", "most nodes integrated at once", |f| f.fed.max_active_nodes as f64),
+    ("wall_seconds", "s", "wall time of the fibre", "wall time of the fibre", |f| f.fed.wall_seconds),
 ];
-
-/// Separates the fibres' invalid reasons in a web's row (text is stored per row).
-const REASON_SEPARATOR: char = '\u{1f}';
 
 /// The per-web rows of `webs` ((point, replicate, web) in any order): the laid-node axis
 /// is NaN-padded to the longest web, the fibre axis is `nf` wide (padded with −1, 0, NaN,
-/// invalid). A web's fibre reasons are one text joined by [`REASON_SEPARATOR`].
+/// invalid).
 fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     let n = webs.len();
     let nodes = webs.iter().map(|w| w.2.fibres.iter().map(|f| f.fed.laid_nodes()).sum::<usize>()).max().unwrap_or(0);
@@ -191,7 +188,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     let mut start = Array2::from_elem((n, nf), -1i64);
     let mut count = Array2::from_elem((n, nf), 0i64);
     let mut valid = Array2::from_elem((n, nf), false);
-    let mut reasons = Vec::with_capacity(n);
+    let mut reasons = Array2::from_elem((n, nf), "no fibre".to_string());
     let mut columns: Vec<Array2<f64>> = FIBRE_COLUMNS.iter().map(|_| Array2::from_elem((n, nf), f64::NAN)).collect();
     for (u, (_, _, web)) in webs.iter().enumerate() {
         let mut k = 0;
@@ -211,12 +208,12 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
             count[[u, j]] = k as i64 - start[[u, j]];
             valid[[u, j]] = f.valid;
             for (c, col) in FIBRE_COLUMNS.iter().enumerate() {
-                columns[c][[u, j]] = (col.3)(f);
+                columns[c][[u, j]] = (col.4)(f);
             }
         }
-        let mut web_reasons: Vec<String> = web.fibres.iter().map(|f| f.invalid_reason.clone().unwrap_or_default()).collect();
-        web_reasons.resize(nf, "no fibre".into());
-        reasons.push(web_reasons.join(&REASON_SEPARATOR.to_string()));
+        for (j, f) in web.fibres.iter().enumerate() {
+            reasons[[u, j]] = f.invalid_reason.clone().unwrap_or_default();
+        }
     }
     let web_col = |f: &dyn Fn(&LaidWeb) -> f64| Array1::from_iter(webs.iter().map(|w| f(&w.2)));
     let mut out = Output::new();
@@ -228,7 +225,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     out.i64("fibre_node_start", &[UNIT_DIM, "fibre"], start, "1", "");
     out.i64("fibre_laid_nodes", &[UNIT_DIM, "fibre"], count, "1", "");
     out.flags("valid", &[UNIT_DIM, "fibre"], valid, "");
-    out.strings("invalid_reason", UNIT_DIM, reasons, "");
+    out.strings_nd("invalid_reason", &[UNIT_DIM, "fibre"], reasons, "");
     for (c, col) in FIBRE_COLUMNS.iter().enumerate() {
         out.f64(col.0, &[UNIT_DIM, "fibre"], columns[c].clone(), col.1, "");
     }
@@ -252,29 +249,18 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
     let i = |name: &str, fill: i64| -> Result<ArrayD<i64>> { Ok(place(get::i64(rows, name)?, &index, np, reps, fill)) };
     let nf = get::u8(rows, "valid")?.shape()[1];
     let mut out = Output::new();
-    out.strings("xyz", "xyz", vec!["x".into(), "y".into(), "z".into()], "axis: x machine direction (belt motion), y cross direction, z up");
-    out.f64("laid_positions", &["point", "replicate", "laid_node", "xyz"], f("laid_positions")?, "m", "landed nodes in belt coordinates at the end of the run, fibre after fibre (x from the feed point, y not folded onto the CD period)");
+    out.strings("xyz", "xyz", vec!["x".into(), "y".into(), "z".into()], "axis").describe("axis: x machine direction (belt motion), y cross direction, z up");
+    out.f64("laid_positions", &["point", "replicate", "laid_node", "xyz"], f("laid_positions")?, "m", "laid nodes").describe("landed nodes in belt coordinates at the end of the run, fibre after fibre (x from the feed point, y not folded onto the CD period)");
     out.f64("landing_time", &["point", "replicate", "laid_node"], f("landing_time")?, "s", "time each laid node first touched the belt");
-    out.f64("laid_x_belt_removed", &["point", "replicate", "laid_node"], f("laid_x_belt_removed")?, "m", "x of each laid node with the belt motion removed (by belt_removal; y as laid), as the belt-removed S and e are measured");
-    out.i64("fibre_node_start", &["point", "replicate", "fibre"], i("fibre_node_start", -1)?, "1", "index of the fibre's first node on the laid_node axis");
+    out.f64("laid_x_belt_removed", &["point", "replicate", "laid_node"], f("laid_x_belt_removed")?, "m", "laid node x, belt removed").describe("x of each laid node with the belt motion removed (by belt_removal; y as laid), as the belt-removed S and e are measured");
+    out.i64("fibre_node_start", &["point", "replicate", "fibre"], i("fibre_node_start", -1)?, "1", "first laid node of the fibre").describe("index of the fibre's first node on the laid_node axis");
     out.i64("fibre_laid_nodes", &["point", "replicate", "fibre"], i("fibre_laid_nodes", 0)?, "1", "laid nodes of the fibre");
     let valid = place(get::u8(rows, "valid")?, &index, np, reps, 0).mapv(|v| v != 0);
-    out.flags("valid", &["point", "replicate", "fibre"], valid.clone(), "fibre completed and no landed node above bounce_tolerance at the end");
-    // reasons: row-major (unit, fibre) → (point, replicate, fibre)
-    let row_reasons = get::strings(rows, "invalid_reason")?;
-    let mut reasons = vec![String::new(); np * reps * nf];
-    for (row, &(p, r)) in index.iter().enumerate() {
-        let web: Vec<&str> = row_reasons[row].split(REASON_SEPARATOR).collect();
-        if web.len() != nf {
-            bail!("row {row} holds {} fibre reasons, the fibre axis is {nf} wide", web.len());
-        }
-        for (j, text) in web.into_iter().enumerate() {
-            reasons[(p * reps + r) * nf + j] = text.to_string();
-        }
-    }
-    out.strings("invalid_reason", "web_fibre", reasons, "why a fibre is invalid, per web_fibre = (point * replicates + replicate) * fibres + fibre (empty: valid)");
+    out.flags("valid", &["point", "replicate", "fibre"], valid.clone(), "fibre valid").describe("fibre completed and no landed node above bounce_tolerance at the end");
+    let reasons = place(get::strings_nd(rows, "invalid_reason")?, &index, np, reps, String::new());
+    out.strings_nd("invalid_reason", &["point", "replicate", "fibre"], reasons, "why the fibre is invalid (empty: valid)");
     for col in FIBRE_COLUMNS {
-        out.f64(col.0, &["point", "replicate", "fibre"], f(col.0)?, col.1, col.2);
+        out.f64(col.0, &["point", "replicate", "fibre"], f(col.0)?, col.1, col.2).describe(col.3);
     }
     for (name, unit, long) in [
         ("radius_of_gyration_belt_removed", "m", "belt-removed S"),
@@ -294,22 +280,22 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
             means.push(m);
             stds.push(s);
         }
-        out.f64(&format!("{name}_mean"), &["point"], Array1::from(means), unit, &format!("mean over the valid fibres of every replicate of the {long}"));
-        out.f64(&format!("{name}_std"), &["point"], Array1::from(stds), unit, &format!("sample standard deviation over the valid fibres of the {long}"));
+        out.f64(&format!("{name}_mean"), &["point"], Array1::from(means), unit, &format!("mean {long}")).describe(format!("mean over the valid fibres of every replicate of the {long}"));
+        out.f64(&format!("{name}_std"), &["point"], Array1::from(stds), unit, &format!("std of {long}")).describe(format!("sample standard deviation over the valid fibres of the {long}"));
     }
     let valid_count = Array2::from_shape_fn((np, reps), |(p, r)| (0..nf).filter(|&j| valid[[p, r, j]]).count() as i64);
     out.i64("valid_fibres", &["point", "replicate"], valid_count, "1", "valid fibres of the web");
-    out.f64("interior_md_min", &["point", "replicate"], f("interior_md_min")?, "m", "lower end of the interior MD range: edge_margin_spreads × spread from the touchdown (x = 0)");
-    out.f64("interior_md_max", &["point", "replicate"], f("interior_md_max")?, "m", "upper end of the interior MD range: v_b (T − t_s) − edge_margin_spreads × spread, t_s the start-up time");
-    out.f64("spread", &["point", "replicate"], f("spread")?, "m", "RMS belt-removed radius of gyration of the valid fibres");
+    out.f64("interior_md_min", &["point", "replicate"], f("interior_md_min")?, "m", "interior MD range, lower end").describe("lower end of the interior MD range: edge_margin_spreads × spread from the touchdown (x = 0)");
+    out.f64("interior_md_max", &["point", "replicate"], f("interior_md_max")?, "m", "interior MD range, upper end").describe("upper end of the interior MD range: v_b (T − t_s) − edge_margin_spreads × spread, t_s the start-up time");
+    out.f64("spread", &["point", "replicate"], f("spread")?, "m", "RMS belt-removed S of valid fibres").describe("RMS belt-removed radius of gyration of the valid fibres");
     let per_point = |g: &dyn Fn(&LaidWebParams) -> f64| Array1::from_iter(params.iter().map(g));
     out.f64("cd_period", &["point"], per_point(&|p| p.cd_period()), "m", "CD period n_w·Δw of the web");
     out.f64("element_length", &["point"], per_point(&|p| p.resolved_element_length()), "m", "Δs, element length used (after coil_resolution)");
     out.f64("mass_per_length", &["point"], per_point(&|p| p.scene.mass_per_length()), "kg m-1", "ρπd²/4");
     out.f64("feed_time", &["point"], per_point(&|p| p.feed_time()), "s", "T = belt_travel/belt_speed");
-    out.f64("startup_time", &["point"], per_point(&|p| p.startup_time()), "s", "t_s = 2 z_f/v_f + 1/f, the start-up excluded from the interior");
+    out.f64("startup_time", &["point"], per_point(&|p| p.startup_time()), "s", "start-up time").describe("t_s = 2 z_f/v_f + 1/f, the start-up excluded from the interior");
     out.f64("belt_speed", &["point"], per_point(&|p| p.scene.belt_speed), "m s-1", "v_b, belt speed");
     out.f64("belt_speed_ratio", &["point"], per_point(&|p| p.belt_speed_ratio()), "1", "c = v_b/v_f");
-    out.f64("expected_interior_density", &["point"], per_point(&|p| p.interior_areal_density() * 1e3), "g m-2", "ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
+    out.f64("expected_interior_density", &["point"], per_point(&|p| p.interior_areal_density() * 1e3), "g m-2", "expected interior areal density").describe("ρ(πd²/4)/(Δw·c), the interior areal density mass conservation implies");
     Ok(out)
 }

@@ -230,7 +230,7 @@ impl Stage for LaydownStage {
         } else {
             ctx.par_units(range, |p, r| (p, r, sim(p, r)))
         };
-        unit_rows(&rows)
+        unit_rows(&rows, ctx.points.iter().any(|p| p.bool(MESH)))
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
@@ -273,6 +273,17 @@ fn half_mesh(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha:
         measures: [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed],
         wall_seconds: r.wall_seconds,
     })
+}
+
+/// The short label of a laid-fibre measure (a `long_name`).
+fn metric_label(name: &str) -> &'static str {
+    match name {
+        "radius_of_gyration" => "S",
+        "bending_energy" => "e",
+        "radius_of_gyration_belt_removed" => "S, belt removed",
+        "bending_energy_belt_removed" => "e, belt removed",
+        _ => "measure",
+    }
 }
 
 /// Richardson estimate of the relative discretisation error of a mean over replicates,
@@ -341,7 +352,7 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 /// everything of a replicate that the stage output holds, with the laid polylines
 /// computed here. Node, laid-node and record axes are padded with NaN to the longest
 /// replicate (the laid axis to the node count, as the output's is).
-fn unit_rows(replicates: &[(usize, usize, Replicate)]) -> Result<Output> {
+fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool) -> Result<Output> {
     let results: Vec<(usize, usize, &LaydownResult)> = replicates.iter().map(|(p, r, rep)| (*p, *r, &rep.fine)).collect();
     let nan = f64::NAN;
     let n = results.len();
@@ -397,11 +408,13 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)]) -> Result<Output> {
     out.f64("laid_length", &[unit], column(&|r| r.laid_length), "m", "");
     out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
-    let half = |f: &dyn Fn(&HalfMesh) -> f64| Array1::from_iter(replicates.iter().map(|r| r.2.half.as_ref().map_or(f64::NAN, f)));
-    for (k, name) in MESH_METRICS.iter().enumerate() {
-        out.f64(&format!("{name}_half_mesh"), &[unit], half(&|h| h.measures[k]), "", "");
+    if mesh_error_estimate {
+        let half = |f: &dyn Fn(&HalfMesh) -> f64| Array1::from_iter(replicates.iter().map(|r| r.2.half.as_ref().map_or(f64::NAN, f)));
+        for (k, name) in MESH_METRICS.iter().enumerate() {
+            out.f64(&format!("{name}_half_mesh"), &[unit], half(&|h| h.measures[k]), "", "");
+        }
+        out.f64("wall_seconds_half_mesh", &[unit], half(&|h| h.wall_seconds), "s", "");
     }
-    out.f64("wall_seconds_half_mesh", &[unit], half(&|h| h.wall_seconds), "s", "");
     Ok(out)
 }
 
@@ -430,12 +443,12 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
                 );
             }
         }
-        let unit = if name.starts_with("radius") { "m" } else { "1" };
-        out.f64(&format!("{name}_half_mesh"), &["point", "replicate"], half, unit, &format!("{name} at half the elements"));
-        out.f64(&format!("{name}_mesh_error"), &["point"], Array1::from(error), "1", &format!("discretisation error of {name}_mean"))
-            .attrs
-            .insert("description".into(), crate::archive::data::Attr::Str(format!("estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run")));
-        out.f64(&format!("{name}_mesh_error_std"), &["point"], Array1::from(error_std), "1", &format!("standard error of {name}_mesh_error"));
+        let (unit, label) = (if name.starts_with("radius") { "m" } else { "1" }, metric_label(name));
+        out.f64(&format!("{name}_half_mesh"), &["point", "replicate"], half, unit, &format!("{label} at half the elements"));
+        out.f64(&format!("{name}_mesh_error"), &["point"], Array1::from(error), "1", &format!("mesh error of mean {label}")).describe(format!(
+            "estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run"
+        ));
+        out.f64(&format!("{name}_mesh_error_std"), &["point"], Array1::from(error_std), "1", &format!("s.e. of the mesh error of {label}"));
     }
     out.f64("wall_seconds_half_mesh", &["point", "replicate"], per_rep("wall_seconds_half_mesh")?, "s", "wall time of the half-mesh run");
     Ok(())
@@ -512,17 +525,17 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
         shortfall.push(if targets[p].0 > 0 { targets[p].0.saturating_sub(n_used) as i64 } else { 0 });
     }
     let mut out = Output::new();
-    out.strings("xyz", "xyz", vec!["x".into(), "y".into(), "z".into()], "axis: x machine direction (belt motion), y cross direction, z up");
+    out.strings("xyz", "xyz", vec!["x".into(), "y".into(), "z".into()], "axis").describe("axis: x machine direction (belt motion), y cross direction, z up");
     out.f64("positions", &["point", "replicate", "node", "xyz"], positions, "m", "final node positions");
-    out.f64("laid_positions", &["point", "replicate", "laid_node", "xyz"], laid, "m", "landed nodes in fibre order, projected on the belt plane (z = 0)");
-    out.f64("laid_positions_belt_removed", &["point", "replicate", "laid_node", "xyz"], laid_removed, "m", "landed nodes with the belt motion removed (by belt_removal: landing, x − v_b(t_end − t_land); feed, x + (v_b/v_f)s)");
-    out.f64("landing_time", &["point", "replicate", "node"], landing, "s", "time each node first touched the belt (NaN: never)");
-    out.flags("valid", &["point", "replicate"], valid.clone(), "replicate valid: completed and no landed node above bounce_tolerance (see bounce_check)");
-    out.flags("used", &["point", "replicate"], used.clone(), "replicate enters the per-point statistics: the first valid_replicates_target valid ones (all valid ones without a target)");
-    out.i64("attempted_replicates", &["point"], Array1::from(attempted), "1", "replicates simulated per point (the rest of the replicate axis is padding)");
-    out.i64("valid_shortfall", &["point"], Array1::from(shortfall), "1", "valid_replicates_target minus the valid replicates found within max_replicates (0: target met or no target)");
-    out.strings("invalid_reason", "run", reasons, "why a replicate is invalid, per run = point * replicates + replicate (empty: valid)");
-    out.strings("error", "run", errors, "numerical failure of a replicate, per run = point * replicates + replicate (empty: none)");
+    out.f64("laid_positions", &["point", "replicate", "laid_node", "xyz"], laid, "m", "laid nodes").describe("landed nodes in fibre order, projected on the belt plane (z = 0)");
+    out.f64("laid_positions_belt_removed", &["point", "replicate", "laid_node", "xyz"], laid_removed, "m", "laid nodes, belt removed").describe("landed nodes with the belt motion removed (by belt_removal: landing, x − v_b(t_end − t_land); feed, x + (v_b/v_f)s)");
+    out.f64("landing_time", &["point", "replicate", "node"], landing, "s", "landing time").describe("time each node first touched the belt (NaN: never)");
+    out.flags("valid", &["point", "replicate"], valid.clone(), "replicate valid").describe("replicate valid: completed and no landed node above bounce_tolerance (see bounce_check)");
+    out.flags("used", &["point", "replicate"], used.clone(), "replicate used in the statistics").describe("replicate enters the per-point statistics: the first valid_replicates_target valid ones (all valid ones without a target)");
+    out.i64("attempted_replicates", &["point"], Array1::from(attempted), "1", "replicates simulated").describe("replicates simulated per point (the rest of the replicate axis is padding)");
+    out.i64("valid_shortfall", &["point"], Array1::from(shortfall), "1", "valid replicates short of the target").describe("valid_replicates_target minus the valid replicates found within max_replicates (0: target met or no target)");
+    out.strings_nd("invalid_reason", &["point", "replicate"], Array2::from_shape_vec((npoints, nreps), reasons)?, "why the replicate is invalid (empty: valid)");
+    out.strings_nd("error", &["point", "replicate"], Array2::from_shape_vec((npoints, nreps), errors)?, "numerical failure of the replicate (empty: none)");
     let metrics = [
         ("radius_of_gyration", &s, "m", "S of the laid fibre (eq 5)"),
         ("bending_energy", &e, "1", "e = V_b L / EI of the laid fibre (eq 6)"),
@@ -530,7 +543,8 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
         ("bending_energy_belt_removed", &e_b, "1", "e with the belt motion removed (Fig 6 dashed)"),
     ];
     for (name, values, unit, long) in metrics {
-        out.f64(name, &["point", "replicate"], values.clone(), unit, long);
+        let label = metric_label(name);
+        out.f64(name, &["point", "replicate"], values.clone(), unit, label).describe(long);
         let (mut means, mut stds, mut counts) = (vec![], vec![], vec![]);
         for p in 0..npoints {
             let (m, sd, n) = mean_std((0..nreps).filter(|&r| used[[p, r]]).map(|r| values[[p, r]]));
@@ -538,28 +552,29 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
             stds.push(sd);
             counts.push(n as i64);
         }
-        out.f64(&format!("{name}_mean"), &["point"], Array1::from(means), unit, &format!("mean over the used (valid) replicates of {long}"));
-        out.f64(&format!("{name}_std"), &["point"], Array1::from(stds), unit, &format!("sample standard deviation over the used (valid) replicates of {long}"));
+        out.f64(&format!("{name}_mean"), &["point"], Array1::from(means), unit, &format!("mean {label}")).describe(format!("mean over the used (valid) replicates of {long}"));
+        out.f64(&format!("{name}_std"), &["point"], Array1::from(stds), unit, &format!("std of {label}")).describe(format!("sample standard deviation over the used (valid) replicates of {long}"));
         if name == "radius_of_gyration" {
-            out.i64("valid_replicates", &["point"], Array1::from(counts), "1", "number of valid replicates entering the statistics per point (the `used` ones)");
+            out.i64("valid_replicates", &["point"], Array1::from(counts), "1", "valid replicates used").describe("number of valid replicates entering the statistics per point (the `used` ones)");
         }
     }
     if mesh_error_estimate {
         add_mesh_error(&mut out, &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name)?;
     }
     out.f64("steps", &["point", "replicate"], steps, "1", "time steps taken");
-    out.f64("time_step", &["point", "replicate"], dt, "s", "time step used (largest allowed for adaptive schemes)");
+    out.f64("time_step", &["point", "replicate"], dt, "s", "time step").describe("time step used (largest allowed for adaptive schemes)");
     out.f64("wall_seconds", &["point", "replicate"], wall, "s", "wall time of the replicate");
-    out.f64("max_lift_after_landing", &["point", "replicate"], lift, "m", "highest rise of a landed node above the belt at any time after its landing (bounce_check = transient)");
-    out.f64("final_lift_of_landed", &["point", "replicate"], final_lift, "m", "highest landed node above the belt in the final profile (bounce_check = final)");
+    out.f64("max_lift_after_landing", &["point", "replicate"], lift, "m", "highest rise after landing").describe("highest rise of a landed node above the belt at any time after its landing (bounce_check = transient)");
+    out.f64("final_lift_of_landed", &["point", "replicate"], final_lift, "m", "highest landed node at the end").describe("highest landed node above the belt in the final profile (bounce_check = final)");
     out.f64("laid_length", &["point", "replicate"], laid_length, "m", "arc length of the laid fibre");
     out.f64("elements", &["point", "replicate"], elements, "1", "rod elements used (after coil_resolution)");
     out.strings(
         "diagnostic",
         "diagnostic",
         ENERGY_COLUMNS.iter().map(|c| c.0.to_string()).collect(),
-        "energy diagnostic: time (s), energies and cumulative work (J)",
-    );
-    out.f64("energy_diagnostics", &["point", "replicate", "record", "diagnostic"], diag, "J", "energy diagnostics every diagnostic_stride steps (the `time` column is in s)");
+        "energy diagnostic",
+    )
+    .describe("energy diagnostic: time (s), energies and cumulative work (J)");
+    out.f64("energy_diagnostics", &["point", "replicate", "record", "diagnostic"], diag, "J", "energy diagnostics").describe("energy diagnostics every diagnostic_stride steps (the `time` column is in s)");
     Ok(out)
 }

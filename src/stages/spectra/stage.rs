@@ -157,8 +157,8 @@ fn laid_fibre_parameters(input: &crate::stages::Input, points: usize, belt_remov
     out.f64("fibre_diameter", &["point"], per_point("diameter")?, "m", "d of the laid fibres");
     out.f64("fibre_density", &["point"], per_point("density")?, "kg m-3", "ρ of the laid fibres");
     out.f64("belt_speed_ratio", &["point"], &belt_speed / &fibre_speed, "1", "c = v_b/v_f the fibres were laid at");
-    out.i64("input_point", &["point"], Array1::from_iter(0..points as i64), "1", "point of the input whose laid fibres are analysed");
-    out.flags("belt_removed", &[], ndarray::arr0(belt_removed), "the fibres were analysed with the belt motion removed (as their stage's belt_removal takes it off)");
+    out.i64("input_point", &["point"], Array1::from_iter(0..points as i64), "1", "input point").describe("point of the input whose laid fibres are analysed");
+    out.flags("belt_removed", &[], ndarray::arr0(belt_removed), "belt motion removed").describe("the fibres were analysed with the belt motion removed (as their stage's belt_removal takes it off)");
     Ok(())
 }
 
@@ -338,19 +338,19 @@ fn assemble(rows: &[Vec<Row>]) -> Result<Output> {
         }
     }
     let mut out = Output::new();
-    out.i64("bin", &["bin"], Array1::from_iter(0..nbins as i64), "1", "DFT index r (eq 10); r > N/2 are the negative frequencies r − N");
+    out.i64("bin", &["bin"], Array1::from_iter(0..nbins as i64), "1", "DFT index r").describe("DFT index r (eq 10); r > N/2 are the negative frequencies r − N");
     out.f64("angular_frequency", &["point", "bin"], omega, "rad m-1", "ω_r = 2πr/L (signed: r − N for r > N/2)");
     out.f64("curvature_spectrum_real", &["point", "fibre", "bin"], re, "m-1", "real part of K_r (eq 10)");
     out.f64("curvature_spectrum_imag", &["point", "fibre", "bin"], im, "m-1", "imaginary part of K_r (eq 10)");
     out.f64("energy_spectrum", &["point", "fibre", "bin"], energy, "m-2", "S_r = |K_r|^2");
-    out.f64("mean_curvature_spectrum_real", &["point", "bin"], mean_re, "m-1", "energy-averaged spectrum over fibres: sqrt(mean S_r), zero phase (r = 0 keeps the mean curvature's sign)");
+    out.f64("mean_curvature_spectrum_real", &["point", "bin"], mean_re, "m-1", "mean curvature spectrum, real part").describe("energy-averaged spectrum over fibres: sqrt(mean S_r), zero phase (r = 0 keeps the mean curvature's sign)");
     out.f64("mean_curvature_spectrum_imag", &["point", "bin"], mean_im, "m-1", "imaginary part of the mean spectrum (zero)");
     out.f64("mean_energy_spectrum", &["point", "bin"], mean_energy, "m-2", "mean S_r over fibres");
     out.f64("curvature", &["point", "fibre", "sample"], kappa, "m-1", "κ_m at s_m = mΔs (eq 9)");
-    out.f64("tangent_angle", &["point", "fibre", "angle_sample"], theta, "rad", "θ_m, unwrapped tangent angle in the belt plane (x = machine direction)");
+    out.f64("tangent_angle", &["point", "fibre", "angle_sample"], theta, "rad", "tangent angle θ_m").describe("θ_m, unwrapped tangent angle in the belt plane (x = machine direction)");
     if let Some(r) = resampled {
-        out.f64("resampled_position", &["point", "fibre", "node", "xy"], r, "m", "laid fibre's nodes in the belt plane at s_m = mΔs, m = 0..N, as analysed (belt removed with belt_removed); NaN padding");
-        out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis: x machine direction (belt motion), y cross direction");
+        out.f64("resampled_position", &["point", "fibre", "node", "xy"], r, "m", "resampled laid nodes").describe("laid fibre's nodes in the belt plane at s_m = mΔs, m = 0..N, as analysed (belt removed with belt_removed); NaN padding");
+        out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis").describe("axis: x machine direction (belt motion), y cross direction");
     }
     out.f64("bending_energy_from_curvature", &["point", "fibre"], e_k, "1", "e = (L/2) Σ κ_m² Δs (eqs 6, A.3)");
     out.f64("bending_energy_from_spectrum", &["point", "fibre"], e_s, "1", "e = (L²/2) Σ S_r (Parseval, eq A.4)");

@@ -552,35 +552,35 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
     out.f64("belt_speed_ratio", &["point"], per(&|w| w.params().belt_speed_ratio), "1", "c = v_b/v_f (eqs 14-15)");
     out.f64("fibre_diameter", &["point"], per(&|w| w.params().fibre_diameter), "m", "d, fibre diameter");
     out.f64("fibre_density", &["point"], per(&|w| w.params().fibre_density), "kg m-3", "ρ, fibre material density");
-    out.strings("spectrum_selection", "point", webs.iter().map(|w| w.web.params().spectrum_selection.name().to_string()).collect(), "single: first spectrum for every segment; per_segment: each segment draws one of the set");
-    out.strings("rng_seed", "point", webs.iter().map(|w| w.web.params().seed.to_string()).collect(), "master seed of the fibre streams (decimal u64): fibre j of realisation k uses ChaCha8 stream k·2^32 + j");
+    out.strings("spectrum_selection", "point", webs.iter().map(|w| w.web.params().spectrum_selection.name().to_string()).collect(), "spectrum selection").describe("single: first spectrum for every segment; per_segment: each segment draws one of the set");
+    out.strings("rng_seed", "point", webs.iter().map(|w| w.web.params().seed.to_string()).collect(), "master seed").describe("master seed of the fibre streams (decimal u64): fibre j of realisation k uses ChaCha8 stream k·2^32 + j");
     out.strings("spectrum_source", "point", webs.iter().map(|w| w.source.clone()).collect(), "where the spectrum came from");
     if webs.iter().all(|w| w.input_point.is_some()) {
         out.i64("input_point", &["point"], Array1::from_iter(webs.iter().map(|w| w.input_point.unwrap_or(0) as i64)), "1", "point of the input spectra stage used");
     }
-    out.strings("inherited_parameters", "point", webs.iter().map(|w| w.inherited.clone().unwrap_or_default()).collect(), "physical parameters left auto and taken from the input's laid fibres, with their values (empty: none)");
+    out.strings("inherited_parameters", "point", webs.iter().map(|w| w.inherited.clone().unwrap_or_default()).collect(), "inherited physical parameters").describe("physical parameters left auto and taken from the input's laid fibres, with their values (empty: none)");
     out.i64("points_per_segment", &["point"], per_i(&|w| w.points_per_segment() as i64), "1", "N, samples per segment");
     out.f64("segment_length", &["point"], per(&|w| w.segment_length()), "m", "L, segment length");
     out.f64("node_spacing", &["point"], per(&|w| w.spacing()), "m", "Δs = L/N, arc length between nodes");
     out.i64("nodes_per_fibre", &["point"], per_i(&|w| w.nodes_per_fibre() as i64), "1", "n_l·N + 1 nodes per fibre");
-    out.f64("point_mass", &["point"], per(&|w| w.point_mass()), "kg", "Δm = ρ(πd²/4)Δs carried by every node but the last");
+    out.f64("point_mass", &["point"], per(&|w| w.point_mass()), "kg", "point mass Δm").describe("Δm = ρ(πd²/4)Δs carried by every node but the last");
     out.f64("drift_length", &["point"], per(&|w| w.drift_length()), "m", "c·n_l·L, nominal MD extent of the web");
-    out.f64("interior_areal_density", &["point"], per(&|w| w.params().interior_areal_density() * 1e3), "g m-2", "ρ(πd²/4)/(Δw·c), areal density far from edges and drift ends");
-    out.i64("spectrum_count", &["point"], Array1::from_iter(webs.iter().map(|w| w.spectra.len() as i64)), "1", "spectra in the set (entries beyond are NaN padding)");
-    out.f64("spectrum_real", &["point", "spectrum", "bin"], re, "m-1", "real part of the K_r the fibres use (magnitudes kept, phases randomised; eq 11)");
+    out.f64("interior_areal_density", &["point"], per(&|w| w.params().interior_areal_density() * 1e3), "g m-2", "expected interior areal density").describe("ρ(πd²/4)/(Δw·c), areal density far from edges and drift ends");
+    out.i64("spectrum_count", &["point"], Array1::from_iter(webs.iter().map(|w| w.spectra.len() as i64)), "1", "spectra in the set").describe("spectra in the set (entries beyond are NaN padding)");
+    out.f64("spectrum_real", &["point", "spectrum", "bin"], re, "m-1", "spectrum K_r used, real part").describe("real part of the K_r the fibres use (magnitudes kept, phases randomised; eq 11)");
     out.f64("spectrum_imag", &["point", "spectrum", "bin"], im, "m-1", "imaginary part of the K_r the fibres use");
     out.i64("sample_fibre_index", &["point", "sample_fibre"], index, "1", "index j of each stored fibre (-1: padding)");
-    out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis: x machine direction (belt motion), y cross direction");
-    out.f64("fibre_positions", &["point", "realisation", "sample_fibre", "node", "xy"], positions, "m", "nodes of the stored fibres (realisation = replicate), s = node·Δs; NaN padding");
-    out.strings("generator", "point", webs.iter().map(|w| w.web.params().generator.name().to_string()).collect(), "how the fibres are made: random_phase (eqs 11-13), laid_segments (laid fibres joined), lay_down_sde (ITWM stochastic lay-down model)");
-    out.strings("segment_join", "point", webs.iter().map(|w| w.web.params().segment_join.name().to_string()).collect(), "laid_segments: matched (laid fibres kept about their feed axis, entered where they continue the previous one) or curvature (curvature integrated across joins)");
+    out.strings("xy", "xy", vec!["x".into(), "y".into()], "axis").describe("axis: x machine direction (belt motion), y cross direction");
+    out.f64("fibre_positions", &["point", "realisation", "sample_fibre", "node", "xy"], positions, "m", "stored fibre nodes").describe("nodes of the stored fibres (realisation = replicate), s = node·Δs; NaN padding");
+    out.strings("generator", "point", webs.iter().map(|w| w.web.params().generator.name().to_string()).collect(), "generator").describe("how the fibres are made: random_phase (eqs 11-13), laid_segments (laid fibres joined), lay_down_sde (ITWM stochastic lay-down model)");
+    out.strings("segment_join", "point", webs.iter().map(|w| w.web.params().segment_join.name().to_string()).collect(), "segment join").describe("laid_segments: matched (laid fibres kept about their feed axis, entered where they continue the previous one) or curvature (curvature integrated across joins)");
     out.flags("mirror", &["point"], Array1::from_iter(webs.iter().map(|w| w.web.params().mirror)), "laid_segments: templates mirrored at random");
     let shape = |f: &dyn Fn(&PointWeb) -> Option<f64>| Array1::from_iter(webs.iter().map(|w| f(w).unwrap_or(nan)));
-    out.f64("input_radius_of_gyration", &["point"], shape(&|w| w.input_shape.map(|s| s.radius_of_gyration)), "m", "mean S (eq 5) of the input's laid fibres, belt removed, as the spectra stage sampled them (NaN: no laid input)");
-    out.f64("input_bending_energy", &["point"], shape(&|w| w.input_shape.map(|s| s.bending_energy)), "1", "mean e (eq 6) of the input's laid fibres at their Δs");
-    out.f64("generated_radius_of_gyration", &["point"], shape(&|w| Some(w.generated_shape.radius_of_gyration)), "m", "mean S of segment-long windows of the generated fibres, belt drift removed (8 fibres of realisation 0)");
+    out.f64("input_radius_of_gyration", &["point"], shape(&|w| w.input_shape.map(|s| s.radius_of_gyration)), "m", "mean S of the input's laid fibres").describe("mean S (eq 5) of the input's laid fibres, belt removed, as the spectra stage sampled them (NaN: no laid input)");
+    out.f64("input_bending_energy", &["point"], shape(&|w| w.input_shape.map(|s| s.bending_energy)), "1", "mean e of the input's laid fibres").describe("mean e (eq 6) of the input's laid fibres at their Δs");
+    out.f64("generated_radius_of_gyration", &["point"], shape(&|w| Some(w.generated_shape.radius_of_gyration)), "m", "mean S of the generated segments").describe("mean S of segment-long windows of the generated fibres, belt drift removed (8 fibres of realisation 0)");
     out.f64("generated_bending_energy", &["point"], shape(&|w| Some(w.generated_shape.bending_energy)), "1", "mean e of the same windows");
-    out.f64("sde_potential_length", &["point"], shape(&|w| w.web.sde_model().map(|m| m.potential_length)), "m", "lay_down_sde: b of V = |η|²/(2b²) (NaN: other generator)");
+    out.f64("sde_potential_length", &["point"], shape(&|w| w.web.sde_model().map(|m| m.potential_length)), "m", "SDE potential length b").describe("lay_down_sde: b of V = |η|²/(2b²) (NaN: other generator)");
     out.f64("sde_noise", &["point"], shape(&|w| w.web.sde_model().map(|m| m.noise)), "m-1/2", "lay_down_sde: A, noise on the tangent angle");
     out.strings(
         "sde_calibration",
@@ -596,8 +596,9 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
                 (None, None) => String::new(),
             } + &sde_remark(&w.web, w.calibration.as_ref()).map(|r| format!("; WARNING: {r}")).unwrap_or_default())
             .collect(),
-        "lay_down_sde: how b and A were set (calibration target, fit and iterations)",
-    );
+        "SDE calibration",
+    )
+    .describe("lay_down_sde: how b and A were set (calibration target, fit and iterations)");
     if let Some(longest) = webs.iter().filter_map(|w| w.example_input_fibre.as_ref()).map(|f| f.len()).max() {
         let mut example = Array3::from_elem((np, longest, 2), nan);
         for (p, w) in webs.iter().enumerate() {
@@ -606,7 +607,7 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
                 example[[p, k, 1]] = q[1];
             }
         }
-        out.f64("example_input_fibre", &["point", "example_node", "xy"], example, "m", "the input's first laid fibre, belt removed, about its centroid (its resampled nodes, or the curve its curvature samples rebuild by eq 13); NaN padding");
+        out.f64("example_input_fibre", &["point", "example_node", "xy"], example, "m", "example input fibre").describe("the input's first laid fibre, belt removed, about its centroid (its resampled nodes, or the curve its curvature samples rebuild by eq 13); NaN padding");
     }
     if let Some(longest) = webs.iter().filter_map(|w| w.web.templates()).map(|t| t.len()).max() {
         let mut curvature = crate::memory::try_array((np, longest, nbins), nan, "the laid templates")?;
@@ -627,10 +628,10 @@ fn assemble(webs: &[PointWeb], reps: usize, jobs: &[(usize, usize, usize)], fibr
                     }
                 }
             }
-            out.f64("template_position", &["point", "template", "template_node", "xy"], nodes, "m", "laid_segments (matched join): each laid fibre's resampled belt-removed nodes, N + 1 (NaN: curvature join or padding)");
+            out.f64("template_position", &["point", "template", "template_node", "xy"], nodes, "m", "template nodes").describe("laid_segments (matched join): each laid fibre's resampled belt-removed nodes, N + 1 (NaN: curvature join or padding)");
         }
-        out.i64("template_count", &["point"], Array1::from_iter(webs.iter().map(|w| w.web.templates().map_or(0, |t| t.len() as i64))), "1", "laid_segments: templates (laid fibres) the segments are drawn from");
-        out.f64("template_curvature", &["point", "template", "template_sample"], curvature, "m-1", "laid_segments: curvature samples κ_m of each template at Δs = node_spacing (NaN padding)");
+        out.i64("template_count", &["point"], Array1::from_iter(webs.iter().map(|w| w.web.templates().map_or(0, |t| t.len() as i64))), "1", "template count").describe("laid_segments: templates (laid fibres) the segments are drawn from");
+        out.f64("template_curvature", &["point", "template", "template_sample"], curvature, "m-1", "template curvature κ_m").describe("laid_segments: curvature samples κ_m of each template at Δs = node_spacing (NaN padding)");
     }
     out.attrs.insert(
         "fibre_sample_rule".into(),

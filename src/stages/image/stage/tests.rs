@@ -90,7 +90,7 @@ fn grid_input_with_bonds_recovers_the_web_cv() {
     assert_eq!(get(&out, "condition_belt_speed_ratio"), vec![0.02, 0.07]);
     assert_eq!(get(&out, "condition_samples"), vec![2.0, 2.0]);
     match &out.get("condition").unwrap().values {
-        crate::archive::data::Values::Str(v) => assert_eq!(v, &vec!["belt_speed_ratio=0.02".to_string(), "belt_speed_ratio=0.07".into()]),
+        crate::archive::data::Values::Str(v) => assert_eq!(v.iter().collect::<Vec<_>>(), ["belt_speed_ratio=0.02", "belt_speed_ratio=0.07"]),
         other => panic!("{other:?}"),
     }
     assert_eq!(out.get("raw_image").unwrap().values.shape(), vec![1, 128, 160]);

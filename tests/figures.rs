@@ -68,7 +68,7 @@ stages:
 ";
 
 #[test]
-fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels() {
+fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels_or_covering_data() {
     let dir = tempfile::tempdir().unwrap();
     write_pipeline(dir.path(), "p.yaml", PIPELINE);
     let o = run_in(dir.path(), &["run", "p.yaml"]);
@@ -77,7 +77,7 @@ fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels() 
 
     let mut kinds = std::collections::BTreeSet::new();
     let mut problems = vec![];
-    let mut figures = 0;
+    let (mut figures, mut data_marks) = (0, 0);
     for stage in ["fibre", "fibres", "mesh", "cost", "spectra", "ideal", "web", "grid", "scans", "flat", "laid"] {
         let data = laydown::plot::open(&archive, stage).unwrap();
         kinds.insert(data.kind().to_string());
@@ -87,11 +87,14 @@ fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels() 
             for opts in [RenderOptions::default(), RenderOptions { width_mm: Some(85.0), font_pt: 7.0, ..Default::default() }] {
                 let record = fig.inspect(&opts).unwrap();
                 assert!(record.texts.len() > 5, "{stage}/{}: only {} texts drawn", fig.name, record.texts.len());
+                data_marks += record.data.len();
                 problems.extend(record.problems().into_iter().map(|p| format!("{stage}/{} at {} mm: {p}", fig.name, opts.width_for(&fig))));
             }
         }
     }
     assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["accuracy", "grid", "image", "laid_web", "laydown", "spectra", "web"]);
     assert!(figures >= 15, "{figures} figures");
+    // The text-on-data check had data to check against.
+    assert!(data_marks > 1000, "{data_marks} data segments recorded");
     assert!(problems.is_empty(), "{} layout problems:\n{}", problems.len(), problems.join("\n"));
 }

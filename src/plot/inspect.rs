@@ -1,7 +1,10 @@
 //! Layout checks of a drawn figure: a drawing backend that draws nothing but records
 //! where everything would go, so tests can check that nothing is drawn outside the
-//! canvas and that no two text labels overlap (`tests/figures.rs`, through
-//! [`crate::plot::figure::Figure::inspect`]).
+//! canvas, that no two text labels overlap and that no text lies on the data
+//! (`tests/figures.rs`, through [`crate::plot::figure::Figure::inspect`]).
+//!
+//! Data marks are the lines, paths and markers drawn in a colour (axes, grid lines and
+//! ticks are grey or black); a text box crossed by one covers data.
 //!
 //! Text boxes are the ones the bitmap backend fills: the font's layout box of the
 //! string, placed by its anchor and rotated as drawn.
@@ -24,12 +27,15 @@ pub struct TextBox {
 pub struct Record {
     pub size: (u32, u32),
     pub texts: Vec<TextBox>,
+    /// Segments of the data marks (lines, paths, marker boxes in a colour).
+    pub data: Vec<(BackendCoord, BackendCoord)>,
     /// Primitives (or texts) reaching outside the canvas, described.
     pub outside: Vec<String>,
 }
 
 impl Record {
-    /// Every problem found: primitives outside the canvas, then overlapping text pairs.
+    /// Every problem found: primitives outside the canvas, overlapping text pairs, then
+    /// texts lying on data marks.
     pub fn problems(&self) -> Vec<String> {
         let mut out = self.outside.clone();
         for (i, a) in self.texts.iter().enumerate() {
@@ -37,6 +43,11 @@ impl Record {
                 if overlap(a.rect, b.rect) {
                     out.push(format!("text `{}` {:?} overlaps `{}` {:?}", a.text, a.rect, b.text, b.rect));
                 }
+            }
+        }
+        for t in &self.texts {
+            if let Some(seg) = self.data.iter().find(|&&(p, q)| crosses(t.rect, p, q)) {
+                out.push(format!("text `{}` {:?} lies on data drawn from {:?} to {:?}", t.text, t.rect, seg.0, seg.1));
             }
         }
         out
@@ -48,6 +59,39 @@ fn overlap(a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)) -> bool {
     let w = a.2.min(b.2) - a.0.max(b.0);
     let h = a.3.min(b.3) - a.1.max(b.1);
     w > 1 && h > 1
+}
+
+/// Whether the segment p–q passes through the inside of a box (shrunk by one unit, so
+/// a mark touching a label's edge does not count).
+fn crosses(rect: (i32, i32, i32, i32), p: BackendCoord, q: BackendCoord) -> bool {
+    let (x0, y0, x1, y1) = (rect.0 as f64 + 1.0, rect.1 as f64 + 1.0, rect.2 as f64 - 1.0, rect.3 as f64 - 1.0);
+    if x0 >= x1 || y0 >= y1 {
+        return false;
+    }
+    // Liang–Barsky clipping of the segment against the box.
+    let (px, py, dx, dy) = (p.0 as f64, p.1 as f64, (q.0 - p.0) as f64, (q.1 - p.1) as f64);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (d, e) in [(-dx, px - x0), (dx, x1 - px), (-dy, py - y0), (dy, y1 - py)] {
+        if d == 0.0 {
+            if e < 0.0 {
+                return false;
+            }
+        } else {
+            let t = e / d;
+            if d < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+        }
+    }
+    t0 < t1
+}
+
+/// A colour that marks data: not black, white or a grey.
+fn is_data_colour(c: BackendColor) -> bool {
+    let (r, g, b) = c.rgb;
+    c.alpha > 0.0 && !(r == g && g == b)
 }
 
 /// The backend: cheap (nothing is rasterised), shared with the caller through an `Rc`.
@@ -96,21 +140,32 @@ impl DrawingBackend for Recorder {
         self.check("pixel", &[point]);
         Ok(())
     }
-    fn draw_line<S: BackendStyle>(&mut self, from: BackendCoord, to: BackendCoord, _: &S) -> Result<(), DrawingErrorKind<Never>> {
+    fn draw_line<S: BackendStyle>(&mut self, from: BackendCoord, to: BackendCoord, style: &S) -> Result<(), DrawingErrorKind<Never>> {
         self.check("line", &[from, to]);
+        if is_data_colour(style.color()) {
+            self.record.borrow_mut().data.push((from, to));
+        }
         Ok(())
     }
     fn draw_rect<S: BackendStyle>(&mut self, ul: BackendCoord, br: BackendCoord, _: &S, _: bool) -> Result<(), DrawingErrorKind<Never>> {
         self.check("rectangle", &[ul, br]);
         Ok(())
     }
-    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(&mut self, path: I, _: &S) -> Result<(), DrawingErrorKind<Never>> {
-        self.check("path", &path.into_iter().collect::<Vec<_>>());
+    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(&mut self, path: I, style: &S) -> Result<(), DrawingErrorKind<Never>> {
+        let points: Vec<BackendCoord> = path.into_iter().collect();
+        self.check("path", &points);
+        if is_data_colour(style.color()) {
+            self.record.borrow_mut().data.extend(points.windows(2).map(|w| (w[0], w[1])));
+        }
         Ok(())
     }
-    fn draw_circle<S: BackendStyle>(&mut self, c: BackendCoord, r: u32, _: &S, _: bool) -> Result<(), DrawingErrorKind<Never>> {
+    fn draw_circle<S: BackendStyle>(&mut self, c: BackendCoord, r: u32, style: &S, _: bool) -> Result<(), DrawingErrorKind<Never>> {
         let r = r as i32;
         self.check("circle", &[(c.0 - r, c.1 - r), (c.0 + r, c.1 + r)]);
+        if is_data_colour(style.color()) {
+            // A marker: its horizontal and vertical diameters.
+            self.record.borrow_mut().data.extend([((c.0 - r, c.1), (c.0 + r, c.1)), ((c.0, c.1 - r), (c.0, c.1 + r))]);
+        }
         Ok(())
     }
     fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(&mut self, vert: I, _: &S) -> Result<(), DrawingErrorKind<Never>> {
@@ -189,6 +244,27 @@ mod tests {
         assert_eq!(p.len(), 2, "{p:?}");
         assert!(p[0].contains("far right") && p[0].contains("outside"), "{p:?}");
         assert!(p[1].contains("first label") && p[1].contains("second"), "{p:?}");
+    }
+
+    #[test]
+    fn text_on_a_data_line_is_found_and_grey_axes_are_not_data() {
+        crate::plot::figure::ensure_font_for_tests();
+        let r = record((200, 100), |root| {
+            let style = ("sans-serif", 14.0).into_font();
+            root.draw(&PathElement::new(vec![(0, 50), (200, 50)], BLUE)).unwrap(); // a data line
+            root.draw(&PathElement::new(vec![(0, 20), (200, 20)], BLACK)).unwrap(); // an axis
+            root.draw(&Circle::new((180, 90), 3, RED.filled())).unwrap(); // a marker
+            root.draw(&Text::new("legend on the line", (10, 44), style.clone())).unwrap(); // top-left anchored: spans y = 50
+            root.draw(&Text::new("on the axis", (10, 14), style.clone())).unwrap();
+            root.draw(&Text::new("beside", (60, 80), style)).unwrap();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(r.data.len(), 3, "one path segment and the marker's two diameters: {:?}", r.data);
+        let p = r.problems();
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert!(p[0].contains("legend on the line") && p[0].contains("lies on data"), "{p:?}");
+        assert!(crosses((0, 0, 10, 10), (-5, 5), (15, 5)) && !crosses((0, 0, 10, 10), (-5, 20), (15, 20)) && !crosses((0, 0, 10, 10), (10, -5), (10, 15)));
     }
 
     #[test]

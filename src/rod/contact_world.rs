@@ -147,7 +147,7 @@ impl ContactBody for FreeRod {
     fn advance_to(&mut self, until: f64) {
         while self.error.is_none() && self.sim.t < until - until.abs() * 1e-12 {
             if let Err(e) = self.control.advance(&mut self.sim, until) {
-                self.error = Some(e);
+                self.error = Some(e.to_string());
             }
         }
     }

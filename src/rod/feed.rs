@@ -227,7 +227,7 @@ impl Feeder {
             }
             self.node_steps += sim.rod.nodes() as u64;
             if let Err(f) = self.control.advance(sim, until) {
-                self.error = Some(f);
+                self.error = Some(f.to_string());
                 break;
             }
             if sim.steps % 256 == 0 {

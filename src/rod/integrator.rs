@@ -116,8 +116,19 @@ pub struct EnergySample {
 }
 
 /// Why a step could not be taken.
-#[derive(Clone, Debug, PartialEq)]
-pub struct StepFailure(pub String);
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StepFailure {
+    #[error("unstable step at t = {t:.6e} s: node {node} has non-finite state or speed above {speed_limit:.3e} m/s")]
+    Unstable { t: f64, node: usize, speed_limit: f64 },
+    #[error("belt penetration {depth:.3e} m exceeds penetration_tolerance {tolerance:.3e} m at t = {t:.6e} s")]
+    Penetration { depth: f64, tolerance: f64, t: f64 },
+    #[error("singular top-node matrix")]
+    SingularTopNode,
+    #[error("singular node matrix at node {node}, t = {t:.6e} s")]
+    SingularNode { node: usize, t: f64 },
+    #[error("length projection did not converge at t = {t:.6e} s, dt = {dt:.3e} s (relative residual {residual:.3e} at segment {segment}: nodes {from} / {to})")]
+    Projection { t: f64, dt: f64, residual: f64, segment: usize, from: String, to: String },
+}
 
 /// The time stepper of one replicate.
 pub struct Simulator {
@@ -226,7 +237,7 @@ impl StepControl {
 
     /// Take one accepted step of at most `until − t`, retaking failed ones with smaller
     /// steps. `Err` (the failure of the smallest step) leaves the state as before it.
-    pub fn advance(&mut self, sim: &mut Simulator, until: f64) -> Result<(), String> {
+    pub fn advance(&mut self, sim: &mut Simulator, until: f64) -> Result<(), StepFailure> {
         loop {
             let this = self.dt.min(until - sim.t);
             sim.dt = this;
@@ -243,7 +254,7 @@ impl StepControl {
                     sim.restore(&self.snapshot);
                     self.rejected += 1;
                     if this <= self.dt_min {
-                        return Err(f.0);
+                        return Err(f);
                     }
                     self.dt = (this * 0.25).max(self.dt_min);
                 }
@@ -540,16 +551,10 @@ impl Simulator {
             }
         }
         if let Some(i) = bad {
-            return Err(StepFailure(format!(
-                "unstable step at t = {t_new:.6e} s: node {i} has non-finite state or speed above {:.3e} m/s",
-                self.speed_limit
-            )));
+            return Err(StepFailure::Unstable { t: t_new, node: i, speed_limit: self.speed_limit });
         }
         if self.max_penetration > self.penetration_tolerance {
-            return Err(StepFailure(format!(
-                "belt penetration {:.3e} m exceeds penetration_tolerance {:.3e} m at t = {t_new:.6e} s",
-                self.max_penetration, self.penetration_tolerance
-            )));
+            return Err(StepFailure::Penetration { depth: self.max_penetration, tolerance: self.penetration_tolerance, t: t_new });
         }
 
         // work of the force terms at the end-of-step velocities
@@ -612,7 +617,7 @@ impl Simulator {
             if i == driven {
                 // v_z imposed: A_xy v_xy = b_xy − A_{xy,z} v_z
                 let vz = -self.driven_top.unwrap_or(0.0);
-                let wi = sym_inverse_xy(a).ok_or_else(|| StepFailure("singular top-node matrix".into()))?;
+                let wi = sym_inverse_xy(a).ok_or(StepFailure::SingularTopNode)?;
                 let (bx, by) = (b[0] - a[4] * vz, b[1] - a[5] * vz);
                 self.rod.v[i] = [wi[0] * bx + wi[3] * by, wi[3] * bx + wi[1] * by, vz];
                 if need_w {
@@ -624,7 +629,7 @@ impl Simulator {
                 // no coupling term on this node (outside the drag zone): diagonal
                 [1.0 / a[0], 1.0 / a[1], 1.0 / a[2], 0.0, 0.0, 0.0]
             } else {
-                sym_inverse(a).ok_or_else(|| StepFailure(format!("singular node matrix at node {i}, t = {t:.6e} s")))?
+                sym_inverse(a).ok_or(StepFailure::SingularNode { node: i, t })?
             };
             self.rod.v[i] = super::forces::sym_mul(&ai, &b);
             if need_w {
@@ -705,13 +710,7 @@ impl Simulator {
         if !(residual < 1e-4) {
             let wk = worst.1;
             let c = |i: usize| format!("{:?} z={:.2e}", ws.contact[i], self.rod.x[i][2]);
-            return Err(StepFailure(format!(
-                "length projection did not converge at t = {:.6e} s, dt = {:.3e} s (relative residual {residual:.3e} at segment {wk}: nodes {} / {})",
-                self.t + self.dt,
-                self.dt,
-                c(wk),
-                c(wk + 1)
-            )));
+            return Err(StepFailure::Projection { t: self.t + self.dt, dt: self.dt, residual, segment: wk, from: c(wk), to: c(wk + 1) });
         }
         Ok(())
     }

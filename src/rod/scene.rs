@@ -208,7 +208,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         min_dt = sim.dt;
         for s in 1..=steps {
             if let Err(f) = sim.step() {
-                error = Some(f.0);
+                error = Some(f.to_string());
                 break;
             }
             if s % stride == 0 || s == steps {
@@ -235,7 +235,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         let tol = end_time * 1e-12;
         while sim.t < end_time - tol {
             if let Err(f) = control.advance(sim, end_time) {
-                error = Some(f);
+                error = Some(f.to_string());
                 break;
             }
             if sim.steps % stride == 0 || sim.t >= end_time - tol {

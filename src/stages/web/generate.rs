@@ -153,7 +153,7 @@ impl Web {
     pub fn new(params: WebParams, spectra: Vec<CurvatureSpectrum>) -> Result<Self, WebError> {
         params.validate()?;
         if params.generator != Generator::RandomPhase {
-            return Err(WebError::Generator(format!("a {} web is built with Web::{}", params.generator.name(), params.generator.name())));
+            return Err(WebError::WrongConstructor(params.generator.name()));
         }
         check_compatible(&spectra)?;
         let points = spectra[0].points();
@@ -168,31 +168,27 @@ impl Web {
     /// as `params.segment_join` says (see [`super::segments`]).
     pub fn laid_segments(params: WebParams, templates: Vec<Vec<f64>>, positions: Vec<Vec<[f64; 2]>>, spacing: f64) -> Result<Self, WebError> {
         params.validate()?;
-        let bad = |m: String| Err(WebError::Generator(m));
-        let points = match templates.first() {
-            None => return bad("laid_segments needs at least one laid fibre (template)".into()),
-            Some(t) => t.len(),
-        };
+        let points = templates.first().ok_or(WebError::NoTemplates)?.len();
         if points < 2 {
-            return bad(format!("laid_segments: templates of {points} samples are too short"));
+            return Err(WebError::ShortTemplates(points));
         }
         if let Some(i) = templates.iter().position(|t| t.len() != points) {
-            return bad(format!("laid_segments: template {i} has {} samples, template 0 has {points}; all must share N", templates[i].len()));
+            return Err(WebError::TemplateLength { template: i, samples: templates[i].len(), expected: points });
         }
         if let Some(i) = templates.iter().position(|t| t.iter().any(|k| !k.is_finite())) {
-            return bad(format!("laid_segments: template {i} has a non-finite curvature sample"));
+            return Err(WebError::NonFiniteTemplate(i));
         }
         if !(spacing > 0.0 && spacing.is_finite()) {
-            return bad(format!("laid_segments: sample spacing must be positive, got {spacing}"));
+            return Err(WebError::TemplateSpacing(spacing));
         }
         let source = match params.segment_join {
             SegmentJoin::Curvature => Source::Templates(templates),
             SegmentJoin::Matched => {
                 if positions.len() != templates.len() {
-                    return bad(format!("laid_segments (matched join): nodes of {} laid fibres for {} templates", positions.len(), templates.len()));
+                    return Err(WebError::TemplateNodeSets { fibres: positions.len(), templates: templates.len() });
                 }
                 if let Some(i) = positions.iter().position(|q| q.len() != points + 1 || q.iter().flatten().any(|v| !v.is_finite())) {
-                    return bad(format!("laid_segments (matched join): laid fibre {i} has {} finite nodes, needs N + 1 = {}", positions[i].len(), points + 1));
+                    return Err(WebError::TemplateNodes { template: i, nodes: positions[i].len(), expected: points + 1 });
                 }
                 Source::Matched { walk: LaidTemplates::new(&positions, &templates, spacing), curvature: templates, positions }
             }
@@ -205,9 +201,9 @@ impl Web {
     /// across segments).
     pub fn lay_down_sde(params: WebParams, model: LayDownSde, spacing: f64, points: usize) -> Result<Self, WebError> {
         params.validate()?;
-        model.validate().map_err(WebError::Generator)?;
+        model.validate()?;
         if !(spacing > 0.0 && spacing.is_finite()) || points == 0 {
-            return Err(WebError::Generator(format!("lay_down_sde: need a positive step and segment, got Δs = {spacing}, N = {points}")));
+            return Err(WebError::SdeStep { spacing, points });
         }
         Ok(Self { params: WebParams { generator: Generator::LayDownSde, ..params }, source: Source::Sde(model), points, segment_length: spacing * points as f64 })
     }

@@ -240,8 +240,34 @@ pub enum WebError {
     Spectra(#[from] SpectraError),
     #[error("realisation {0} is beyond 2³²−1")]
     Realisation(u64),
-    #[error("{0}")]
-    Generator(String),
+    #[error("a {0} web is built with Web::{0}")]
+    WrongConstructor(&'static str),
+    #[error("laid_segments needs at least one laid fibre (template)")]
+    NoTemplates,
+    #[error("laid_segments: templates of {0} samples are too short")]
+    ShortTemplates(usize),
+    #[error("laid_segments: template {template} has {samples} samples, template 0 has {expected}; all must share N")]
+    TemplateLength { template: usize, samples: usize, expected: usize },
+    #[error("laid_segments: template {0} has a non-finite curvature sample")]
+    NonFiniteTemplate(usize),
+    #[error("laid_segments: sample spacing must be positive, got {0}")]
+    TemplateSpacing(f64),
+    #[error("laid_segments (matched join): nodes of {fibres} laid fibres for {templates} templates")]
+    TemplateNodeSets { fibres: usize, templates: usize },
+    #[error("laid_segments (matched join): laid fibre {template} has {nodes} finite nodes, needs N + 1 = {expected}")]
+    TemplateNodes { template: usize, nodes: usize, expected: usize },
+    #[error("{spectra}: the matched join needs the laid fibres' resampled nodes (`resampled_position`), which this spectra version does not hold (written by an older laydown, or idealised spectra); rerun it, or use `segment_join: curvature`")]
+    MissingTemplateNodes { spectra: String },
+    #[error(transparent)]
+    Sde(#[from] sde::SdeError),
+    #[error("generator lay_down_sde needs its two parameters (`sde_potential_length`, `sde_noise`) or an input spectra stage of laid fibres to calibrate them on")]
+    SdeUnparametrised,
+    #[error("lay_down_sde: give both `sde_potential_length` and `sde_noise`, or neither (both calibrated on the input)")]
+    SdeHalfGiven,
+    #[error("lay_down_sde: need a positive step and segment, got Δs = {spacing}, N = {points}")]
+    SdeStep { spacing: f64, points: usize },
+    #[error("lay_down_sde: the step Δs = {spacing:.3e} m exceeds the potential length b = {potential_length:.3e} m{}: the scheme cannot resolve the potential; allowed: Δs ≤ b (≤ b/{resolution} to be within 1 %): sample the input finer (the spectra stage's sample_spacing) or raise points_per_segment", if *.calibrated { " (calibrated)" } else { "" })]
+    SdeStepBeyondPotential { spacing: f64, potential_length: f64, calibrated: bool, resolution: f64 },
 }
 
 #[cfg(test)]

@@ -61,6 +61,19 @@ use super::trig::{kernel, sin_cos};
 use crate::geometry::radius_of_gyration;
 use crate::stages::spectra::integrate_curvature;
 
+/// A lay-down SDE that cannot be built or calibrated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SdeError {
+    #[error("sde_potential_length must be a positive length in m, got {0}")]
+    PotentialLength(f64),
+    #[error("sde_noise must be ≥ 0 (m^-1/2), got {0}")]
+    Noise(f64),
+    #[error("cannot calibrate the lay-down SDE on S = {radius_of_gyration} m, e = {bending_energy}: both must be positive")]
+    Target { radius_of_gyration: f64, bending_energy: f64 },
+    #[error("cannot calibrate the lay-down SDE on segments of {0} samples (need ≥ 8)")]
+    ShortSegments(usize),
+}
+
 /// The two parameters of the lay-down SDE.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LayDownSde {
@@ -145,13 +158,12 @@ impl<'a> Draws<'a> {
 
 impl LayDownSde {
     /// Checks that both parameters are positive and finite.
-    pub fn validate(&self) -> Result<(), String> {
-        let ok = |v: f64| v.is_finite() && v > 0.0;
-        if !ok(self.potential_length) {
-            return Err(format!("sde_potential_length must be a positive length in m, got {}", self.potential_length));
+    pub fn validate(&self) -> Result<(), SdeError> {
+        if !(self.potential_length.is_finite() && self.potential_length > 0.0) {
+            return Err(SdeError::PotentialLength(self.potential_length));
         }
         if !(self.noise.is_finite() && self.noise >= 0.0) {
-            return Err(format!("sde_noise must be ≥ 0 (m^-1/2), got {}", self.noise));
+            return Err(SdeError::Noise(self.noise));
         }
         Ok(())
     }
@@ -303,13 +315,13 @@ fn calibration_rng(seed: u64, segment: u64) -> ChaCha8Rng {
 
 /// Finds b and A so that segments of `points` samples at `spacing` have the target's
 /// mean S and e (see the module docs). Deterministic in `seed`.
-pub fn calibrate(target: ShapeTarget, spacing: f64, points: usize, seed: u64) -> Result<Calibration, String> {
+pub fn calibrate(target: ShapeTarget, spacing: f64, points: usize, seed: u64) -> Result<Calibration, SdeError> {
     let (s_target, e_target) = (target.radius_of_gyration, target.bending_energy);
     if !(s_target > 0.0 && s_target.is_finite() && e_target > 0.0 && e_target.is_finite()) {
-        return Err(format!("cannot calibrate the lay-down SDE on S = {s_target} m, e = {e_target}: both must be positive"));
+        return Err(SdeError::Target { radius_of_gyration: s_target, bending_energy: e_target });
     }
     if points < 8 {
-        return Err(format!("cannot calibrate the lay-down SDE on segments of {points} samples (need ≥ 8)"));
+        return Err(SdeError::ShortSegments(points));
     }
     let length = spacing * points as f64;
     // Start: the stationary spread (S² = 2b² for an infinitely long fibre) and the noise

@@ -40,7 +40,7 @@
 //! placed (32 B each), every thread's fibre buffers ([`SCRATCH_BYTES_PER_NODE`] per node
 //! of a fibre being generated) and the spectrum set (read and prepared, 48 B per bin).
 use super::sde::{calibrate, window_shape, Calibration, LayDownSde, ShapeTarget, RESOLUTION};
-use super::{Generator, SegmentJoin, SpectrumSelection, Web, WebParams, WEB_PARAMS};
+use super::{Generator, SegmentJoin, SpectrumSelection, Web, WebError, WebParams, WEB_PARAMS};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
@@ -319,7 +319,7 @@ fn physical_parameters(ctx: &RunContext, p: &ParamSet) -> Result<Physical> {
 }
 
 /// A `laid_segments` web of the input's laid fibres, and where they came from.
-fn laid_segments_web(params: WebParams, laid: LaidFibres) -> Result<(Web, String), String> {
+fn laid_segments_web(params: WebParams, laid: LaidFibres) -> Result<(Web, String), WebError> {
     let source = format!(
         "{}: {} laid fibres (belt removed) joined ({} join){}",
         laid.source,
@@ -328,15 +328,15 @@ fn laid_segments_web(params: WebParams, laid: LaidFibres) -> Result<(Web, String
         if params.mirror { ", mirrored at random" } else { "" }
     );
     if params.segment_join == SegmentJoin::Matched && laid.positions.is_empty() {
-        return Err(format!("{}: the matched join needs the laid fibres' resampled nodes (`resampled_position`), which this spectra version does not hold (written by an older laydown, or idealised spectra); rerun it, or use `segment_join: curvature`", laid.source));
+        return Err(WebError::MissingTemplateNodes { spectra: laid.source });
     }
-    let web = Web::laid_segments(params, laid.curvature, laid.positions, laid.spacing).map_err(|e| e.to_string())?;
+    let web = Web::laid_segments(params, laid.curvature, laid.positions, laid.spacing)?;
     Ok((web, source))
 }
 
 /// A `lay_down_sde` web: b and A as given, or calibrated on the laid fibres' mean shape at
 /// their Δs and length; without an input, Δs = segment_length / points_per_segment.
-fn sde_web(ctx: &RunContext, p: &ParamSet, params: WebParams, laid: Option<&LaidFibres>, target: Option<ShapeTarget>) -> Result<(Web, String, Option<Calibration>), String> {
+fn sde_web(ctx: &RunContext, p: &ParamSet, params: WebParams, laid: Option<&LaidFibres>, target: Option<ShapeTarget>) -> Result<(Web, String, Option<Calibration>), WebError> {
     let given = (p.f64_or_auto("sde_potential_length"), p.f64_or_auto("sde_noise"));
     let (spacing, points) = match laid {
         Some(l) => (l.spacing, l.curvature[0].len()),
@@ -348,19 +348,15 @@ fn sde_web(ctx: &RunContext, p: &ParamSet, params: WebParams, laid: Option<&Laid
             let fit = calibrate(target, spacing, points, ctx.seed)?;
             (fit.model, Some(fit), format!("lay_down_sde calibrated on {}: {} laid fibres", l.source, l.curvature.len()))
         }
-        ((None, None), _, _) => return Err("generator lay_down_sde needs its two parameters (`sde_potential_length`, `sde_noise`) or an input spectra stage of laid fibres to calibrate them on".into()),
-        _ => return Err("lay_down_sde: give both `sde_potential_length` and `sde_noise`, or neither (both calibrated on the input)".into()),
+        ((None, None), _, _) => return Err(WebError::SdeUnparametrised),
+        _ => return Err(WebError::SdeHalfGiven),
     };
     if spacing > model.potential_length {
         // Measured: the stationary spread is 27 % off already at Δs = b/2; beyond b the
         // scheme turns the fibre by more than a radian per step and the web is noise.
-        return Err(format!(
-            "lay_down_sde: the step Δs = {spacing:.3e} m exceeds the potential length b = {:.3e} m{}: the scheme cannot resolve the potential; allowed: Δs ≤ b (≤ b/{RESOLUTION} to be within 1 %): sample the input finer (the spectra stage's sample_spacing) or raise points_per_segment",
-            model.potential_length,
-            if calibration.is_some() { " (calibrated)" } else { "" }
-        ));
+        return Err(WebError::SdeStepBeyondPotential { spacing, potential_length: model.potential_length, calibrated: calibration.is_some(), resolution: RESOLUTION });
     }
-    let web = Web::lay_down_sde(params, model, spacing, points).map_err(|e| e.to_string())?;
+    let web = Web::lay_down_sde(params, model, spacing, points)?;
     Ok((web, source, calibration))
 }
 

@@ -550,13 +550,12 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             (Some(fp_inputs), false, crate::executor::ExecutorKind::Local) => complete.iter().rev().find_map(|v| {
                 let stored = v.attr_f64("replicates")? as usize;
                 let same = StageDecl { replicates: stored, ..decl.clone() };
-                (stored < decl.replicates && v.attr_str("fingerprint") == Some(fingerprint(&same, stage.cache_version(), seed, fp_inputs).as_str())).then_some((*v, stored))
+                let grown = stored < decl.replicates && v.attr_str("fingerprint") == Some(fingerprint(&same, stage.cache_version(), seed, fp_inputs).as_str());
+                // Stored replicates are read only once their hashes check out.
+                (grown && matches!(v.verify(), Integrity::Ok)).then_some((*v, stored))
             }),
             _ => None,
         };
-        if let Some((v, stored)) = grown_from {
-            crate::status!("{name}: computes replicates {stored}..{} only; replicates 0..{stored} are read from v{}", decl.replicates, v.number);
-        }
         let job = crate::executor::StageJob { pipeline, stage_name: &name, fingerprint: &fp, inputs: &inputs };
         let start_utc = provenance::utc_now();
         let cpu0 = provenance::cpu_seconds();
@@ -565,10 +564,11 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
             if let Some((v, stored)) = grown_from {
                 match crate::executor::incremental::run(stage, &ctx, v, stored)? {
                     Ok(out) => {
+                        crate::status!("{name}: computed replicates {stored}..{} only; replicates 0..{stored} were read from v{}", decl.replicates, v.number);
                         let note = format!("v{}: replicates 0..{stored} read from it, {stored}..{} computed", v.number, decl.replicates);
                         return Ok((out, BTreeMap::from([("incremental_from".to_string(), Attr::Str(note))])));
                     }
-                    Err(why) => crate::status!("{name}: computes all replicates after all: {why}"),
+                    Err(why) => crate::status!("{name}: computes all replicates: the stored ones of v{} cannot be reused ({why})", v.number),
                 }
             }
             crate::executor::run_stage(&executor, stage, &ctx, &job)

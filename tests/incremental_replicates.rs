@@ -58,10 +58,10 @@ fn new_replicates_alone_are_computed_and_the_version_equals_a_full_run() {
         assert_eq!(out.status.code(), Some(0), "{file}: {:?}", text(&out));
         if file == "more.yaml" {
             let (o, _) = text(&out);
-            assert!(o.contains("fibre: computes replicates 3..5 only; replicates 0..3 are read from v1"), "{o}");
-            assert!(o.contains("laid: computes replicates 1..2 only; replicates 0..1 are read from v1"), "{o}");
-            assert!(o.contains("rounds: computes all replicates after all: its units are whole points"), "{o}");
-            assert!(o.contains("grid: computes all replicates after all: v1 does not hold"), "{o}");
+            assert!(o.contains("fibre: computed replicates 3..5 only; replicates 0..3 were read from v1"), "{o}");
+            assert!(o.contains("laid: computed replicates 1..2 only; replicates 0..1 were read from v1"), "{o}");
+            assert!(o.contains("rounds: computes all replicates: the stored ones of v1 cannot be reused (its units are whole points"), "{o}");
+            assert!(o.contains("grid: computes all replicates: the stored ones of v1 cannot be reused (v1 does not hold"), "{o}");
         }
     }
     for stage in ["fibre", "rounds", "laid", "grid"] {

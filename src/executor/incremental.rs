@@ -31,16 +31,19 @@ pub fn run(stage: &dyn Stage, ctx: &RunContext, base: &VersionInfo, stored: usiz
     let reps = ctx.replicates;
     // The stored rows first: if they cannot be read back, only this unit was computed.
     let probe = stage.run_units(ctx, stored..stored + 1)?;
-    let old = match stored_rows(base, &probe, units.points, stored)? {
-        Ok(rows) => rows,
-        Err(missing) => return Ok(Err(format!("v{} does not hold {missing}", base.number))),
+    let old = match stored_rows(base, &probe, units.points, stored) {
+        Ok(Ok(rows)) => rows,
+        Ok(Err(missing)) => return Ok(Err(format!("v{} does not hold {missing}", base.number))),
+        Err(e) => return Ok(Err(format!("v{} could not be read back: {e:#}", base.number))),
     };
     // Point 0's replicate `stored` is the probe; every other new unit is computed here.
     let ranges: Vec<std::ops::Range<usize>> = (0..units.points).map(|p| p * reps + stored + usize::from(p == 0)..(p + 1) * reps).filter(|r| !r.is_empty()).collect();
     let parts: Vec<Output> = ranges.into_par_iter().map(|r| stage.run_units(ctx, r)).collect::<Result<_>>()?;
     let mut all = vec![old, probe];
     all.extend(parts);
-    Ok(Ok(stage.reduce(ctx, gather(&all, &[UNIT_DIM])?)?))
+    let rows = gather(&all, &[UNIT_DIM])?;
+    drop(all);
+    Ok(Ok(stage.reduce(ctx, rows)?))
 }
 
 /// The rows of replicates `0..replicates` of every point, read from the stored version:

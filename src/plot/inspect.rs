@@ -88,10 +88,12 @@ fn crosses(rect: (i32, i32, i32, i32), p: BackendCoord, q: BackendCoord) -> bool
     t0 < t1
 }
 
-/// A colour that marks data: not black, white or a grey.
+/// A colour that marks data: any but black (axes, ticks) and the light greys and white
+/// of grid lines and backgrounds (the palette's mid grey is a data colour). Rectangles,
+/// polygons and bitmaps (bars, colour bars, maps) are not recorded as data marks.
 fn is_data_colour(c: BackendColor) -> bool {
     let (r, g, b) = c.rgb;
-    c.alpha > 0.0 && !(r == g && g == b)
+    c.alpha > 0.0 && !(r == g && g == b && !(40..=200).contains(&r))
 }
 
 /// The backend: cheap (nothing is rasterised), shared with the caller through an `Rc`.

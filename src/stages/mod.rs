@@ -230,7 +230,7 @@ pub mod rows {
     }
     pub fn strings<'a>(rows: &'a Output, name: &str) -> Result<&'a [String]> {
         match var(rows, name)? {
-            Values::Str(a) if a.ndim() == 1 => Ok(a.as_slice().expect("a 1-D array built in order")),
+            Values::Str(a) if a.ndim() == 1 => a.as_slice().ok_or_else(|| anyhow::anyhow!("`{name}` in the per-replicate rows is not contiguous")),
             _ => bail!("`{name}` in the per-replicate rows is not 1-D text"),
         }
     }
@@ -308,13 +308,18 @@ impl Input {
             let own = !matches!(attrs.get("stage"), Some(Attr::Str(s)) if *s != self.name);
             if own && matches!(attrs.get("parameter"), Some(Attr::Str(p)) if p == name) {
                 let values = hdf::read_f64(&g, &member)?;
-                if values.ndim() == 1 && values.len() == points {
-                    return Ok(Some(values.iter().copied().collect()));
+                if values.ndim() != 1 || values.len() != points {
+                    anyhow::bail!("{}: the sweep coordinate `{member}` of `{name}` has {} values for {points} points", self.version.group_path(), values.len());
                 }
+                return Ok(Some(values.iter().copied().collect()));
             }
         }
         let params: Option<serde_yaml_ng::Value> = self.version.attr_str("params_yaml").and_then(|t| serde_yaml_ng::from_str(t).ok());
-        Ok(params.as_ref().and_then(|p| p.get(name)).and_then(|v| v.as_f64()).map(|v| vec![v; points]))
+        match params.as_ref().and_then(|p| p.get(name)) {
+            Some(serde_yaml_ng::Value::Null) => anyhow::bail!("{}: parameter `{name}` is auto, with no value recorded", self.version.group_path()),
+            Some(v) => Ok(v.as_f64().map(|v| vec![v; points])),
+            None => Ok(None),
+        }
     }
 }
 

@@ -120,7 +120,7 @@ pub enum GridError {
     ZoneRange { min: f64, max: f64 },
     #[error("cell_size Δh = {cell_size} m does not divide window_side H = {window_side} m into whole cells (H/Δh = {ratio})")]
     CellDoesNotDivideWindow { cell_size: f64, window_side: f64, ratio: f64 },
-    #[error("belt_speed_ratio c = 0: on a stationary belt the fibres pile up at their start, the web has no interior and its density grows with fibre length; use c > 0")]
+    #[error("belt_speed_ratio c = 0: on a stationary belt the fibres pile up at their start, the web has no interior and its density grows with fibre length; use c > 0 (a web left `auto` takes c from its laid fibres, 0 for spectra that keep the belt motion: see its inherited_parameters, or set belt_speed_ratio)")]
     StationaryBelt,
     #[error("window {window_md} m (MD) × {window_cd} m (CD) at centre ({centre_md}, {centre_cd}) m does not lie inside the web's nominal extent: MD 0..{web_length} m (c·n_l·L), CD ±{half_width} m (n_wΔw/2)")]
     WindowOutsideWeb { window_md: f64, window_cd: f64, centre_md: f64, centre_cd: f64, web_length: f64, half_width: f64 },

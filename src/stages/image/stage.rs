@@ -685,7 +685,7 @@ fn grid_sweep(input: &Input, npoints: usize) -> Result<GridSweep> {
     Ok(crate::archive::hdf::swept_coordinates(&g)
         .into_iter()
         .filter(|s| s.values.len() == npoints && s.values.iter().all(|v| v.is_finite()))
-        .map(|s| (s.parameter.replace('.', "_"), s.units, s.values))
+        .map(|s| (s.name, s.units, s.values))
         .collect())
 }
 
@@ -880,7 +880,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
                 .iter()
                 .map(|(s, _)| samples.iter().find(|x| x.group == s.group).map(|x| values[x.grid_point as usize]).unwrap_or(nan))
                 .collect();
-            let var = out.f64(&format!("condition_{name}"), &["condition"], Array1::from(per), if unit.is_empty() { "1" } else { unit.as_str() }, &format!("grid parameter {name} of the condition"));
+            let var = out.f64(&format!("condition_{name}"), &["condition"], Array1::from(per), if unit.is_empty() { "1" } else { unit.as_str() }, &format!("grid {name}")).describe(format!("the grid's coordinate {name} of the condition"));
             var.attrs.insert("grid_parameter".into(), Attr::Str(name.clone()));
         }
     }

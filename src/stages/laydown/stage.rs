@@ -65,9 +65,9 @@ pub struct LaydownStage;
 /// replicate of 100001 nodes peaked at 71 MB resident, estimated at 90 MB.
 pub const SIM_BYTES_PER_NODE: f64 = 640.0;
 /// Bytes per node of a finished replicate until the output is written: its positions,
-/// velocities and landing times, its row (positions, laid, belt-removed, landing) and
-/// the copy placed on (point, replicate).
-pub const KEPT_BYTES_PER_NODE: f64 = 256.0;
+/// velocities, landing times and belt-removed laid nodes, its row (positions, laid,
+/// belt-removed, landing) and the copy placed on (point, replicate).
+pub const KEPT_BYTES_PER_NODE: f64 = 280.0;
 
 /// Replicates a point may attempt: `replicates`, or `max_replicates` with a target.
 fn attempts(p: &ParamSet, replicates: usize) -> usize {
@@ -292,7 +292,7 @@ fn metric_label(name: &str) -> &'static str {
 pub fn mesh_error(fine: &[f64], half: &[f64]) -> (f64, f64) {
     let (mf, sf, nf) = mean_std(fine.iter().copied());
     let (mh, sh, nh) = mean_std(half.iter().copied());
-    if nf < 2 || nh < 2 {
+    if nf < 2 || nh < 2 || mf == 0.0 {
         return (f64::NAN, f64::NAN);
     }
     let scale = (2f64.powf(MESH_ORDER) - 1.0) * mf;
@@ -426,7 +426,9 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
         let half = per_rep(&format!("{name}_half_mesh"))?;
         let (mut error, mut error_std) = (vec![], vec![]);
         for p in 0..npoints {
-            let pick = |a: &Array2<f64>| (0..nreps).filter(|&r| used[[p, r]]).map(|r| a[[p, r]]).collect::<Vec<f64>>();
+            // Replicates with both runs valid, so the two means are over the same imperfections.
+            let paired: Vec<usize> = (0..nreps).filter(|&r| used[[p, r]] && half[[p, r]].is_finite() && fine[k][[p, r]].is_finite()).collect();
+            let pick = |a: &Array2<f64>| paired.iter().map(|&r| a[[p, r]]).collect::<Vec<f64>>();
             let (err, sd) = mesh_error(&pick(fine[k]), &pick(&half));
             error.push(err);
             error_std.push(sd);

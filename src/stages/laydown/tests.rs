@@ -481,4 +481,5 @@ fn mesh_error_is_richardson_of_first_order_with_its_standard_error() {
     assert_eq!(mesh_error(&[5.0, 5.0], &[5.0, 5.0]).0, 0.0);
     assert!(mesh_error(&[5.0], &[4.0, 4.5]).0.is_nan());
     assert!(mesh_error(&[5.0, 5.2], &[f64::NAN, 4.5]).0.is_nan(), "one valid half-mesh run is not enough");
+    assert!(mesh_error(&[0.0, 0.0], &[0.0, 0.0]).0.is_nan(), "no relative error of a zero mean");
 }

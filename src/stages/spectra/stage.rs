@@ -259,7 +259,18 @@ fn laid_web_fibres(input: &crate::stages::Input, belt_removed: bool) -> Result<P
     let count = input.read_i64("fibre_laid_nodes")?;
     let valid = input.read_u8("valid")?;
     // x with the belt motion removed, as the laid web measured its belt-removed S and e.
-    let x = if belt_removed { input.read_f64("laid_x_belt_removed")? } else { positions.index_axis(Axis(3), 0).to_owned() };
+    let x = match (belt_removed, input.has("laid_x_belt_removed")) {
+        (false, _) => positions.index_axis(Axis(3), 0).to_owned(),
+        (true, true) => input.read_f64("laid_x_belt_removed")?,
+        (true, false) => {
+            // A laid web written before it stored them: its belt removal by landing time.
+            let (landing, belt_speed, feed_time) = (input.read_f64("landing_time")?, input.read_f64("belt_speed")?, input.read_f64("feed_time")?);
+            ndarray::Array::from_shape_fn(landing.raw_dim(), |ix| {
+                let pt = ix[0];
+                positions[[pt, ix[1], ix[2], 0]] - belt_speed[[pt]] * (feed_time[[pt]] - landing[&ix])
+            })
+        }
+    };
     let (npoints, nreps, nf) = (start.shape()[0], start.shape()[1], start.shape()[2]);
     Ok((0..npoints)
         .map(|pt| {

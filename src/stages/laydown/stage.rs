@@ -55,8 +55,13 @@ const MESH: &str = "mesh_error_estimate";
 const MESH_ORDER: f64 = 1.0;
 /// Points whose estimated error of e exceeds this are counted in a warning on stderr.
 pub const MESH_ERROR_WARNING: f64 = 0.02;
-/// The measures whose discretisation error is estimated.
-const MESH_METRICS: [&str; 4] = ["radius_of_gyration", "bending_energy", "radius_of_gyration_belt_removed", "bending_energy_belt_removed"];
+/// The laid-fibre measures (whose discretisation error is estimated) and their short labels.
+const MESH_METRICS: [(&str, &str); 4] = [
+    ("radius_of_gyration", "S"),
+    ("bending_energy", "e"),
+    ("radius_of_gyration_belt_removed", "S, belt removed"),
+    ("bending_energy_belt_removed", "e, belt removed"),
+];
 
 pub struct LaydownStage;
 
@@ -277,13 +282,7 @@ fn half_mesh(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha:
 
 /// The short label of a laid-fibre measure (a `long_name`).
 fn metric_label(name: &str) -> &'static str {
-    match name {
-        "radius_of_gyration" => "S",
-        "bending_energy" => "e",
-        "radius_of_gyration_belt_removed" => "S, belt removed",
-        "bending_energy_belt_removed" => "e, belt removed",
-        _ => "measure",
-    }
+    MESH_METRICS.iter().find(|m| m.0 == name).map_or("measure", |m| m.1)
 }
 
 /// Richardson estimate of the relative discretisation error of a mean over replicates,
@@ -410,7 +409,7 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
     if mesh_error_estimate {
         let half = |f: &dyn Fn(&HalfMesh) -> f64| Array1::from_iter(replicates.iter().map(|r| r.2.half.as_ref().map_or(f64::NAN, f)));
-        for (k, name) in MESH_METRICS.iter().enumerate() {
+        for (k, (name, _)) in MESH_METRICS.iter().enumerate() {
             out.f64(&format!("{name}_half_mesh"), &[unit], half(&|h| h.measures[k]), "", "");
         }
         out.f64("wall_seconds_half_mesh", &[unit], half(&|h| h.wall_seconds), "s", "");
@@ -422,7 +421,7 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
 /// mean measure over the used replicates, beside the half-mesh values and their cost.
 fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>>, used: &Array2<bool>, fine: [&Array2<f64>; 4], stage_name: &str) -> Result<()> {
     let (npoints, nreps) = used.dim();
-    for (k, name) in MESH_METRICS.iter().enumerate() {
+    for (k, &(name, label)) in MESH_METRICS.iter().enumerate() {
         let half = per_rep(&format!("{name}_half_mesh"))?;
         let (mut error, mut error_std) = (vec![], vec![]);
         for p in 0..npoints {
@@ -433,7 +432,7 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
             error.push(err);
             error_std.push(sd);
         }
-        if *name == "bending_energy" {
+        if name == "bending_energy" {
             let off: Vec<usize> = (0..npoints).filter(|&p| error[p].abs() > MESH_ERROR_WARNING).collect();
             if let Some(&worst) = off.iter().max_by(|&&a, &&b| error[a].abs().total_cmp(&error[b].abs())) {
                 eprintln!(
@@ -445,7 +444,7 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
                 );
             }
         }
-        let (unit, label) = (if name.starts_with("radius") { "m" } else { "1" }, metric_label(name));
+        let unit = if name.starts_with("radius") { "m" } else { "1" };
         out.f64(&format!("{name}_half_mesh"), &["point", "replicate"], half, unit, &format!("{label} at half the elements"));
         out.f64(&format!("{name}_mesh_error"), &["point"], Array1::from(error), "1", &format!("mesh error of mean {label}")).describe(format!(
             "estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run"

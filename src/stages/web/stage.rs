@@ -211,7 +211,9 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     let bad = |e: &dyn std::fmt::Display| BadInput(format!("point {index}: {e}"));
     let selection = SpectrumSelection::from_name(p.text("spectrum_selection")).map_err(|e| bad(&e))?;
     let generator = Generator::from_name(p.text("generator")).map_err(|e| bad(&e))?;
-    let physical = physical_parameters(ctx, p)?;
+    // The point of the input spectra stage this web reads (read once, used below).
+    let input_point = if ctx.inputs.is_empty() { None } else { Some(input_point(ctx, p)?) };
+    let physical = physical_parameters(ctx, p, input_point)?;
     if let Some(note) = &physical.inherited {
         crate::info!("{}: point {index}: {note}", ctx.stage_name);
     }
@@ -232,7 +234,7 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     if generator != Generator::RandomPhase && p.text("preset") != "none" {
         return Err(BadInput(format!("`preset` gives a spectrum for generator random_phase; generator {} does not use one", generator.name())).into());
     }
-    let laid = if ctx.inputs.is_empty() { None } else { Some(laid_fibres(ctx, p)?) };
+    let laid = input_point.map(|point| laid_fibres(ctx, point)).transpose()?;
     let input_shape = laid.as_ref().and_then(|l| l.shape());
     let example = laid.as_ref().map(|l| match l.positions.first() {
         Some(nodes) => nodes.clone(),
@@ -240,7 +242,7 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     });
     let (web, spectra, source, calibration) = match generator {
         Generator::RandomPhase => {
-            let (spectra, source) = spectra_for(ctx, p, selection)?;
+            let (spectra, source) = spectra_for(ctx, p, selection, input_point)?;
             let web = Web::new(params, spectra.clone()).map_err(|e| bad(&e))?;
             (web, spectra, source, None)
         }
@@ -267,7 +269,6 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     };
     let generated_shape = generated_shape(&web);
     let example_input_fibre = example.map(|nodes| crate::geometry::centred(&nodes));
-    let input_point = if ctx.inputs.is_empty() { None } else { Some(input_point(ctx, p)?) };
     Ok(PointWeb { web, spectra, source, sample, input_shape, generated_shape, calibration, example_input_fibre, inherited: physical.inherited, input_point })
 }
 
@@ -292,9 +293,9 @@ struct Physical {
     inherited: Option<String>,
 }
 
-fn physical_parameters(ctx: &RunContext, p: &ParamSet) -> Result<Physical> {
-    let laid = match ctx.inputs.first() {
-        Some(input) if input.has("fibre_diameter") => Some((input, input_point(ctx, p)?)),
+fn physical_parameters(ctx: &RunContext, p: &ParamSet, input_point: Option<usize>) -> Result<Physical> {
+    let laid = match (ctx.inputs.first(), input_point) {
+        (Some(input), Some(point)) if input.has("fibre_diameter") => Some((input, point)),
         _ => None,
     };
     let (mut values, mut taken) = ([0.0; 3], vec![]);
@@ -434,9 +435,8 @@ fn input_point(ctx: &RunContext, p: &ParamSet) -> Result<usize> {
 
 /// The valid fibres' curvature rows (`curvature`, N samples at `sample_spacing`) of the
 /// input spectra stage's point: the laid fibres, belt removed, as the spectra stage sampled them.
-fn laid_fibres(ctx: &RunContext, p: &ParamSet) -> Result<LaidFibres> {
+fn laid_fibres(ctx: &RunContext, point: usize) -> Result<LaidFibres> {
     let input = ctx.input(0);
-    let point = input_point(ctx, p)?;
     let kappa = input.read_f64("curvature")?; // (point, fibre, sample)
     let valid = input.read_u8("valid")?;
     let spacing = input.read_f64("sample_spacing")?[[point]];
@@ -459,7 +459,7 @@ fn laid_fibres(ctx: &RunContext, p: &ParamSet) -> Result<LaidFibres> {
     Ok(LaidFibres { curvature, positions, spacing, source: format!("{} point {point}", input.version.group_path()) })
 }
 
-fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> Result<(Vec<CurvatureSpectrum>, String)> {
+fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection, input_point: Option<usize>) -> Result<(Vec<CurvatureSpectrum>, String)> {
     let preset = p.text("preset");
     if ctx.inputs.is_empty() {
         if preset == "none" {
@@ -472,10 +472,8 @@ fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection) -> 
     if preset != "none" {
         return Err(BadInput(format!("give either an input spectra stage or `preset`, not both (preset: {preset})")).into());
     }
-    let input = ctx.input(0);
-    let lengths = input.read_f64("segment_length")?;
-    let point = input_point(ctx, p)?;
-    let length = lengths[[point]];
+    let (input, point) = (ctx.input(0), input_point.expect("an input has its point"));
+    let length = input.read_f64("segment_length")?[[point]];
     let row = |re: &ndarray::ArrayViewD<f64>, im: &ndarray::ArrayViewD<f64>| -> Vec<Complex64> {
         re.iter().zip(im.iter()).take_while(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| Complex64::new(*a, *b)).collect()
     };

@@ -236,7 +236,7 @@ pub fn main_with(cli: Cli) -> i32 {
                 p.archive = crate::archive::absolute(&a);
             }
             if let Some(e) = executor {
-                p.executor.kind = crate::executor::ExecutorKind::parse(&e).expect("checked by clap");
+                p.executor.kind = crate::executor::ExecutorKind::from_name(&e).expect("checked by clap");
             }
             if partition.is_some() {
                 p.executor.partition = partition;

@@ -69,7 +69,6 @@ pub mod geometry;
 /// What `ls` and `stages` print, as text or JSON.
 pub mod listing;
 pub mod memory;
-pub mod param_table;
 pub mod params;
 pub mod pipeline;
 pub mod plot;

@@ -179,7 +179,7 @@ fn param_json(p: &ParamSpec) -> Value {
         "name": p.name,
         "unit": p.unit,
         "type": kind,
-        "default": value_json(&p.default),
+        "default": value_json(&p.default.value()),
         "auto": p.auto,
         "allowed": p.allowed(),
         "schema": crate::schema::value_schema(p),

@@ -31,10 +31,12 @@ fn the_hash_follows_the_code_and_ignores_tests() {
     std::fs::write(root.join("src/stages/x/mod.rs"), "fn a() {}\n").unwrap();
     std::fs::write(root.join("src/stages/x/sub/deep.rs"), "fn b() {}\n").unwrap();
     std::fs::write(root.join("src/stages/x/tests.rs"), "#[test] fn t() {}\n").unwrap();
+    std::fs::write(root.join("src/stages/x/energy_tests.rs"), "#[test] fn e() {}\n").unwrap();
     std::fs::write(root.join("src/other.rs"), "fn c() {}\n").unwrap();
     let h = || code_hash(root, &["src/stages/x"]);
     let before = h();
     std::fs::write(root.join("src/stages/x/tests.rs"), "#[test] fn t2() {}\n").unwrap();
+    std::fs::write(root.join("src/stages/x/energy_tests.rs"), "#[test] fn e2() {}\n").unwrap();
     std::fs::write(root.join("src/other.rs"), "fn c2() {}\n").unwrap();
     assert_eq!(h(), before, "tests and code outside the stage do not count");
     std::fs::write(root.join("src/stages/x/sub/deep.rs"), "fn b() { 1; }\n").unwrap();

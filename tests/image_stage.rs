@@ -194,9 +194,9 @@ fn degenerate_inputs_give_typed_errors_or_documented_results() {
     let bad = ImageParams { notch_sigma_bins: 0.0, ..Default::default() };
     let e = analyze(&nan, PX, &bad).unwrap_err();
     assert!(e.to_string().contains("notch_sigma_bins") && e.to_string().contains("0.5 to 10"), "{e}");
-    let both = ImageParams { pixel_size_mm: Some(0.3), dpi: Some(75.0), ..Default::default() };
+    let both = ImageParams { pixel_size: Some(0.3e-3), dpi: Some(75.0), ..Default::default() };
     assert!(matches!(both.validate(), Err(ImageError::InvalidParam { name: "dpi", .. })));
-    assert!((ImageParams { dpi: Some(254.0), ..Default::default() }.pixel_size_m() - 1e-4).abs() < 1e-15);
+    assert!((ImageParams { dpi: Some(254.0), ..Default::default() }.pixel_size_or_default() - 1e-4).abs() < 1e-15);
 }
 
 #[test]
@@ -224,7 +224,7 @@ fn files_in_groups_with_errors_naming_the_file() {
         InputSpec { pattern: format!("{}/a*", d.display()), group: "0.020".into() },
         InputSpec { pattern: format!("{}/b*", d.display()), group: "0.070".into() },
     ];
-    let params = ImageParams { pixel_size_mm: Some(0.34), ..Default::default() };
+    let params = ImageParams { pixel_size: Some(0.34e-3), ..Default::default() };
     let mut seen = 0;
     let batch = analyze_files(&specs, &params, |_, _, a| {
         seen += 1;

@@ -164,9 +164,9 @@ impl Checker {
     fn executor(&mut self, node: &Node) -> Option<ExecutorConfig> {
         let kind = |c: &mut Self, n: &Node, key: &str| -> Option<ExecutorKind> {
             let s = c.string(n, key)?;
-            match ExecutorKind::parse(&s) {
-                Some(k) => Some(k),
-                None => {
+            match ExecutorKind::from_name(&s) {
+                Ok(k) => Some(k),
+                Err(_) => {
                     let hint = suggest(&s, ExecutorKind::NAMES.iter().copied()).map(|s| format!("; did you mean `{s}`?")).unwrap_or_default();
                     c.err(n.pos, key, format!("unknown executor `{s}`; allowed: {}{hint}", ExecutorKind::NAMES.join(", ")));
                     None

@@ -3,31 +3,16 @@
 //! rest of the pipeline ([`super::parse`]); the executors themselves are in
 //! [`crate::executor`].
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum ExecutorKind {
-    /// All units in this process, on all cores.
-    #[default]
-    Local,
-    /// One Slurm job array per stage.
-    Slurm,
+crate::params::choice_enum! {
+    pub enum ExecutorKind {
+        /// All units in this process, on all cores.
+        #[default]
+        Local = "local",
+        /// One Slurm job array per stage.
+        Slurm = "slurm",
+    }
 }
 
-impl ExecutorKind {
-    pub const NAMES: [&'static str; 2] = ["local", "slurm"];
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "local" => Some(ExecutorKind::Local),
-            "slurm" => Some(ExecutorKind::Slurm),
-            _ => None,
-        }
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            ExecutorKind::Local => "local",
-            ExecutorKind::Slurm => "slurm",
-        }
-    }
-}
 
 /// The `executor:` block of a pipeline file, overridden by `laydown run --executor ...`.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -45,8 +45,8 @@ fn grid_own_sweep(decl: &StageDecl, stage: &Declared) -> Result<(), InvalidParam
 /// fibres; lay_down_sde needs its two parameters or an input to calibrate them on.
 fn web_source(stage: &Declared) -> Result<(), InvalidParam> {
     for p in &stage.points {
-        let preset = p.text("preset");
-        let generator = p.text("generator");
+        let p = crate::stages::web::WebStageParams::of(p);
+        let (preset, generator) = (p.preset.as_str(), p.generator.name());
         let input = stage.inputs.first();
         if generator != "random_phase" && preset != "none" {
             return Err(InvalidParam::new("preset".into(), format!("a preset spectrum is for generator random_phase; generator {generator} does not use one; allowed: none")));
@@ -62,7 +62,7 @@ fn web_source(stage: &Declared) -> Result<(), InvalidParam> {
                 return Err(InvalidParam::new("generator".into(), "generator laid_segments joins laid fibres; allowed: with `input: <spectra stage>` computed from a laydown or laid_web stage".into()));
             }
             ("lay_down_sde", input) => {
-                let given = (p.f64_or_auto("sde_potential_length").is_some(), p.f64_or_auto("sde_noise").is_some());
+                let given = (p.sde_potential_length.is_some(), p.sde_noise.is_some());
                 match (given, input) {
                     ((true, false), _) => return Err(InvalidParam::new("sde_noise".into(), "lay_down_sde: sde_potential_length is given, sde_noise is not; allowed: both, or neither to calibrate them on the input".into())),
                     ((false, true), _) => return Err(InvalidParam::new("sde_potential_length".into(), "lay_down_sde: sde_noise is given, sde_potential_length is not; allowed: both, or neither to calibrate them on the input".into())),
@@ -85,14 +85,15 @@ fn image_source(stage: &Declared) -> Result<(), InvalidParam> {
         return Err(InvalidParam::new("replicates".into(), format!("an image stage is deterministic; allowed: 1, not {}", stage.replicates)));
     }
     for p in &stage.points {
-        let (files, synthetic) = (!p.text_list("files").is_empty(), p.text("synthetic.kind") != "none");
+        let p = crate::stages::image::stage::ImageStageParams::of(p);
+        let (files, synthetic) = (!p.files.is_empty(), p.synthetic.kind != crate::stages::image::stage::SyntheticKind::None);
         match stage.inputs.first() {
             Some(input) => {
                 if files {
                     return Err(InvalidParam::new("files".into(), format!("give `files` or a grid `input`, not both (input `{}`)", input.name)));
                 }
-                for size in ["pixel_size", "dpi"] {
-                    if p.f64_or_auto(size).is_some() {
+                for (size, given) in [("pixel_size", p.analysis.pixel_size), ("dpi", p.analysis.dpi)] {
+                    if given.is_some() {
                         return Err(InvalidParam::new(size.into(), format!("with a grid input the pixel size is the grid's cell_size (input `{}`); allowed: no {size}", input.name)));
                     }
                 }

@@ -54,32 +54,21 @@
 //! axis (one jet per spinneret hole for `impinging`; for `impinging_slot` the field does
 //! not depend on y, so that is the same as one slot for the row).
 
-use serde::{Deserialize, Serialize};
 
-/// Which air velocity field the drag sees (parameter `air_field`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum AirField {
-    /// (0, 0, −V_air) everywhere: the belt passes all the air (the paper's scene).
-    #[default]
-    Uniform,
-    /// Round jet about the feed axis turned sideways near the belt (axisymmetric
-    /// stagnation-point flow).
-    Impinging,
-    /// Slot jet (uniform along y) turned along ±x near the belt (planar stagnation-point flow).
-    ImpingingSlot,
-}
-
-impl AirField {
-    pub const NAMES: [&'static str; 3] = ["uniform", "impinging", "impinging_slot"];
-    pub fn name(self) -> &'static str {
-        match self {
-            AirField::Uniform => "uniform",
-            AirField::Impinging => "impinging",
-            AirField::ImpingingSlot => "impinging_slot",
-        }
+crate::params::choice_enum! {
+    /// Which air velocity field the drag sees (parameter `air_field`).
+    pub enum AirField {
+        /// (0, 0, −V_air) everywhere: the belt passes all the air (the paper's scene).
+        #[default]
+        Uniform = "uniform",
+        /// Round jet about the feed axis turned sideways near the belt (axisymmetric
+        /// stagnation-point flow).
+        Impinging = "impinging",
+        /// Slot jet (uniform along y) turned along ±x near the belt (planar stagnation-point flow).
+        ImpingingSlot = "impinging_slot",
     }
 }
+
 
 /// Shape of the impinging jet.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,7 +1,6 @@
 //! Result of one replicate and the shape measures of the laid fibre.
 
 use super::integrator::{EnergySample, TimeStepLimits};
-use serde::{Deserialize, Serialize};
 use crate::geometry::{bending_energy, radius_of_gyration};
 
 /// A column of the stored energy diagnostics: its name and its value in a record.
@@ -137,31 +136,22 @@ impl LaydownResult {
     }
 }
 
-/// How the belt motion is taken off laid nodes (the paper's dashed lines, Figs 5-6).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum BeltRemoval {
-    /// x − v_b (t_end − t_land): the belt travel since each node *landed*. Neighbours do
-    /// not land in arc-length order to within Δs/v_b, so this adds a node-scale jitter
-    /// v_b δt_land along x that the curvature sees: e grows with refinement.
-    #[default]
-    Landing,
-    /// x + (v_b/v_f)·s, s the node's material coordinate: the belt travel since each node
-    /// was *fed* (eq 14's drift taken off), smooth in s, so e converges with the mesh;
-    /// shifted as a whole onto the landing definition's centroid (S and e do not see the
-    /// shift), so the nodes stay about the feed axis.
-    Feed,
-}
-
-impl BeltRemoval {
-    pub const NAMES: [&'static str; 2] = ["landing", "feed"];
-    pub fn name(self) -> &'static str {
-        match self {
-            BeltRemoval::Landing => "landing",
-            BeltRemoval::Feed => "feed",
-        }
+crate::params::choice_enum! {
+    /// How the belt motion is taken off laid nodes (the paper's dashed lines, Figs 5-6).
+    pub enum BeltRemoval {
+        /// x − v_b (t_end − t_land): the belt travel since each node *landed*. Neighbours do
+        /// not land in arc-length order to within Δs/v_b, so this adds a node-scale jitter
+        /// v_b δt_land along x that the curvature sees: e grows with refinement.
+        #[default]
+        Landing = "landing",
+        /// x + (v_b/v_f)·s, s the node's material coordinate: the belt travel since each node
+        /// was *fed* (eq 14's drift taken off), smooth in s, so e converges with the mesh;
+        /// shifted as a whole onto the landing definition's centroid (S and e do not see the
+        /// shift), so the nodes stay about the feed axis.
+        Feed = "feed",
     }
 }
+
 
 /// The belt motion under one laid fibre, for [`laid_polyline`].
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -11,72 +11,43 @@ use std::f64::consts::PI;
 
 pub use super::air::AirField;
 
-/// Time integration scheme of the rod.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Integrator {
-    /// Reference: extensible rod (axial springs EA plus bending EI), symplectic
-    /// (semi-implicit) Euler. Step limited by the axial wave, Δs/√(E/ρ) (0.69 µs at 1 mm).
-    Explicit,
-    /// Fast: the axial springs EA are integrated implicitly (backward Euler) by a
-    /// compliant projection of the segment lengths (XPBD form, one tridiagonal solve
-    /// per Newton iteration, O(N)); bending and the rest as in `Explicit`. Step limited
-    /// by bending, Δs²/2·√(ρA/EI) (28 µs at 1 mm, d = 50 µm).
-    ImplicitAxial,
-    /// As `ImplicitAxial` with the trapezoidal rule (θ = ½) on the axial springs: the
-    /// axial waves are not damped numerically (their frequencies are distorted). Closest
-    /// to the explicit reference at the same cost: the default.
-    #[default]
-    TrapezoidalAxial,
-    /// As `ImplicitAxial` with zero compliance: exactly inextensible rod. Fails (clearly)
-    /// when a straight column is pushed against the belt, which cannot shorten without
-    /// axial compliance; kept for scenes without impact.
-    Inextensible,
-}
-
-impl Integrator {
-    pub const NAMES: [&'static str; 4] = ["explicit", "implicit_axial", "trapezoidal_axial", "inextensible"];
-    pub fn name(self) -> &'static str {
-        match self {
-            Integrator::Explicit => "explicit",
-            Integrator::ImplicitAxial => "implicit_axial",
-            Integrator::TrapezoidalAxial => "trapezoidal_axial",
-            Integrator::Inextensible => "inextensible",
-        }
-    }
-    pub fn from_name(s: &str) -> Option<Self> {
-        match s {
-            "explicit" => Some(Integrator::Explicit),
-            "implicit_axial" => Some(Integrator::ImplicitAxial),
-            "trapezoidal_axial" => Some(Integrator::TrapezoidalAxial),
-            "inextensible" => Some(Integrator::Inextensible),
-            _ => None,
-        }
+crate::params::choice_enum! {
+    /// Time integration scheme of the rod.
+    pub enum Integrator {
+        /// Reference: extensible rod (axial springs EA plus bending EI), symplectic
+        /// (semi-implicit) Euler. Step limited by the axial wave, Δs/√(E/ρ) (0.69 µs at 1 mm).
+        Explicit = "explicit",
+        /// Fast: the axial springs EA are integrated implicitly (backward Euler) by a
+        /// compliant projection of the segment lengths (XPBD form, one tridiagonal solve
+        /// per Newton iteration, O(N)); bending and the rest as in `Explicit`. Step limited
+        /// by bending, Δs²/2·√(ρA/EI) (28 µs at 1 mm, d = 50 µm).
+        ImplicitAxial = "implicit_axial",
+        /// As `ImplicitAxial` with the trapezoidal rule (θ = ½) on the axial springs: the
+        /// axial waves are not damped numerically (their frequencies are distorted). Closest
+        /// to the explicit reference at the same cost: the default.
+        #[default]
+        TrapezoidalAxial = "trapezoidal_axial",
+        /// As `ImplicitAxial` with zero compliance: exactly inextensible rod. Fails (clearly)
+        /// when a straight column is pushed against the belt, which cannot shorten without
+        /// axial compliance; kept for scenes without impact.
+        Inextensible = "inextensible",
     }
 }
 
-/// Which rise of a landed node above the belt decides that a replicate bounced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum BounceCheck {
-    /// The paper's test: a landed node still out of plane (above `bounce_tolerance`) in
-    /// the final profile, the one S and e are measured on.
-    #[default]
-    Final,
-    /// Stricter: the highest rise of any landed node at any time after its landing,
-    /// including rises that settle back before the end.
-    Transient,
-}
 
-impl BounceCheck {
-    pub const NAMES: [&'static str; 2] = ["final", "transient"];
-    pub fn name(self) -> &'static str {
-        match self {
-            BounceCheck::Final => "final",
-            BounceCheck::Transient => "transient",
-        }
+crate::params::choice_enum! {
+    /// Which rise of a landed node above the belt decides that a replicate bounced.
+    pub enum BounceCheck {
+        /// The paper's test: a landed node still out of plane (above `bounce_tolerance`) in
+        /// the final profile, the one S and e are measured on.
+        #[default]
+        Final = "final",
+        /// Stricter: the highest rise of any landed node at any time after its landing,
+        /// including rises that settle back before the end.
+        Transient = "transient",
     }
 }
+
 
 /// Opt-in physical effects. A disabled effect is not built at all (no cost).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -246,20 +217,20 @@ impl Default for LaydownParams {
     }
 }
 
-pub use crate::param_table::ParamSpec;
+pub use crate::params::ParamSpec;
 
 const fn real(name: &'static str, unit: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec::real(name, unit, default, min, max, doc)
+    ParamSpec::float(name, unit, default, min, max, doc)
 }
-const fn int(name: &'static str, default: u64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec::integer(name, default, min, max, doc)
+const fn int(name: &'static str, default: i64, min: i64, max: i64, doc: &'static str) -> ParamSpec {
+    ParamSpec::int(name, "1", default, min, max, doc)
 }
 
 /// Every numeric parameter with unit, default (Table 1 baseline), inclusive range and doc.
 /// The effect flags are in [`Effects::FLAGS`], the integrator names in [`Integrator::NAMES`].
 pub const PARAMETERS: &[ParamSpec] = &[
     real("length", "m", 1.0, 1e-3, 100.0, "fibre length L"),
-    int("elements", 1000, 2.0, 1e6, "rod segments N (N+1 nodes), raised if coil_resolution asks for more"),
+    int("elements", 1000, 2, 1_000_000, "rod segments N (N+1 nodes), raised if coil_resolution asks for more"),
     real("fibre_speed", "m/s", 5.0, 1e-3, 200.0, "feed speed v_f of the fibre, downward (Table 1: 5)"),
     real("belt_speed", "m/s", 0.2, 0.0, 200.0, "belt speed along +x, machine direction (Table 1: 0.2)"),
     real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1)"),
@@ -282,7 +253,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("imperfection_std", "m", 1e-6, 0.0, 1e-2, "std of the initial x/y node imperfections"),
     real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
     real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step"),
-    int("diagnostic_stride", 1000, 1.0, 1e9, "record energy diagnostics every this many steps"),
+    int("diagnostic_stride", 1000, 1, 1_000_000_000, "record energy diagnostics every this many steps"),
     real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
     real("coil_resolution", "1", 2.0, 0.0, 100.0, "minimum elements per inertial coil scale sqrt(EI/(rho A v_f^2)); 0 = off"),
@@ -292,10 +263,8 @@ pub const PARAMETERS: &[ParamSpec] = &[
 /// A parameter outside its allowed range, or an inconsistent combination.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
-    #[error("parameter `{name}` = {value} is outside its allowed range [{min}, {max}] {unit}")]
-    OutOfRange { name: &'static str, value: f64, min: f64, max: f64, unit: &'static str },
-    #[error("parameter `{name}` = {value} is not finite")]
-    NotFinite { name: &'static str, value: f64 },
+    #[error(transparent)]
+    Range(#[from] crate::params::ParamError),
     #[error("unknown parameter `{0}`")]
     Unknown(String),
     #[error("{0}")]
@@ -388,34 +357,6 @@ impl LaydownParams {
         Ok(())
     }
 
-    /// From resolved pipeline parameters: the names of [`PARAMETERS`], `integrator`,
-    /// `bounce_check`, `belt_removal` and the `effects.X` flags; the names in `skip` (a stage's own
-    /// parameters) are ignored, any other name is an error.
-    pub fn from_param_set(p: &crate::params::ParamSet, skip: &[&str]) -> Result<Self, String> {
-        use crate::params::ParamValue;
-        let mut root = serde_json::Map::new();
-        let mut effects = serde_json::Map::new();
-        for (name, value) in &p.0 {
-            if skip.contains(&name.as_str()) {
-                continue;
-            }
-            let v = match value {
-                ParamValue::Float(f) => serde_json::json!(f),
-                ParamValue::Int(i) => serde_json::json!(i),
-                ParamValue::Bool(b) => serde_json::json!(b),
-                ParamValue::Text(s) => serde_json::json!(s),
-                ParamValue::List(v) => serde_json::json!(v),
-                ParamValue::Auto => serde_json::Value::Null,
-            };
-            match name.strip_prefix("effects.") {
-                Some(flag) => effects.insert(flag.to_string(), v),
-                None => root.insert(name.clone(), v),
-            };
-        }
-        root.insert("effects".into(), serde_json::Value::Object(effects));
-        serde_json::from_value(serde_json::Value::Object(root)).map_err(|e| e.to_string())
-    }
-
     /// Table 1 parameters with every effect off except those named (the `effects.X`
     /// flag names); an unknown name panics. For tests that isolate one piece of physics.
     #[cfg(test)]
@@ -500,16 +441,7 @@ impl LaydownParams {
 }
 
 fn check(spec: &ParamSpec, value: f64) -> Result<(), ParamError> {
-    if !value.is_finite() {
-        return Err(ParamError::NotFinite { name: spec.name, value });
-    }
-    if value < spec.min || value > spec.max {
-        return Err(ParamError::OutOfRange { name: spec.name, value, min: spec.min, max: spec.max, unit: spec.unit });
-    }
-    if spec.is_integer() && value.fract() != 0.0 {
-        return Err(ParamError::Inconsistent(format!("parameter `{}` = {} must be an integer", spec.name, value)));
-    }
-    Ok(())
+    Ok(spec.check_number(value)?)
 }
 
 #[cfg(test)]
@@ -520,9 +452,9 @@ mod tests {
     fn table_matches_default_and_validates() {
         let p = LaydownParams::default();
         for spec in PARAMETERS {
-            let default = spec.default_number().unwrap();
+            let default = spec.default.number().unwrap();
             assert_eq!(p.get(spec.name), Some(default), "{}", spec.name);
-            assert!(spec.min <= default && default <= spec.max, "{}", spec.name);
+            spec.check_number(default).unwrap();
             let mut q = p.clone();
             q.set(spec.name, default).unwrap();
             assert_eq!(q, p);
@@ -537,7 +469,7 @@ mod tests {
         let mut p = LaydownParams::default();
         p.diameter = -1.0;
         let err = p.validate().unwrap_err().to_string();
-        assert!(err.contains("diameter") && err.contains("allowed range"), "{err}");
+        assert!(err.contains("diameter") && err.contains("allowed: a number from"), "{err}");
         let mut p = LaydownParams::default();
         p.laydown_height = 2.0;
         assert!(p.validate().unwrap_err().to_string().contains("laydown_height"));
@@ -551,30 +483,30 @@ mod tests {
 /// The parameter table as Markdown (name | unit | default | range | doc), effect flags and
 /// integrators included, for `--help` output and documentation.
 pub fn parameter_table_markdown() -> String {
-    let mut s = String::from("| name | unit | default | min | max | description |\n|---|---|---|---|---|---|\n");
+    let mut s = String::from("| name | unit | default | allowed | description |\n|---|---|---|---|---|\n");
     for p in PARAMETERS {
-        s += &format!("| {} | {} | {} | {} | {} | {} |\n", p.name, p.unit, p.default_number().unwrap_or(f64::NAN), p.min, p.max, p.doc);
+        s += &format!("| {} | {} | {} | {} | {} |\n", p.name, p.unit, p.default, p.allowed(), p.doc);
     }
     for (name, doc) in Effects::FLAGS {
-        s += &format!("| effects.{name} | bool | true | | | {doc} |\n");
+        s += &format!("| effects.{name} | bool | true | | {doc} |\n");
     }
     s += &format!(
-        "| bounce_check | | {} | | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
+        "| bounce_check | | {} | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
         BounceCheck::default().name(),
         BounceCheck::NAMES.join(", ")
     );
     s += &format!(
-        "| belt_removal | | {} | | | one of {}: belt travel taken off since each node landed (the paper's reading) or since it was fed (x + (v_b/v_f) s; converges with the mesh) |\n",
+        "| belt_removal | | {} | | one of {}: belt travel taken off since each node landed (the paper's reading) or since it was fed (x + (v_b/v_f) s; converges with the mesh) |\n",
         super::metrics::BeltRemoval::default().name(),
         super::metrics::BeltRemoval::NAMES.join(", ")
     );
     s += &format!(
-        "| air_field | | {} | | | one of {}: air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height |\n",
+        "| air_field | | {} | | one of {}: air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height |\n",
         AirField::default().name(),
         AirField::NAMES.join(", ")
     );
     s += &format!(
-        "| integrator | | {} | | | one of {} |\n",
+        "| integrator | | {} | | one of {} |\n",
         Integrator::default().name(),
         Integrator::NAMES.join(", ")
     );

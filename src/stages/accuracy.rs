@@ -176,6 +176,31 @@ fn sig(v: f64) -> String {
     format!("{v:.digits$}")
 }
 
+/// The accuracy stage's rows.
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec::text_list(
+        "metrics",
+        "per-point quantities to compare (`<name>_mean` in every input); empty: laydown radius_of_gyration, bending_energy; grid mean_areal_density, cv; image cv_corr, cv_corr_plain",
+    ),
+    ParamSpec::text_list(
+        "reference_metrics",
+        "what each metric is compared with in the reference (`<name>_mean`; same length as metrics), e.g. an image stage's cv_web, the known truth of its rendered webs; empty: the metrics themselves",
+    ),
+];
+
+/// The accuracy stage's parameters ([`ParamSet::to_typed`] of [`PARAMS`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct AccuracyParams {
+    metrics: Vec<String>,
+    reference_metrics: Vec<String>,
+}
+
+impl AccuracyParams {
+    fn of(p: &ParamSet) -> Self {
+        p.to_typed().expect("the accuracy table and AccuracyParams agree (tested)")
+    }
+}
+
 impl Stage for AccuracyStage {
     fn kind(&self) -> &'static str {
         "accuracy"
@@ -187,22 +212,13 @@ impl Stage for AccuracyStage {
         1
     }
     fn params(&self) -> Vec<ParamSpec> {
-        vec![
-            ParamSpec::text_list(
-                "metrics",
-                "per-point quantities to compare (`<name>_mean` in every input); empty: laydown radius_of_gyration, bending_energy; grid mean_areal_density, cv; image cv_corr, cv_corr_plain",
-            ),
-            ParamSpec::text_list(
-                "reference_metrics",
-                "what each metric is compared with in the reference (`<name>_mean`; same length as metrics), e.g. an image stage's cv_web, the known truth of its rendered webs; empty: the metrics themselves",
-            ),
-        ]
+        PARAMS.to_vec()
     }
     fn inputs(&self) -> InputRule {
         InputRule { kinds: &["laydown", "laid_web", "grid", "spectra", "web", "image"], min: 2, max: 64 }
     }
     fn check(&self, p: &ParamSet) -> std::result::Result<(), InvalidParam> {
-        let (m, r) = (p.text_list("metrics"), p.text_list("reference_metrics"));
+        let AccuracyParams { metrics: m, reference_metrics: r } = AccuracyParams::of(p);
         if !r.is_empty() && r.len() != m.len() {
             return Err(InvalidParam::new(
                 "reference_metrics".into(),
@@ -216,7 +232,7 @@ impl Stage for AccuracyStage {
             return Err(bad("an accuracy stage compares its inputs; it takes no sweep and no replicates".into()));
         }
         let reference = ctx.input(0);
-        let mut metrics: Vec<String> = ctx.points[0].text_list("metrics").to_vec();
+        let AccuracyParams { mut metrics, reference_metrics: given } = AccuracyParams::of(&ctx.points[0]);
         if metrics.is_empty() {
             metrics = default_metrics(&reference.kind);
         }
@@ -230,8 +246,7 @@ impl Stage for AccuracyStage {
                 reference.name
             )));
         }
-        let given = ctx.points[0].text_list("reference_metrics");
-        let reference_metrics: Vec<String> = if given.is_empty() { metrics.clone() } else { given.to_vec() };
+        let reference_metrics: Vec<String> = if given.is_empty() { metrics.clone() } else { given };
         let ref_values: Vec<Vec<f64>> = reference_metrics.iter().map(|m| metric(reference, m, 1)).collect::<Result<_>>()?;
         let reference_values: Vec<f64> = ref_values.iter().map(|v| v[0]).collect();
         let reference_wall = wall_per_point(reference, 1)?[0];
@@ -285,6 +300,11 @@ impl Stage for AccuracyStage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn table_is_its_typed_parameters() {
+        crate::params::assert_table_matches(PARAMS, &AccuracyParams { metrics: vec![], reference_metrics: vec![] });
+    }
 
     #[test]
     fn table_has_errors_and_speedups() {

@@ -18,7 +18,6 @@ pub mod grid;
 pub mod image;
 pub mod laid_web;
 pub mod laydown;
-pub use crate::param_table;
 pub mod spectra;
 pub mod web;
 

@@ -10,65 +10,35 @@ use ndarray::Array2;
 /// Quanta per point mass Δm.
 pub const QUANTA_PER_POINT: u64 = 1 << 32;
 
-/// How fibre mass reaches the cells.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Deposit {
-    /// The paper's method (§3.3): each node but the last carries Δm = ρAΔs, added to
-    /// the cell containing it. Adds sampling noise when Δs ~ Δh (REFERENCE.md §2).
-    #[default]
-    PointMass,
-    /// Each interval between consecutive nodes carries Δm spread uniformly along its
-    /// chord, split between cells by exact clipping of the chord to the cell edges.
-    SegmentClipping,
-}
-
-impl Deposit {
-    pub const CHOICES: &'static [&'static str] = &["point_mass", "segment_clipping"];
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::PointMass => "point_mass",
-            Self::SegmentClipping => "segment_clipping",
-        }
-    }
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "point_mass" => Some(Self::PointMass),
-            "segment_clipping" => Some(Self::SegmentClipping),
-            _ => None,
-        }
+crate::params::choice_enum! {
+    /// How fibre mass reaches the cells.
+    pub enum Deposit {
+        /// The paper's method (§3.3): each node but the last carries Δm = ρAΔs, added to
+        /// the cell containing it. Adds sampling noise when Δs ~ Δh (REFERENCE.md §2).
+        #[default]
+        PointMass = "point_mass",
+        /// Each interval between consecutive nodes carries Δm spread uniformly along its
+        /// chord, split between cells by exact clipping of the chord to the cell edges.
+        SegmentClipping = "segment_clipping",
     }
 }
 
-/// Whether the web is evaluated as laid or folded onto a torus.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Boundary {
-    /// The web as laid (the paper): open CD edges and drift ends; the window must
-    /// keep away from them.
-    #[default]
-    Open,
-    /// Positions are folded onto the torus MD [0, c·n_l·L) × CD [−n_wΔw/2, n_wΔw/2):
-    /// every fibre's whole mass lands in the domain, so the density is statistically
-    /// uniform (interior mean ρA/(Δw·c) exactly on average) with no edges or run-in.
-    /// Not the paper's set-up; a way to get interior statistics from a smaller web.
-    Periodic,
+
+crate::params::choice_enum! {
+    /// Whether the web is evaluated as laid or folded onto a torus.
+    pub enum Boundary {
+        /// The web as laid (the paper): open CD edges and drift ends; the window must
+        /// keep away from them.
+        #[default]
+        Open = "open",
+        /// Positions are folded onto the torus MD [0, c·n_l·L) × CD [−n_wΔw/2, n_wΔw/2):
+        /// every fibre's whole mass lands in the domain, so the density is statistically
+        /// uniform (interior mean ρA/(Δw·c) exactly on average) with no edges or run-in.
+        /// Not the paper's set-up; a way to get interior statistics from a smaller web.
+        Periodic = "periodic",
+    }
 }
 
-impl Boundary {
-    pub const CHOICES: &'static [&'static str] = &["open", "periodic"];
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Open => "open",
-            Self::Periodic => "periodic",
-        }
-    }
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "open" => Some(Self::Open),
-            "periodic" => Some(Self::Periodic),
-            _ => None,
-        }
-    }
-}
 
 /// Folding of positions onto a periodic domain [origin, origin + period) per axis.
 #[derive(Debug, Clone, Copy, PartialEq)]

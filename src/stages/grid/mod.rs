@@ -51,12 +51,12 @@ use std::sync::Mutex;
 /// Fibres generated up front to reject a window that is clearly too close to an edge.
 const PRECHECK_FIBRES: usize = 48;
 
-use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::params::{ParamError, ParamSpec};
 use crate::stages::web::Web;
 use crate::uniformity::{coefficient_of_variation, cv_by_zone_size, formation_number, log_zone_sizes, random_line_cv_squared};
 
 /// Parameters of the density grid and its statistics.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GridParams {
     /// Δh (m), cell side.
     pub cell_size: f64,
@@ -99,16 +99,16 @@ impl Default for GridParams {
 
 /// Parameter table of [`GridParams`].
 pub const GRID_PARAMS: &[ParamSpec] = &[
-    ParamSpec { name: "cell_size", unit: "m", default: ParamDefault::Real(1e-3), min: 1e-6, max: 1.0, choices: &[], doc: "Δh, grid cell side (§3.3)" },
-    ParamSpec { name: "window_side", unit: "m", default: ParamDefault::Real(0.5), min: 1e-5, max: 100.0, choices: &[], doc: "H, side of the square evaluation window; a whole number of cells" },
-    ParamSpec { name: "window_offset_md", unit: "m", default: ParamDefault::Real(0.0), min: -1e4, max: 1e4, choices: &[], doc: "MD shift of the window centre from the middle of the drift c·n_l·L/2" },
-    ParamSpec { name: "window_offset_cd", unit: "m", default: ParamDefault::Real(0.0), min: -1e4, max: 1e4, choices: &[], doc: "CD shift of the window centre from the web's centre line" },
-    ParamSpec { name: "edge_margin_spreads", unit: "1", default: ParamDefault::Real(3.0), min: 0.0, max: 100.0, choices: &[], doc: "required window distance from web edges and drift ends, in measured fibre spreads (0 = no check)" },
-    ParamSpec { name: "deposit", unit: "", default: ParamDefault::Choice("point_mass"), min: f64::NAN, max: f64::NAN, choices: Deposit::CHOICES, doc: "point_mass: Δm per node (paper); segment_clipping: mass per chord split exactly between cells" },
-    ParamSpec { name: "boundary", unit: "", default: ParamDefault::Choice("open"), min: f64::NAN, max: f64::NAN, choices: Boundary::CHOICES, doc: "open: the web as laid (paper); periodic: folded onto the torus MD c·n_l·L × CD n_wΔw, no edges or run-in" },
-    ParamSpec { name: "zone_size_min", unit: "m", default: ParamDefault::Real(0.5e-3), min: 1e-6, max: 100.0, choices: &[], doc: "smallest zone size of the CV curve (sizes below Δh are skipped)" },
-    ParamSpec { name: "zone_size_max", unit: "m", default: ParamDefault::Real(16e-3), min: 1e-6, max: 100.0, choices: &[], doc: "largest zone size of the CV curve" },
-    ParamSpec { name: "zones_per_octave", unit: "1", default: ParamDefault::Integer(2), min: 1.0, max: 64.0, choices: &[], doc: "log-spaced zone sizes per doubling" },
+    ParamSpec::float("cell_size", "m", 1e-3, 1e-6, 1.0, "Δh, grid cell side (§3.3)"),
+    ParamSpec::float("window_side", "m", 0.5, 1e-5, 100.0, "H, side of the square evaluation window; a whole number of cells"),
+    ParamSpec::float("window_offset_md", "m", 0.0, -1e4, 1e4, "MD shift of the window centre from the middle of the drift c·n_l·L/2"),
+    ParamSpec::float("window_offset_cd", "m", 0.0, -1e4, 1e4, "CD shift of the window centre from the web's centre line"),
+    ParamSpec::float("edge_margin_spreads", "1", 3.0, 0.0, 100.0, "required window distance from web edges and drift ends, in measured fibre spreads (0 = no check)"),
+    ParamSpec::choice("deposit", Deposit::NAMES, "point_mass", "point_mass: Δm per node (paper); segment_clipping: mass per chord split exactly between cells"),
+    ParamSpec::choice("boundary", Boundary::NAMES, "open", "open: the web as laid (paper); periodic: folded onto the torus MD c·n_l·L × CD n_wΔw, no edges or run-in"),
+    ParamSpec::float("zone_size_min", "m", 0.5e-3, 1e-6, 100.0, "smallest zone size of the CV curve (sizes below Δh are skipped)"),
+    ParamSpec::float("zone_size_max", "m", 16e-3, 1e-6, 100.0, "largest zone size of the CV curve"),
+    ParamSpec::int("zones_per_octave", "1", 2, 1, 64, "log-spaced zone sizes per doubling"),
 ];
 
 /// Errors of the grid stage.
@@ -134,14 +134,14 @@ impl GridParams {
     /// Checks ranges and that H is a whole number of cells; returns the cell count.
     pub fn validate(&self) -> Result<usize, GridError> {
         let t = GRID_PARAMS;
-        spec(t, "cell_size").check(self.cell_size)?;
-        spec(t, "window_side").check(self.window_side)?;
-        spec(t, "window_offset_md").check(self.window_offset_md)?;
-        spec(t, "window_offset_cd").check(self.window_offset_cd)?;
-        spec(t, "edge_margin_spreads").check(self.edge_margin_spreads)?;
-        spec(t, "zone_size_min").check(self.zone_size_min)?;
-        spec(t, "zone_size_max").check(self.zone_size_max)?;
-        spec(t, "zones_per_octave").check(self.zones_per_octave as f64)?;
+        ParamSpec::find(t, "cell_size").check_number(self.cell_size)?;
+        ParamSpec::find(t, "window_side").check_number(self.window_side)?;
+        ParamSpec::find(t, "window_offset_md").check_number(self.window_offset_md)?;
+        ParamSpec::find(t, "window_offset_cd").check_number(self.window_offset_cd)?;
+        ParamSpec::find(t, "edge_margin_spreads").check_number(self.edge_margin_spreads)?;
+        ParamSpec::find(t, "zone_size_min").check_number(self.zone_size_min)?;
+        ParamSpec::find(t, "zone_size_max").check_number(self.zone_size_max)?;
+        ParamSpec::find(t, "zones_per_octave").check_number(self.zones_per_octave as f64)?;
         if self.zone_size_min > self.zone_size_max {
             return Err(GridError::ZoneRange { min: self.zone_size_min, max: self.zone_size_max });
         }

@@ -31,7 +31,7 @@
 //!   ([`LAID_BYTES_PER_NODE`]).
 use crate::error::InvalidParam;
 use super::laid::{read_laid_web, LaidPoint};
-use super::{grid_realisation, Boundary, Deposit, GridParams, GridResult, GRID_PARAMS};
+use super::{grid_realisation, GridParams, GridResult, GRID_PARAMS};
 use crate::archive::data::{Attr, Output};
 use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
@@ -71,9 +71,8 @@ impl Stage for GridStage {
         InputRule { kinds: &["web", "laid_web"], min: 1, max: 1 }
     }
     fn params(&self) -> Vec<ParamSpec> {
-        let mut v: Vec<ParamSpec> = GRID_PARAMS.iter().map(|p| p.into()).collect();
-        v.push(ParamSpec::flag("store_density", true, "store the density maps (point, realisation, md, cd); false keeps only the statistics"));
-        v.push(ParamSpec::choice("compare_with", &["none", "table4"], "none", "table4: store the paper's measured Table 4 values as reference_* datasets"));
+        let mut v: Vec<ParamSpec> = GRID_PARAMS.to_vec();
+        v.extend_from_slice(STAGE_PARAMS);
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
@@ -115,7 +114,7 @@ impl Stage for GridStage {
             (webs.len(), displacements + generated, stored_bytes(input), what, params)
         };
         let points = if web_points > 1 { web_points } else { stage.points.len() };
-        let copies = if p.bool("store_density") { 3.0 } else { 1.0 };
+        let copies = if stage_params(p).store_density { 3.0 } else { 1.0 };
         let maps = (points * stage.replicates) as f64 * map * copies + 3.0 * map;
         let bytes = maps + fibres + read;
         Some(if maps >= fibres + read {
@@ -173,7 +172,7 @@ fn grid_rows(ctx: &RunContext, points: &Points, source: &Source, range: std::ops
         bar.inc(1);
     }
     bar.finish_and_clear();
-    unit_rows(&results, ctx.points[0].bool("store_density"))
+    unit_rows(&results, stage_params(&ctx.points[0]).store_density)
 }
 
 /// The stage output from the rows of every unit ([`Stage::reduce`]), with the
@@ -186,8 +185,9 @@ fn grid_output(ctx: &RunContext, points: &Points, source: &Source, rows: Output)
         Source::Laid(_) => "laid web: fibres read as stored, nothing to regenerate".to_string(),
     };
     let expected: Vec<f64> = (0..source.len()).map(|w| source.expected_interior_density(w)).collect();
-    let mut out = assemble(points, &expected, &rows, ctx.replicates, ctx.points[0].bool("store_density"))?;
-    if ctx.points[0].text("compare_with") == "table4" {
+    let own = stage_params(&ctx.points[0]);
+    let mut out = assemble(points, &expected, &rows, ctx.replicates, own.store_density)?;
+    if own.compare_with == CompareWith::Table4 {
         add_table4(&mut out);
     }
     out.attrs.insert("regeneration_check".into(), Attr::Str(regen));
@@ -267,19 +267,39 @@ fn grid_units(ctx: &RunContext) -> Result<(Points, Source)> {
     Ok((units, webs))
 }
 
-pub fn grid_params(p: &ParamSet) -> GridParams {
-    GridParams {
-        cell_size: p.f64("cell_size"),
-        window_side: p.f64("window_side"),
-        window_offset_md: p.f64("window_offset_md"),
-        window_offset_cd: p.f64("window_offset_cd"),
-        edge_margin_spreads: p.f64("edge_margin_spreads"),
-        deposit: Deposit::from_name(p.text("deposit")).expect("validated choice"),
-        boundary: Boundary::from_name(p.text("boundary")).expect("validated choice"),
-        zone_size_min: p.f64("zone_size_min"),
-        zone_size_max: p.f64("zone_size_max"),
-        zones_per_octave: p.usize("zones_per_octave"),
+/// The grid stage's own rows, beside [`GRID_PARAMS`].
+const STAGE_PARAMS: &[ParamSpec] = &[
+    ParamSpec::flag("store_density", true, "store the density maps (point, realisation, md, cd); false keeps only the statistics"),
+    ParamSpec::choice("compare_with", CompareWith::NAMES, "none", "table4: store the paper's measured Table 4 values as reference_* datasets"),
+];
+
+crate::params::choice_enum! {
+    /// Measured values stored beside the grid's (`compare_with`).
+    pub enum CompareWith {
+        #[default]
+        None = "none",
+        /// The paper's Table 4.
+        Table4 = "table4",
     }
+}
+
+/// A grid point's parameters: the grid's and the stage's own rows.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GridStageParams {
+    #[serde(flatten)]
+    pub grid: GridParams,
+    pub store_density: bool,
+    pub compare_with: CompareWith,
+}
+
+/// A point's typed parameters (its rows were checked against the table).
+pub fn stage_params(p: &ParamSet) -> GridStageParams {
+    p.to_typed().expect("the grid table and GridStageParams agree (tested)")
+}
+
+/// A point's grid parameters.
+pub fn grid_params(p: &ParamSet) -> GridParams {
+    stage_params(p).grid
 }
 
 /// Regenerates the web's stored fibres of realisation 0 and compares them bit for bit.

@@ -148,51 +148,10 @@ fn first_preset_cv_is_in_the_plausible_range() {
 
 #[test]
 fn parameter_tables_match_the_defaults() {
-    use crate::param_table::ParamDefault;
-    let value = |d: ParamDefault| match d {
-        ParamDefault::Real(x) => x,
-        ParamDefault::Integer(i) => i as f64,
-        ParamDefault::Choice(_) | ParamDefault::Unset => f64::NAN,
-        ParamDefault::Bool(b) => f64::from(u8::from(b)),
-    };
-    let g = GridParams::default();
-    for row in GRID_PARAMS {
-        let v = match row.name {
-            "cell_size" => g.cell_size,
-            "window_side" => g.window_side,
-            "window_offset_md" => g.window_offset_md,
-            "window_offset_cd" => g.window_offset_cd,
-            "edge_margin_spreads" => g.edge_margin_spreads,
-            "zone_size_min" => g.zone_size_min,
-            "zone_size_max" => g.zone_size_max,
-            "zones_per_octave" => g.zones_per_octave as f64,
-            "deposit" => {
-                assert_eq!(row.default, ParamDefault::Choice(g.deposit.name()));
-                continue;
-            }
-            "boundary" => {
-                assert_eq!(row.default, ParamDefault::Choice(g.boundary.name()));
-                continue;
-            }
-            other => panic!("unexpected row {other}"),
-        };
-        assert_eq!(v, value(row.default), "{}", row.name);
-        assert!(row.check(v).is_ok(), "{}", row.name);
-    }
-    let s = crate::stages::spectra::SquareWaveParams::default();
-    for row in crate::stages::spectra::SQUARE_WAVE_PARAMS {
-        let v = match row.name {
-            "bending_energy" => s.bending_energy,
-            "cutoff_number" => s.cutoff_number as f64,
-            "segment_length" => s.segment_length,
-            "points_per_segment" => s.points_per_segment as f64,
-            other => panic!("unexpected row {other}"),
-        };
-        assert_eq!(v, value(row.default), "{}", row.name);
-    }
-    let a = crate::stages::spectra::SpectraParams::default();
-    for row in crate::stages::spectra::SPECTRA_PARAMS {
-        let v = if row.name == "sample_spacing" { a.sample_spacing } else { a.points_per_segment as f64 };
-        assert_eq!(v, value(row.default), "{}", row.name);
-    }
+    use crate::params::assert_table_matches;
+    use crate::stages::Stage;
+    let own = super::stage::GridStageParams { grid: GridParams::default(), store_density: true, compare_with: super::stage::CompareWith::None };
+    assert_table_matches(&GridStage.params(), &own);
+    assert_table_matches(crate::stages::spectra::SQUARE_WAVE_PARAMS, &SquareWaveParams::default());
+    assert_table_matches(crate::stages::spectra::SPECTRA_PARAMS, &crate::stages::spectra::SpectraParams::default());
 }

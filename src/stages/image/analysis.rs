@@ -195,7 +195,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     let n = (h * w) as f64;
     let n2 = n * n;
     let cell = pixel_size;
-    let zones = log_zone_sizes(params.zone_min_mm * 1e-3, params.zone_max_mm * 1e-3, params.zones_per_octave);
+    let zones = log_zone_sizes(params.zone_min, params.zone_max, params.zones_per_octave);
     let cv_raw = coefficient_of_variation(raw.iter().copied());
 
 

@@ -74,10 +74,11 @@
 //! No output is ever NaN.
 //!
 //! # API
-//! * [`analyze`] (array + pixel size), [`analyze_file`], [`analyze_files`] (list/globs
+//! * [`analyze`] (array + pixel size in m), [`analyze_file`], [`analyze_files`] (list/globs
 //!   with group labels, streaming) → [`ImageAnalysis`], [`Summary`], [`BatchSummary`],
 //!   [`GroupStats`] ([`group_statistics`] for summaries gathered elsewhere);
-//! * [`ImageParams`] (serde, `validate()`), [`PARAMETERS`] (name, unit, default, range, doc);
+//! * [`ImageParams`] (SI, lengths in m; serde, `validate()`), [`PARAMETERS`] (the image
+//!   stage's rows: name, SI unit, default, range, doc);
 //! * [`io`] (read PNG/TIFF/JPEG 8/16-bit or float, grey or RGB, with the declared pixel size), [`render`] (density map → image
 //!   with bond lattice; synthetic webs), [`panel`] (Fig-12-like 2×2 PNG).
 //!
@@ -147,11 +148,11 @@ mod tests {
         };
         let p = ImageParams::default();
         assert_eq!(p.pixel_size_for(&img(Some((1e-4, 1e-4)))).unwrap(), (1e-4, PixelSource::File));
-        assert_eq!(p.pixel_size_for(&img(None)).unwrap(), (DEFAULT_PIXEL_SIZE_MM * 1e-3, PixelSource::Default));
+        assert_eq!(p.pixel_size_for(&img(None)).unwrap(), (DEFAULT_PIXEL_SIZE, PixelSource::Default));
         let dpi = ImageParams { dpi: Some(254.0), ..Default::default() };
         assert_eq!(dpi.pixel_size_for(&img(Some((1e-4, 3e-4)))).unwrap(), (25.4e-3 / 254.0, PixelSource::Dpi));
-        let mm = ImageParams { pixel_size_mm: Some(0.2), ..Default::default() };
-        assert_eq!(mm.pixel_size_for(&img(Some((1e-4, 1e-4)))).unwrap(), (0.2e-3, PixelSource::PixelSize));
+        let given = ImageParams { pixel_size: Some(0.2e-3), ..Default::default() };
+        assert_eq!(given.pixel_size_for(&img(Some((1e-4, 1e-4)))).unwrap(), (0.2e-3, PixelSource::PixelSize));
         let e = p.pixel_size_for(&img(Some((1e-4, 2e-4)))).unwrap_err();
         assert!(matches!(e, ImageError::BadResolution { .. }) && e.to_string().contains("scan.png") && e.to_string().contains("non-square"), "{e}");
         let e = p.pixel_size_for(&img(Some((1.0, 1.0)))).unwrap_err();

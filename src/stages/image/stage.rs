@@ -45,7 +45,7 @@
 //! header (one that cannot be read there counts nothing; reading it is checked later).
 use crate::error::InvalidParam;
 use super::render::{render, render_with_coverage, BondPattern, BondShape, RenderParams};
-use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, ParamDefault, PixelSource, PARAMETERS};
+use super::{analyze, read_grey, GroupStats, ImageAnalysis, ImageParams, MeanStd, PixelSource, PARAMETERS};
 use crate::archive::data::{Attr, Output, Values};
 use crate::memory::Estimate;
 use crate::params::{ParamSet, ParamSpec};
@@ -57,8 +57,90 @@ use std::path::{Path, PathBuf};
 
 pub struct ImageStage;
 
-const SHAPES: &[&str] = &["none", "circle", "ellipse", "rectangle"];
-const SYNTHETIC: &[&str] = &["none", "constant", "noise"];
+crate::params::choice_enum! {
+    /// The bond shape of the lattice overlaid on rendered images (`bonds.shape`).
+    pub enum BondShapeKind {
+        #[default]
+        None = "none",
+        Circle = "circle",
+        Ellipse = "ellipse",
+        Rectangle = "rectangle",
+    }
+}
+
+crate::params::choice_enum! {
+    /// Synthetic test images instead of files or a grid (`synthetic.kind`).
+    pub enum SyntheticKind {
+        #[default]
+        None = "none",
+        /// Constant grey.
+        Constant = "constant",
+        /// Uniform white noise smoothed by a Gaussian.
+        Noise = "noise",
+    }
+}
+
+/// An image point's parameters ([`ParamSet::to_typed`] of the stage's table): the
+/// source (`files`, `synthetic.*` or a grid input rendered by `render.*` with `bonds.*`
+/// overlaid), the analysis ([`ImageParams`]) and what is stored.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ImageStageParams {
+    pub files: Vec<String>,
+    pub groups: Vec<String>,
+    pub synthetic: SyntheticParams,
+    #[serde(flatten)]
+    pub analysis: ImageParams,
+    pub max_stored_images: usize,
+    pub panels: bool,
+    pub render: RenderRows,
+    pub bonds: BondRows,
+}
+
+/// `synthetic.*`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SyntheticParams {
+    pub kind: SyntheticKind,
+    pub count: usize,
+    pub rows: usize,
+    pub cols: usize,
+    pub mean: f64,
+    pub cv: f64,
+    pub correlation: f64,
+}
+
+/// `render.*`: how a grid's density maps become grey images.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RenderRows {
+    pub attenuation: f64,
+    pub white: f64,
+    pub black: f64,
+    pub bits: u8,
+}
+
+/// `bonds.*`: the bond lattice overlaid on rendered images.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BondRows {
+    pub shape: BondShapeKind,
+    pub period1: f64,
+    pub period2: f64,
+    pub angle: f64,
+    pub angle_between: f64,
+    pub size1: f64,
+    pub size2: f64,
+    pub shape_angle: f64,
+    pub offset_cd: f64,
+    pub offset_md: f64,
+    pub contrast: f64,
+    pub zero_mean: bool,
+    pub supersample: usize,
+}
+
+impl ImageStageParams {
+    /// A point's typed parameters (its rows were checked against the table).
+    pub fn of(p: &ParamSet) -> Self {
+        p.to_typed().expect("the image table and ImageStageParams agree (tested)")
+    }
+}
 /// Bytes per pixel of one image being analysed: the image and its copy, its spectra
 /// (complex, with the periodic decomposition), power, background fit, notch mask,
 /// filtered image and FFT scratch: the peak resident memory of a 3000 × 3000 synthetic
@@ -148,7 +230,7 @@ impl Stage for ImageStage {
     fn params(&self) -> Vec<ParamSpec> {
         let mut v = vec![
             ParamSpec::text_list("files", "image files or glob patterns (PNG, TIFF, JPEG; 8/16 bit; grey or RGB), relative to the pipeline file; empty with a grid input"),
-            ParamSpec::choice("synthetic.kind", SYNTHETIC, "none", "synthetic test images instead of files or a grid: constant grey, or noise (uniform white noise smoothed by a Gaussian of synthetic.correlation pixels, scaled to synthetic.mean and synthetic.cv); bonds.* may be overlaid; for calibration (false alarms on noise) and hard cases"),
+            ParamSpec::choice("synthetic.kind", SyntheticKind::NAMES, "none", "synthetic test images instead of files or a grid: constant grey, or noise (uniform white noise smoothed by a Gaussian of synthetic.correlation pixels, scaled to synthetic.mean and synthetic.cv); bonds.* may be overlaid; for calibration (false alarms on noise) and hard cases"),
             ParamSpec::int("synthetic.count", "1", 8, 1, 10_000, "synthetic images (one condition; each its own random stream of the stage's seed)"),
             ParamSpec::int("synthetic.rows", "1", 617, 16, 20_000, "synthetic image height (pixels); default 617, the paper's A4 scans at 871 px wide"),
             ParamSpec::int("synthetic.cols", "1", 871, 16, 20_000, "synthetic image width (pixels)"),
@@ -156,17 +238,17 @@ impl Stage for ImageStage {
             ParamSpec::float("synthetic.cv", "1", 0.2, 0.0, 10.0, "CV of the noise before clipping to [0, 1]"),
             ParamSpec::float("synthetic.correlation", "1", 1.0, 0.0, 100.0, "standard deviation (pixels) of the Gaussian that smooths the noise; 0 = white"),
             ParamSpec::text_list("groups", "condition label of each `files` entry (same length; quote numbers); empty: each entry is its own group, labelled by its file stem (a glob of a whole directory, v020/*.png: the directory)"),
-            ParamSpec::float("pixel_size", "m", 0.0, 1e-7, 0.1, "pixel size of the files, overriding what each file declares; give this or dpi; neither: each file's own (PNG pHYs, TIFF resolution tags, JPEG JFIF density), else 297/871 mm (A4 at 871 px) with a warning; grid input: the grid's cell_size").auto_default(),
-            ParamSpec::float("dpi", "inch-1", 0.0, 1.0, 1e5, "scan resolution of the files (pixel size 0.0254/dpi m), overriding what each file declares; give this or pixel_size").auto_default(),
-            ParamSpec::float("zone_min", "m", 0.5e-3, 1e-7, 1.0, "smallest zone side of the CV-per-zone-size curves"),
-            ParamSpec::float("zone_max", "m", 16e-3, 1e-7, 1.0, "largest zone side of the CV-per-zone-size curves (≥ zone_min)"),
+        ];
+        // The analysis parameters: the library's rows as they are (names, SI units).
+        v.extend_from_slice(PARAMETERS);
+        v.extend([
             ParamSpec::int("max_stored_images", "1", 4, 0, 10_000, "images (raw, filtered, log spectra) stored in the archive and drawn as PNG panels: the first N samples"),
             ParamSpec::flag("panels", true, "write Fig-12-like PNG panels (raw, filtered, spectrum, notched spectrum) to <archive stem>_figures/<stage>/v<N>/"),
             ParamSpec::float("render.attenuation", "m2 g-1", 0.02, 0.0, 10.0, "grid input: mass attenuation k of the transmission T = exp(−k ρ)"),
             ParamSpec::float("render.white", "1", 1.0, 0.0, 1.0, "grid input: grey level of an empty pixel"),
             ParamSpec::float("render.black", "1", 0.0, 0.0, 1.0, "grid input: grey level of an opaque pixel"),
             ParamSpec::int("render.bits", "1", 0, 0, 16, "grid input: quantisation bits (0 = none)"),
-            ParamSpec::choice("bonds.shape", SHAPES, "none", "grid input: bond shape of the overlaid lattice; none = no bonds"),
+            ParamSpec::choice("bonds.shape", BondShapeKind::NAMES, "none", "grid input: bond shape of the overlaid lattice; none = no bonds"),
             ParamSpec::float("bonds.period1", "m", 4e-3, 1e-6, 1.0, "|a1|, first bond repeat distance"),
             ParamSpec::float("bonds.period2", "m", 4e-3, 1e-6, 1.0, "|a2|, second bond repeat distance"),
             ParamSpec::float("bonds.angle", "degree", 0.0, -360.0, 360.0, "direction of a1 from +CD (image columns) towards +MD (rows)"),
@@ -179,51 +261,37 @@ impl Stage for ImageStage {
             ParamSpec::float("bonds.contrast", "1", 0.2, -1.0, 1.0, "grey-level change inside a bond (fraction of full scale; > 0 brighter)"),
             ParamSpec::flag("bonds.zero_mean", true, "subtract the pattern's mean so it adds no mean grey level (a one-sided pattern biases CV_corr low)"),
             ParamSpec::int("bonds.supersample", "1", 4, 1, 16, "point samples per pixel side for the bond area fraction"),
-        ];
-        for p in PARAMETERS {
-            if matches!(p.name, "pixel_size_mm" | "dpi" | "zone_min_mm" | "zone_max_mm") {
-                continue;
-            }
-            if p.default == ParamDefault::Unset {
-                continue;
-            }
-            let mut spec = ParamSpec::from(p);
-            spec.unit = match p.unit {
-                "bool" => "",
-                "count" | "bins" | "annuli" | "peaks/image" | "bond periods" => "1",
-                u => u,
-            };
-            v.push(spec);
-        }
+        ]);
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
-        if p.f64_or_auto("pixel_size").is_some() && p.f64_or_auto("dpi").is_some() {
+        let p = &ImageStageParams::of(p);
+        if p.analysis.pixel_size.is_some() && p.analysis.dpi.is_some() {
             return Err(InvalidParam::new("dpi".into(), "give pixel_size or dpi, not both".into()));
         }
-        let (files, groups) = (p.text_list("files"), p.text_list("groups"));
+        let (files, groups) = (&p.files, &p.groups);
         if !groups.is_empty() && groups.len() != files.len() {
             return Err(InvalidParam::new(
                 "groups".into(),
                 format!("{} group labels for {} `files` entries; allowed: one label per entry, or none", groups.len(), files.len()),
             ));
         }
-        if !files.is_empty() && p.text("synthetic.kind") != "none" {
+        if !files.is_empty() && p.synthetic.kind != SyntheticKind::None {
             return Err(InvalidParam::new("synthetic.kind".into(), "give `files` or a synthetic source, not both; allowed with `files`: none".into()));
         }
-        if !files.is_empty() && p.text("bonds.shape") != "none" {
+        if !files.is_empty() && p.bonds.shape != BondShapeKind::None {
             return Err(InvalidParam::new(
                 "bonds.shape".into(),
                 "bonds.* overlay the images rendered from a grid input; image files are analysed as they are; allowed with `files`: none".into(),
             ));
         }
-        if p.f64("zone_max") < p.f64("zone_min") {
-            return Err(InvalidParam::new("zone_max".into(), format!("zone_max is below zone_min = {}", p.f64("zone_min"))));
+        if p.analysis.zone_max < p.analysis.zone_min {
+            return Err(InvalidParam::new("zone_max".into(), format!("zone_max is below zone_min = {}", p.analysis.zone_min)));
         }
         Ok(())
     }
     fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
-        let p = &stage.points[0];
+        let p = &ImageStageParams::of(&stage.points[0]);
         // (images, largest pixels per image, bytes of the input read whole, the drivers)
         let own = |names: &[&str]| names.iter().map(|n| (stage.name.clone(), n.to_string())).collect::<Vec<_>>();
         let (count, pixels, read, mut params) = match stage.inputs.first() {
@@ -235,9 +303,9 @@ impl Stage for ImageStage {
                 let params = vec![(grid.name.clone(), "window_side".to_string())];
                 (maps, cells * cells, maps * cells * cells * 8.0, params)
             }
-            None if p.text("synthetic.kind") != "none" => {
-                let px = (p.usize("synthetic.rows") * p.usize("synthetic.cols")) as f64;
-                (p.usize("synthetic.count") as f64, px, 0.0, own(&["synthetic.rows", "synthetic.cols"]))
+            None if p.synthetic.kind != SyntheticKind::None => {
+                let px = (p.synthetic.rows * p.synthetic.cols) as f64;
+                (p.synthetic.count as f64, px, 0.0, own(&["synthetic.rows", "synthetic.cols"]))
             }
             None => {
                 let files = expand(p, &stage.pipeline_dir).unwrap_or_default();
@@ -245,7 +313,7 @@ impl Stage for ImageStage {
                 (files.len() as f64, px, 0.0, own(&["files"]))
             }
         };
-        let stored = count.min(p.usize("max_stored_images") as f64) * stage.points.len() as f64;
+        let stored = count.min(p.max_stored_images as f64) * stage.points.len() as f64;
         let analysis = concurrent(count) * pixels * ANALYSIS_BYTES_PER_PIXEL;
         let kept = stored * pixels * STORED_BYTES_PER_PIXEL;
         if kept > analysis {
@@ -258,12 +326,12 @@ impl Stage for ImageStage {
         Some(Estimate { bytes: analysis + kept + read, what, params, inverse: vec![] })
     }
     fn input_files(&self, p: &ParamSet, dir: &Path) -> Result<Vec<PathBuf>> {
-        Ok(expand(p, dir)?.into_iter().map(|(f, _)| f).collect())
+        Ok(expand(&ImageStageParams::of(p), dir)?.into_iter().map(|(f, _)| f).collect())
     }
 
     fn check_files(&self, p: &ParamSet, dir: &Path) -> std::result::Result<(), InvalidParam> {
         const ALLOWED: &str = "allowed: existing image files or globs matching at least one, relative to the pipeline file";
-        for (i, f) in p.text_list("files").iter().enumerate() {
+        for (i, f) in ImageStageParams::of(p).files.iter().enumerate() {
             let path = if Path::new(f).is_absolute() { PathBuf::from(f) } else { dir.join(f) };
             let spec = super::InputSpec { pattern: path.display().to_string(), group: String::new() };
             let msg = match super::expand_inputs(&[spec]) {
@@ -289,38 +357,39 @@ impl Stage for ImageStage {
             ))
             .into());
         }
-        for p in &ctx.points {
-            image_params(p).validate().map_err(|e| BadInput(e.to_string()))?;
+        let points: Vec<ImageStageParams> = ctx.points.iter().map(ImageStageParams::of).collect();
+        for p in &points {
+            p.analysis.validate().map_err(|e| BadInput(e.to_string()))?;
         }
-        let p = &ctx.points[0];
+        let p = &points[0];
         let (samples, grid_sweep, grid) = match ctx.inputs.first() {
             Some(input) => {
-                if !p.text_list("files").is_empty() {
+                if !p.files.is_empty() {
                     return Err(BadInput("give `files` or a grid `input`, not both".into()).into());
                 }
-                if p.f64_or_auto("pixel_size").is_some() || p.f64_or_auto("dpi").is_some() {
+                if p.analysis.pixel_size.is_some() || p.analysis.dpi.is_some() {
                     return Err(BadInput("with a grid input the pixel size is the grid's cell_size; remove pixel_size/dpi".into()).into());
                 }
-                if p.text("synthetic.kind") != "none" {
+                if p.synthetic.kind != SyntheticKind::None {
                     return Err(BadInput("give a grid `input` or a synthetic source (synthetic.kind), not both".into()).into());
                 }
                 grid_samples(input)?
             }
-            None if p.text("synthetic.kind") != "none" => (synthetic_samples(ctx, p), vec![], None),
+            None if p.synthetic.kind != SyntheticKind::None => (synthetic_samples(ctx, p), vec![], None),
             None => {
-                if p.text_list("files").is_empty() {
+                if p.files.is_empty() {
                     return Err(BadInput("an image stage needs `files` (paths or globs), an `input` grid stage or a synthetic source (synthetic.kind)".into()).into());
                 }
-                if ctx.points.iter().any(|p| p.text("bonds.shape") != "none") {
+                if points.iter().any(|p| p.bonds.shape != BondShapeKind::None) {
                     return Err(BadInput("bonds.* overlay rendered grid images; image files are analysed as they are (set bonds.shape: none)".into()).into());
                 }
                 (file_samples(ctx, p)?, vec![], None)
             }
         };
-        let max_store = p.usize("max_stored_images");
+        let max_store = p.max_stored_images;
         // Sweep points one after another, the samples of a point in parallel.
         let mut per_point = Vec::with_capacity(ctx.points.len());
-        for (k, p) in ctx.points.iter().enumerate() {
+        for (k, p) in points.iter().enumerate() {
             let point = if ctx.sweep.is_empty() { String::new() } else { format!("point {}: ", k) };
             let kept = analyse_point(&samples, grid.as_ref(), p, max_store)?;
             for (smp, k) in samples.iter().zip(&kept) {
@@ -341,11 +410,11 @@ impl Stage for ImageStage {
         let peaks = per_point.iter().flatten().map(|k| k.a.peaks.len()).max().unwrap_or(0);
         let parts: Vec<Output> = per_point
             .iter()
-            .zip(&ctx.points)
+            .zip(&points)
             .map(|(kept, p)| assemble(&samples, kept, p, &grid_sweep, peaks))
             .collect();
         let mut out = stack_points(parts, !ctx.sweep.is_empty())?;
-        if p.bool("panels") && per_point.iter().flatten().any(|k| k.store) {
+        if p.panels && per_point.iter().flatten().any(|k| k.store) {
             for (k, kept) in per_point.iter().enumerate() {
                 let prefix = if ctx.sweep.is_empty() { String::new() } else { format!("point{:03}_", k) };
                 for (i, (smp, kp)) in samples.iter().zip(kept).enumerate().filter(|(_, (_, kp))| kp.store) {
@@ -434,20 +503,20 @@ fn report_pixel_sizes(stage: &str, samples: &[Sample], kept: &[Kept]) {
         let more = if missing.len() > 5 { format!(" and {} more", missing.len() - 5) } else { String::new() };
         eprintln!(
             "{stage}: warning: {shown}{more}: no pixel size in the file (PNG pHYs, TIFF resolution tags, JPEG JFIF density) and neither pixel_size nor dpi given; assuming {:.4} mm per pixel (A4 at 871 px, the paper's scans)",
-            super::DEFAULT_PIXEL_SIZE_MM
+            super::DEFAULT_PIXEL_SIZE * 1e3
         );
     }
 }
 
 /// Analyses every sample with the parameters of one sweep point, in parallel; only the
 /// first `max_store` keep their images.
-fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ParamSet, max_store: usize) -> Result<Vec<Kept>> {
-    let ip = image_params(p);
+fn analyse_point(samples: &[Sample], grid: Option<&GridData>, p: &ImageStageParams, max_store: usize) -> Result<Vec<Kept>> {
+    let ip = p.analysis.clone();
     let (bonded, plain) = render_params(p);
     // The bond coverage of the map size, once for all maps (grid maps, synthetic images).
     let size = match (grid, samples.first().map(|s| &s.source)) {
         (Some(g), _) => Some((g.density.shape()[2], g.density.shape()[3], g.cell)),
-        (None, Some(Source::Synthetic(_))) => Some((p.usize("synthetic.rows"), p.usize("synthetic.cols"), samples[0].pixel)),
+        (None, Some(Source::Synthetic(_))) => Some((p.synthetic.rows, p.synthetic.cols, samples[0].pixel)),
         _ => None,
     };
     let coverage = size.and_then(|(rows, cols, pixel)| bonded.bonds.as_ref().map(|b| b.coverage(rows, cols, pixel)));
@@ -524,48 +593,25 @@ fn sanitise(s: &str) -> String {
     t.chars().take(40).collect()
 }
 
-/// The numerics' parameters from the stage's (SI) parameters.
-pub fn image_params(p: &ParamSet) -> ImageParams {
-    ImageParams {
-        pixel_size_mm: p.f64_or_auto("pixel_size").map(|m| m * 1e3),
-        dpi: p.f64_or_auto("dpi"),
-        false_alarm_rate: p.f64("false_alarm_rate"),
-        notch_sigma_bins: p.f64("notch_sigma_bins"),
-        off_grid_widening: p.f64("off_grid_widening"),
-        dc_exclusion_bins: p.f64("dc_exclusion_bins"),
-        min_peak_fraction: p.f64("min_peak_fraction"),
-        background_sectors: p.usize("background_sectors"),
-        background_smoothing: p.usize("background_smoothing"),
-        background_pool: p.usize("background_pool"),
-        max_passes: p.usize("max_passes"),
-        max_peaks: p.usize("max_peaks"),
-        periodic_decomposition: p.bool("periodic_decomposition"),
-        zone_min_mm: p.f64("zone_min") * 1e3,
-        zone_max_mm: p.f64("zone_max") * 1e3,
-        zones_per_octave: p.usize("zones_per_octave"),
-        edge_margin_periods: p.f64("edge_margin_periods"),
-    }
-}
-
 /// The bond lattice of the `bonds.*` parameters (None for `bonds.shape: none`).
-pub fn bond_pattern(p: &ParamSet) -> Option<BondPattern> {
-    let (a, b, t) = (p.f64("bonds.size1"), p.f64("bonds.size2"), p.f64("bonds.shape_angle"));
-    let shape = match p.text("bonds.shape") {
-        "circle" => BondShape::Circle { diameter: a },
-        "ellipse" => BondShape::Ellipse { major: a, minor: b, angle_deg: t },
-        "rectangle" => BondShape::Rectangle { width: a, height: b, angle_deg: t },
-        _ => return None,
+pub fn bond_pattern(b: &BondRows) -> Option<BondPattern> {
+    let (a, c, t) = (b.size1, b.size2, b.shape_angle);
+    let shape = match b.shape {
+        BondShapeKind::Circle => BondShape::Circle { diameter: a },
+        BondShapeKind::Ellipse => BondShape::Ellipse { major: a, minor: c, angle_deg: t },
+        BondShapeKind::Rectangle => BondShape::Rectangle { width: a, height: c, angle_deg: t },
+        BondShapeKind::None => return None,
     };
     Some(BondPattern {
-        period1: p.f64("bonds.period1"),
-        period2: p.f64("bonds.period2"),
-        angle_deg: p.f64("bonds.angle"),
-        angle_between_deg: p.f64("bonds.angle_between"),
-        offset: [p.f64("bonds.offset_cd"), p.f64("bonds.offset_md")],
+        period1: b.period1,
+        period2: b.period2,
+        angle_deg: b.angle,
+        angle_between_deg: b.angle_between,
+        offset: [b.offset_cd, b.offset_md],
         shape,
-        contrast: p.f64("bonds.contrast"),
-        zero_mean: p.bool("bonds.zero_mean"),
-        supersample: p.usize("bonds.supersample"),
+        contrast: b.contrast,
+        zero_mean: b.zero_mean,
+        supersample: b.supersample,
     })
 }
 
@@ -598,8 +644,8 @@ pub fn default_groups(files: &[String]) -> Vec<String> {
 
 /// (file, group) of every `files` entry, globs expanded (sorted within a pattern),
 /// relative paths taken from `dir`. Missing files and empty globs are bad input.
-fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
-    let (files, groups) = (p.text_list("files"), p.text_list("groups"));
+fn expand(p: &ImageStageParams, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
+    let (files, groups) = (&p.files, &p.groups);
     let groups = if groups.is_empty() { default_groups(files) } else { groups.to_vec() };
     let specs: Vec<super::InputSpec> = files
         .iter()
@@ -612,9 +658,9 @@ fn expand(p: &ParamSet, dir: &Path) -> Result<Vec<(PathBuf, String)>> {
     super::expand_inputs(&specs).map_err(|e| BadInput(e.to_string()).into())
 }
 
-fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
+fn file_samples(ctx: &RunContext, p: &ImageStageParams) -> Result<Vec<Sample>> {
     let files = expand(p, &ctx.pipeline_dir)?;
-    let ip = image_params(p);
+    let ip = p.analysis.clone();
     Ok(files
         .into_iter()
         .map(|(path, group)| Sample {
@@ -623,7 +669,7 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
             file: path.strip_prefix(&ctx.pipeline_dir).unwrap_or(&path).display().to_string(),
             source: Source::File(path),
             // Replaced by the file's own size unless a parameter gives one.
-            pixel: ip.pixel_size_m(),
+            pixel: ip.pixel_size_or_default(),
             pixel_source: ip.pixel_source(),
             grid_point: -1,
             realisation: -1,
@@ -632,11 +678,11 @@ fn file_samples(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Sample>> {
 }
 
 /// One image per `synthetic.count`, each with its own random stream of the stage seed.
-fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
-    let kind = p.text("synthetic.kind");
-    let ip = image_params(p);
-    let pixel = ip.pixel_size_m();
-    (0..p.usize("synthetic.count"))
+fn synthetic_samples(ctx: &RunContext, p: &ImageStageParams) -> Vec<Sample> {
+    let kind = p.synthetic.kind.name();
+    let ip = p.analysis.clone();
+    let pixel = ip.pixel_size_or_default();
+    (0..p.synthetic.count)
         .map(|k| Sample {
             group: kind.to_string(),
             file: String::new(),
@@ -651,11 +697,11 @@ fn synthetic_samples(ctx: &RunContext, p: &ParamSet) -> Vec<Sample> {
 
 /// A synthetic test image with the bond lattice overlaid, and the CV of the same image
 /// without bonds (the truth, after clipping to [0, 1]).
-fn synthetic_image(p: &ParamSet, seed: u64, pixel: f64, bonded: &RenderParams, plain: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<(Array2<f64>, f64)> {
-    let (rows, cols, mean) = (p.usize("synthetic.rows"), p.usize("synthetic.cols"), p.f64("synthetic.mean"));
-    let grey = match p.text("synthetic.kind") {
-        "constant" => crate::memory::try_array((rows, cols), mean, "a synthetic image")?,
-        _ => super::render::try_smoothed_noise(rows, cols, p.f64("synthetic.correlation"), mean, p.f64("synthetic.cv"), seed)?,
+fn synthetic_image(p: &ImageStageParams, seed: u64, pixel: f64, bonded: &RenderParams, plain: &RenderParams, coverage: Option<&Array2<f64>>) -> Result<(Array2<f64>, f64)> {
+    let (rows, cols, mean) = (p.synthetic.rows, p.synthetic.cols, p.synthetic.mean);
+    let grey = match p.synthetic.kind {
+        SyntheticKind::Constant => crate::memory::try_array((rows, cols), mean, "a synthetic image")?,
+        _ => super::render::try_smoothed_noise(rows, cols, p.synthetic.correlation, mean, p.synthetic.cv, seed)?,
     };
     let bad = |e: super::ImageError| anyhow::Error::new(BadInput(format!("synthetic image: {e}")));
     let web = super::render::overlay(grey.clone(), pixel, plain, None).map_err(bad)?.grey;
@@ -664,13 +710,13 @@ fn synthetic_image(p: &ParamSet, seed: u64, pixel: f64, bonded: &RenderParams, p
 }
 
 /// How grid maps become images: (with the bond lattice, without it).
-fn render_params(p: &ParamSet) -> (RenderParams, RenderParams) {
+fn render_params(p: &ImageStageParams) -> (RenderParams, RenderParams) {
     let bonded = RenderParams {
-        attenuation: p.f64("render.attenuation"),
-        white: p.f64("render.white"),
-        black: p.f64("render.black"),
-        bits: p.usize("render.bits") as u8,
-        bonds: bond_pattern(p),
+        attenuation: p.render.attenuation,
+        white: p.render.white,
+        black: p.render.black,
+        bits: p.render.bits as u8,
+        bonds: bond_pattern(&p.bonds),
     };
     let plain = RenderParams { bonds: None, ..bonded.clone() };
     (bonded, plain)
@@ -778,7 +824,7 @@ fn nan_if_none(v: Option<f64>) -> f64 {
 }
 
 /// The datasets of one sweep point; the peak table is `peaks` wide.
-fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, peaks: usize) -> Output {
+fn assemble(samples: &[Sample], kept: &[Kept], p: &ImageStageParams, sweep: &GridSweep, peaks: usize) -> Output {
     let n = samples.len();
     let nan = f64::NAN;
     let mut out = Output::new();
@@ -904,7 +950,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ParamSet, sweep: &GridSweep, 
         out.f64("log_spectrum_raw", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_raw), "1", "log10 energy spectrum before notching").describe("log10 energy spectrum |F|²/N² before notching, fftshifted (DC at row ⌊H/2⌋, col ⌊W/2⌋)");
         out.f64("log_spectrum_notched", &["stored", "row", "col"], stack(&|a| &a.log_spectrum_notched), "1", "log10 energy spectrum after notching, fftshifted");
     }
-    out.set_attr("max_stored_images", p.int("max_stored_images"));
+    out.set_attr("max_stored_images", p.max_stored_images as i64);
     out.set_attr("cv_corr_rule", super::CV_CORR_RULE);
     out.set_attr("background_model", "median of |F|² in polar cells / ln 2, divided out (whitening), not subtracted");
     out

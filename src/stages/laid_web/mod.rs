@@ -48,26 +48,17 @@ use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::PI;
 
-/// How the oscillation phases of the fibres of one web relate.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Turbulence {
-    /// Each fibre its own phase (and jitter).
-    #[default]
-    Independent,
-    /// One phase (and jitter) for every fibre of the web.
-    Coherent,
-}
-
-impl Turbulence {
-    pub const NAMES: [&'static str; 2] = ["independent", "coherent"];
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "independent" => Some(Turbulence::Independent),
-            "coherent" => Some(Turbulence::Coherent),
-            _ => None,
-        }
+crate::params::choice_enum! {
+    /// How the oscillation phases of the fibres of one web relate.
+    pub enum Turbulence {
+        /// Each fibre its own phase (and jitter).
+        #[default]
+        Independent = "independent",
+        /// One phase (and jitter) for every fibre of the web.
+        Coherent = "coherent",
     }
 }
+
 
 /// Parameters of one laid web.
 #[derive(Clone, Debug, PartialEq)]
@@ -172,7 +163,7 @@ impl LaidWebParams {
         let s = LaydownParams { length: 1.0, elements: 1000, duration: 0.0, ..self.scene.clone() };
         s.validate().map_err(|e| {
             let name = match &e {
-                crate::rod::ParamError::OutOfRange { name, .. } | crate::rod::ParamError::NotFinite { name, .. } => name.to_string(),
+                crate::rod::ParamError::Range(r) => r.name.to_string(),
                 _ => "belt_travel".to_string(),
             };
             InvalidParam::new(name, e.to_string())

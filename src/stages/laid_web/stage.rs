@@ -28,43 +28,47 @@ use ndarray::{Array1, Array2, ArrayD};
 pub struct LaidWebStage;
 
 /// Parameters of the laydown stage that a laid web sets itself.
-const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration", "diagnostic_stride", "valid_replicates_target", "max_replicates", "mesh_error_estimate"];
-/// The laid web's own parameters (not scene parameters).
-const OWN: &[&str] = &[
-    "fibres_across",
-    "fibre_spacing",
-    "belt_travel",
-    "element_length",
-    "turbulence",
-    "frequency_jitter",
-    "amplitude_jitter",
-    "edge_margin_spreads",
-    "freeze",
-    "settle_time",
-];
+pub(crate) const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration", "diagnostic_stride", "valid_replicates_target", "max_replicates", "mesh_error_estimate"];
 
 /// Bytes per laid node until the output is written: the fed fibre's positions and
 /// landing time, its row and the copy placed on (point, replicate), 32 B each, the write
 /// buffer, and the belt-removed x (8 B).
 const KEPT_BYTES_PER_NODE: f64 = 136.0;
 
-/// The typed parameters of one sweep point.
-pub fn laid_web_params(p: &ParamSet) -> Result<LaidWebParams, String> {
-    let mut skip: Vec<&str> = OWN.to_vec();
-    skip.extend_from_slice(NOT_FROM_LAYDOWN);
-    let scene = LaydownParams::from_param_set(p, &skip)?;
-    Ok(LaidWebParams {
-        scene,
-        fibres_across: p.usize("fibres_across"),
-        fibre_spacing: p.f64("fibre_spacing"),
-        belt_travel: p.f64("belt_travel"),
-        element_length: p.f64("element_length"),
-        turbulence: Turbulence::from_name(p.text("turbulence")).ok_or("unknown turbulence")?,
-        frequency_jitter: p.f64("frequency_jitter"),
-        amplitude_jitter: p.f64("amplitude_jitter"),
-        edge_margin_spreads: p.f64("edge_margin_spreads"),
-        feed: FeedSettings { freeze: p.bool("freeze"), settle_time: p.f64("settle_time"), ..FeedSettings::default() },
-    })
+/// A laid-web point's parameters as the pipeline gives them ([`ParamSet::to_typed`] of
+/// the stage's table): the laydown's scene but for [`NOT_FROM_LAYDOWN`] (their fields
+/// keep their defaults until [`LaidWebParams`] sets them) and the laid web's own rows.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LaidWebStageParams {
+    #[serde(flatten)]
+    pub scene: LaydownParams,
+    pub fibres_across: usize,
+    pub fibre_spacing: f64,
+    pub belt_travel: f64,
+    pub element_length: f64,
+    pub turbulence: Turbulence,
+    pub frequency_jitter: f64,
+    pub amplitude_jitter: f64,
+    pub edge_margin_spreads: f64,
+    pub freeze: bool,
+    pub settle_time: f64,
+}
+
+/// The typed parameters of one sweep point (its rows were checked against the table).
+pub fn laid_web_params(p: &ParamSet) -> LaidWebParams {
+    let p: LaidWebStageParams = p.to_typed().expect("the laid_web table and LaidWebStageParams agree (tested)");
+    LaidWebParams {
+        scene: p.scene,
+        fibres_across: p.fibres_across,
+        fibre_spacing: p.fibre_spacing,
+        belt_travel: p.belt_travel,
+        element_length: p.element_length,
+        turbulence: p.turbulence,
+        frequency_jitter: p.frequency_jitter,
+        amplitude_jitter: p.amplitude_jitter,
+        edge_margin_spreads: p.edge_margin_spreads,
+        feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, ..FeedSettings::default() },
+    }
 }
 
 /// The fibres of a declared laid_web stage, per point: every fibre of every replicate,
@@ -73,13 +77,9 @@ pub fn declared_fibres(stage: &Declared) -> Vec<DeclaredFibres> {
     stage
         .points
         .iter()
-        .map(|p| match laid_web_params(p) {
-            Ok(lw) => DeclaredFibres {
-                count: (stage.replicates * lw.fibres_across) as f64,
-                nodes: lw.nodes_per_web() / lw.fibres_across as f64,
-                length: lw.fed_length(),
-            },
-            Err(_) => DeclaredFibres { count: 0.0, nodes: 0.0, length: 0.0 },
+        .map(|p| {
+            let lw = laid_web_params(p);
+            DeclaredFibres { count: (stage.replicates * lw.fibres_across) as f64, nodes: lw.nodes_per_web() / lw.fibres_across as f64, length: lw.fed_length() }
         })
         .collect()
 }
@@ -103,7 +103,7 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::float("fibre_spacing", "m", 2e-3, 1e-6, 1.0, "Δw, CD distance between the spinneret holes"));
         v.push(ParamSpec::float("belt_travel", "m", 0.05, 1e-4, 100.0, "B, belt length laid: the run lasts B/belt_speed"));
         v.push(ParamSpec::float("element_length", "m", 1e-3, 1e-6, 0.1, "Δs, rod element length (refined by coil_resolution)"));
-        v.push(ParamSpec::choice("turbulence", &Turbulence::NAMES, "independent", "independent: each fibre its own oscillation phase (and jitter); coherent: one for the whole row"));
+        v.push(ParamSpec::choice("turbulence", Turbulence::NAMES, "independent", "independent: each fibre its own oscillation phase (and jitter); coherent: one for the whole row"));
         v.push(ParamSpec::float("frequency_jitter", "1", 0.0, 0.0, 0.3, "relative standard deviation of each fibre's oscillation frequency"));
         v.push(ParamSpec::float("amplitude_jitter", "1", 0.0, 0.0, 0.9, "relative standard deviation of each fibre's oscillation amplitude"));
         v.push(ParamSpec::float("edge_margin_spreads", "1", 3.0, 0.0, 100.0, "interior MD range: this many belt-removed spreads from the touchdown and from the start-up"));
@@ -112,8 +112,7 @@ impl Stage for LaidWebStage {
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
-        let lw = laid_web_params(p).map_err(|e| InvalidParam::new("turbulence".into(), e))?;
-        lw.validate()
+        laid_web_params(p).validate()
     }
     /// Every web of the run is held until the output is written
     /// ([`KEPT_BYTES_PER_NODE`]), and each thread simulates one fibre
@@ -134,7 +133,7 @@ impl Stage for LaidWebStage {
         Ok(Some(Units { points: ctx.points.len(), per_point: ctx.replicates, note: None }))
     }
     fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
-        let params: Vec<LaidWebParams> = ctx.points.iter().map(|p| laid_web_params(p).expect("checked")).collect();
+        let params: Vec<LaidWebParams> = ctx.points.iter().map(laid_web_params).collect();
         let reps = ctx.replicates;
         let fibres: u64 = range.clone().map(|u| params[u / reps].fibres_across as u64).sum();
         let bar = crate::progress::bar(ctx.progress, fibres, &format!("{} fibres", ctx.stage_name));
@@ -151,7 +150,7 @@ impl Stage for LaidWebStage {
         unit_rows(&webs, fibres)
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
-        let params: Vec<LaidWebParams> = ctx.points.iter().map(|p| laid_web_params(p).expect("checked")).collect();
+        let params: Vec<LaidWebParams> = ctx.points.iter().map(laid_web_params).collect();
         assemble(&params, ctx.replicates, &rows)
     }
 }

@@ -163,3 +163,31 @@ fn web_is_identical_for_one_and_two_threads_and_turbulence_is_per_fibre() {
     assert!(coherent.fibres.windows(2).all(|w| w[0].phase == w[1].phase && w[0].frequency_scale == w[1].frequency_scale));
 }
 
+
+/// The stage's rows are [`stage::LaidWebStageParams`]'s fields but for the scene fields a
+/// laid web sets itself ([`stage::NOT_FROM_LAYDOWN`]), which keep their defaults.
+#[test]
+fn stage_table_is_its_typed_parameters() {
+    use crate::params::ParamSet;
+    let table = crate::stages::Stage::params(&LaidWebStage);
+    let d = LaidWebParams::default();
+    let expected = stage::LaidWebStageParams {
+        scene: LaydownParams::default(),
+        fibres_across: d.fibres_across,
+        fibre_spacing: d.fibre_spacing,
+        belt_travel: d.belt_travel,
+        element_length: d.element_length,
+        turbulence: d.turbulence,
+        frequency_jitter: d.frequency_jitter,
+        amplitude_jitter: d.amplitude_jitter,
+        edge_margin_spreads: d.edge_margin_spreads,
+        freeze: d.feed.freeze,
+        settle_time: d.feed.settle_time,
+    };
+    let defaults = ParamSet::defaults(&table);
+    assert_eq!(defaults.to_typed::<stage::LaidWebStageParams>().unwrap(), expected);
+    let mut rows = ParamSet::from_typed(&expected).unwrap();
+    rows.0.retain(|name, _| !stage::NOT_FROM_LAYDOWN.contains(&name.as_str()));
+    assert_eq!(rows, defaults);
+    assert_eq!(stage::laid_web_params(&defaults), LaidWebParams { scene: LaydownParams::default(), ..d });
+}

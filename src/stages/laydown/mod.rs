@@ -27,4 +27,4 @@ pub use crate::rod::{
 };
 
 mod stage;
-pub use stage::{declared_fibres, scene, LaydownStage, SIM_BYTES_PER_NODE};
+pub use stage::{declared_fibres, scene, LaydownStage, LaydownStageParams, SIM_BYTES_PER_NODE};

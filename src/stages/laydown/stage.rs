@@ -76,8 +76,9 @@ pub const KEPT_BYTES_PER_NODE: f64 = 280.0;
 
 /// Replicates a point may attempt: `replicates`, or `max_replicates` with a target.
 fn attempts(p: &ParamSet, replicates: usize) -> usize {
-    if p.usize(TARGET) > 0 {
-        replicates.max(p.usize(CAP))
+    let p = LaydownStageParams::of(p);
+    if p.valid_replicates_target > 0 {
+        replicates.max(p.max_replicates)
     } else {
         replicates
     }
@@ -89,16 +90,35 @@ pub fn declared_fibres(stage: &Declared) -> Vec<DeclaredFibres> {
         .points
         .iter()
         .map(|p| {
-            let (nodes, length) = scene(p).map(|s| (s.resolved_elements() as f64 + 1.0, s.length)).unwrap_or((0.0, 0.0));
+            let s = scene(p);
+            let (nodes, length) = (s.resolved_elements() as f64 + 1.0, s.length);
             DeclaredFibres { count: attempts(p, stage.replicates) as f64, nodes, length }
         })
         .collect()
 }
 
-/// The scene of one sweep point, from its resolved parameters (names are the fields of
-/// [`LaydownParams`]; `effects.X` are the [`Effects`] flags).
-pub fn scene(p: &ParamSet) -> Result<LaydownParams, String> {
-    LaydownParams::from_param_set(p, &[TARGET, CAP, MESH])
+/// A laydown point's parameters ([`ParamSet::to_typed`] of the stage's table): the
+/// scene (rows named after the fields of [`LaydownParams`], `effects.X` the [`Effects`]
+/// flags) and how the stage runs replicates of it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LaydownStageParams {
+    #[serde(flatten)]
+    pub scene: LaydownParams,
+    pub valid_replicates_target: usize,
+    pub max_replicates: usize,
+    pub mesh_error_estimate: bool,
+}
+
+impl LaydownStageParams {
+    /// A point's typed parameters (its rows were checked against the table).
+    pub fn of(p: &ParamSet) -> Self {
+        p.to_typed().expect("the laydown table and LaydownStageParams agree (tested)")
+    }
+}
+
+/// The scene of one sweep point.
+pub fn scene(p: &ParamSet) -> LaydownParams {
+    LaydownStageParams::of(p).scene
 }
 
 impl Stage for LaydownStage {
@@ -115,16 +135,16 @@ impl Stage for LaydownStage {
         InputRule { kinds: &[], min: 0, max: 0 }
     }
     fn params(&self) -> Vec<ParamSpec> {
-        let mut v: Vec<ParamSpec> = PARAMETERS.iter().map(ParamSpec::from).collect();
+        let mut v: Vec<ParamSpec> = PARAMETERS.to_vec();
         v.push(ParamSpec::choice(
             "air_field",
-            &AirField::NAMES,
+            AirField::NAMES,
             AirField::default().name(),
             "uniform: air (0, 0, -air_speed) everywhere, a belt passing all of it (the paper); impinging / impinging_slot: a round / slot jet whose part not passing the belt (1 - belt_permeability) turns sideways over stagnation_height (src/rod/air.rs)",
         ));
         v.push(ParamSpec::choice(
             "integrator",
-            &Integrator::NAMES,
+            Integrator::NAMES,
             Integrator::default().name(),
             "time integration: explicit (reference), implicit_axial (fast), inextensible",
         ));
@@ -151,13 +171,13 @@ impl Stage for LaydownStage {
         ));
         v.push(ParamSpec::choice(
             "bounce_check",
-            &BounceCheck::NAMES,
+            BounceCheck::NAMES,
             BounceCheck::default().name(),
             "final: a landed node above bounce_tolerance in the final profile invalidates the replicate (the paper's test); transient: at any time after landing",
         ));
         v.push(ParamSpec::choice(
             "belt_removal",
-            &crate::rod::BeltRemoval::NAMES,
+            crate::rod::BeltRemoval::NAMES,
             crate::rod::BeltRemoval::default().name(),
             "belt-removed S and e (Figs 5-6 dashed): landing takes off the belt travel since each node landed, x − v_b(t_end − t_land) (the paper's reading; e grows with the mesh); feed since it was fed, x + (v_b/v_f)s (converges)",
         ));
@@ -170,14 +190,13 @@ impl Stage for LaydownStage {
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
-        let (target, cap) = (p.int(TARGET), p.int(CAP));
+        let LaydownStageParams { scene, valid_replicates_target: target, max_replicates: cap, .. } = LaydownStageParams::of(p);
         if target > 0 && cap < target {
             return Err(InvalidParam::new(CAP.to_string(), format!("max_replicates ({cap}) must be at least valid_replicates_target ({target})")));
         }
-        let scene = scene(p).map_err(|e| InvalidParam::new("integrator".into(), e))?;
         scene.validate().map_err(|e| {
             let name = match &e {
-                super::ParamError::OutOfRange { name, .. } | super::ParamError::NotFinite { name, .. } => name.to_string(),
+                super::ParamError::Range(r) => r.name.to_string(),
                 _ => "laydown_height".to_string(),
             };
             InvalidParam::new(name, e.to_string())
@@ -207,7 +226,8 @@ impl Stage for LaydownStage {
     /// extra replicates are drawn in rounds that depend on how many earlier ones were
     /// valid (`run_until_valid`); then a unit is a whole point with its rounds.
     fn units(&self, ctx: &RunContext) -> Result<Option<Units>> {
-        let rounds = ctx.points.iter().any(|p| p.usize(TARGET) > 0);
+        let own: Vec<LaydownStageParams> = ctx.points.iter().map(LaydownStageParams::of).collect();
+        let rounds = own.iter().any(|p| p.valid_replicates_target > 0);
         Ok(Some(if rounds {
             Units {
                 points: ctx.points.len(),
@@ -220,26 +240,27 @@ impl Stage for LaydownStage {
     }
     fn run_units(&self, ctx: &RunContext, range: std::ops::Range<usize>) -> Result<Output> {
         let units = self.units(ctx)?.expect("laydown has units");
-        let scenes: Vec<LaydownParams> = ctx.points.iter().map(|p| scene(p).expect("checked")).collect();
+        let own: Vec<LaydownStageParams> = ctx.points.iter().map(LaydownStageParams::of).collect();
         let sim = |p: usize, r: usize| {
-            let fine = simulate(&scenes[p], &mut ctx.rng(r, 0));
-            let half = ctx.points[p].bool(MESH).then(|| half_mesh(&scenes[p], &fine, &mut ctx.rng(r, 1))).flatten();
+            let fine = simulate(&own[p].scene, &mut ctx.rng(r, 0));
+            let half = own[p].mesh_error_estimate.then(|| half_mesh(&own[p].scene, &fine, &mut ctx.rng(r, 1))).flatten();
             Replicate { fine, half }
         };
         let rows: Vec<(usize, usize, Replicate)> = if units.per_point == 1 {
             // Whole points, with their rounds of extra replicates.
             let (a, b) = (range.start, range.end);
-            let targets: Vec<(usize, usize)> = ctx.points[a..b].iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
+            let targets: Vec<(usize, usize)> = own[a..b].iter().map(|p| (p.valid_replicates_target, p.max_replicates)).collect();
             let results = run_until_valid(&targets, ctx.replicates, ctx.progress, &ctx.stage_name, |p, r| sim(a + p, r), |rep| rep.fine.valid && rep.fine.error.is_none());
             results.into_iter().enumerate().flat_map(|(p, rs)| rs.into_iter().enumerate().map(move |(r, res)| (a + p, r, res))).collect()
         } else {
             ctx.par_units(range, |p, r| (p, r, sim(p, r)))
         };
-        unit_rows(&rows, ctx.points.iter().any(|p| p.bool(MESH)))
+        unit_rows(&rows, own.iter().any(|p| p.mesh_error_estimate))
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
-        let targets: Vec<(usize, usize)> = ctx.points.iter().map(|p| (p.usize(TARGET), p.usize(CAP))).collect();
-        let mesh = ctx.points.iter().any(|p| p.bool(MESH));
+        let own: Vec<LaydownStageParams> = ctx.points.iter().map(LaydownStageParams::of).collect();
+        let targets: Vec<(usize, usize)> = own.iter().map(|p| (p.valid_replicates_target, p.max_replicates)).collect();
+        let mesh = own.iter().any(|p| p.mesh_error_estimate);
         assemble(&rows, &targets, &ctx.stage_name, mesh)
     }
 }

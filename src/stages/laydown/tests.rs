@@ -483,3 +483,9 @@ fn mesh_error_is_richardson_of_first_order_with_its_standard_error() {
     assert!(mesh_error(&[5.0, 5.2], &[f64::NAN, 4.5]).0.is_nan(), "one valid half-mesh run is not enough");
     assert!(mesh_error(&[0.0, 0.0], &[0.0, 0.0]).0.is_nan(), "no relative error of a zero mean");
 }
+
+#[test]
+fn stage_table_is_its_typed_parameters() {
+    let own = super::stage::LaydownStageParams { scene: LaydownParams::default(), valid_replicates_target: 0, max_replicates: 40, mesh_error_estimate: true };
+    crate::params::assert_table_matches(&crate::stages::Stage::params(&LaydownStage), &own);
+}

@@ -2,7 +2,7 @@
 use num_complex::Complex64;
 
 use super::{CurvatureSpectrum, SpectraError, SQUARE_WAVE_PARAMS};
-use crate::param_table::spec;
+use crate::params::ParamSpec;
 
 /// The paper's three idealised spectra (Fig 10): (name, e, n_c).
 pub const SQUARE_WAVE_PRESETS: [(&str, f64, usize); 3] =
@@ -27,7 +27,7 @@ pub const SQUARE_WAVE_PRESETS: [(&str, f64, usize); 3] =
 /// assert_eq!(s.points(), 1000);
 /// assert!((s.bending_energy() - 2.5e3).abs() < 1e-9);
 /// ```
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SquareWaveParams {
     /// e, non-dimensional bending energy of one segment (eq A.3).
     pub bending_energy: f64,
@@ -57,10 +57,10 @@ impl SquareWaveParams {
 
     pub fn validate(&self) -> Result<(), SpectraError> {
         let t = SQUARE_WAVE_PARAMS;
-        spec(t, "bending_energy").check(self.bending_energy)?;
-        spec(t, "cutoff_number").check(self.cutoff_number as f64)?;
-        spec(t, "segment_length").check(self.segment_length)?;
-        spec(t, "points_per_segment").check(self.points_per_segment as f64)?;
+        ParamSpec::find(t, "bending_energy").check_number(self.bending_energy)?;
+        ParamSpec::find(t, "cutoff_number").check_number(self.cutoff_number as f64)?;
+        ParamSpec::find(t, "segment_length").check_number(self.segment_length)?;
+        ParamSpec::find(t, "points_per_segment").check_number(self.points_per_segment as f64)?;
         if 2 * self.cutoff_number >= self.points_per_segment {
             return Err(SpectraError::CutoffBeyondNyquist {
                 cutoff: self.cutoff_number,

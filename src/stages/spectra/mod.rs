@@ -31,7 +31,7 @@ pub use ideal::{SquareWaveParams, SQUARE_WAVE_PRESETS};
 pub use sample::{integrate_curvature, reconstruct, sample_fibre, tangent_angles, wrap_angle, CurvatureSignal};
 pub use spectrum::{check_compatible, inverse_dft, CurvatureSpectrum};
 
-use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::params::{ParamError, ParamSpec};
 
 /// Errors of the spectra stage.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -55,7 +55,7 @@ pub enum SpectraError {
 }
 
 /// Parameters of the analysis of laid fibres.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpectraParams {
     /// Δs (m): arc-length spacing of the curvature samples. Default 1 mm, the FE
     /// element size (1 m fibre, 1000 elements).
@@ -73,77 +73,26 @@ impl Default for SpectraParams {
 
 impl SpectraParams {
     pub fn validate(&self) -> Result<(), SpectraError> {
-        spec(SPECTRA_PARAMS, "sample_spacing").check(self.sample_spacing)?;
-        spec(SPECTRA_PARAMS, "points_per_segment").check(self.points_per_segment as f64)?;
+        ParamSpec::find(SPECTRA_PARAMS, "sample_spacing").check_number(self.sample_spacing)?;
+        ParamSpec::find(SPECTRA_PARAMS, "points_per_segment").check_number(self.points_per_segment as f64)?;
         Ok(())
     }
 }
 
 /// Parameter table of [`SpectraParams`].
 pub const SPECTRA_PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "sample_spacing",
-        unit: "m",
-        default: ParamDefault::Real(1e-3),
-        min: 1e-7,
-        max: 1.0,
-        choices: &[],
-        doc: "Δs, arc-length spacing of curvature samples (eq 9); default the FE element size",
-    },
-    ParamSpec {
-        name: "points_per_segment",
-        unit: "1",
-        default: ParamDefault::Integer(0),
-        min: 0.0,
-        max: 1e7,
-        choices: &[],
-        doc: "N, samples per fibre; 0 = largest N fitting every fibre of the set",
-    },
+    ParamSpec::float("sample_spacing", "m", 1e-3, 1e-7, 1.0, "Δs, arc-length spacing of curvature samples (eq 9); default the FE element size"),
+    ParamSpec::int("points_per_segment", "1", 0, 0, 10_000_000, "N, samples per fibre; 0 = largest N fitting every fibre of the set"),
 ];
 
 /// Parameter table of [`SquareWaveParams`].
 pub const SQUARE_WAVE_PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "bending_energy",
-        unit: "1",
-        default: ParamDefault::Real(2.5e3),
-        min: 0.0,
-        max: 1e9,
-        choices: &[],
-        doc: "e = V_b L/EI of each generated segment (eqs A.3, A.5); presets 2.5e3 / 2.5e4 / 2.5e5",
-    },
-    ParamSpec {
-        name: "cutoff_number",
-        unit: "1",
-        default: ParamDefault::Integer(20),
-        min: 0.0,
-        max: 5e6,
-        choices: &[],
-        doc: "n_c, ω_c = n_c·2π/L (eq A.1); bins |r| ≤ n_c incl. r = 0 are non-zero; need 2n_c < N",
-    },
-    ParamSpec {
-        name: "segment_length",
-        unit: "m",
-        default: ParamDefault::Real(1.0),
-        min: f64::MIN_POSITIVE,
-        max: 1e3,
-        choices: &[],
-        doc: "L, length of one random segment (the FE fibre length)",
-    },
-    ParamSpec {
-        name: "points_per_segment",
-        unit: "1",
-        default: ParamDefault::Integer(1000),
-        min: 4.0,
-        max: 1e7,
-        choices: &[],
-        doc: "N, curvature samples per segment; Δs = L/N",
-    },
+    ParamSpec::float("bending_energy", "1", 2.5e3, 0.0, 1e9, "e = V_b L/EI of each generated segment (eqs A.3, A.5); presets 2.5e3 / 2.5e4 / 2.5e5"),
+    ParamSpec::int("cutoff_number", "1", 20, 0, 5_000_000, "n_c, ω_c = n_c·2π/L (eq A.1); bins |r| ≤ n_c incl. r = 0 are non-zero; need 2n_c < N"),
+    ParamSpec::float("segment_length", "m", 1.0, f64::MIN_POSITIVE, 1e3, "L, length of one random segment (the FE fibre length)"),
+    ParamSpec::int("points_per_segment", "1", 1000, 4, 10_000_000, "N, curvature samples per segment; Δs = L/N"),
 ];
 
-pub(crate) fn spectra_params_spec(name: &str) -> &'static ParamSpec {
-    spec(SPECTRA_PARAMS, name)
-}
 
 /// Spectrum analysis of one laid fibre.
 #[derive(Debug, Clone, PartialEq)]
@@ -192,4 +141,4 @@ pub fn analyse_fibres<F: AsRef<[[f64; 3]]>>(fibres: &[F], params: &SpectraParams
 mod tests;
 
 mod stage;
-pub use stage::{declared_spectra, SpectraStage};
+pub use stage::{declared_spectra, SpectraStage, SpectraStageParams};

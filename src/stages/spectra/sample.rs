@@ -67,7 +67,7 @@ impl CurvatureSignal {
 /// exactly as requested and L = NΔs.
 pub fn sample_fibre(nodes: &[[f64; 3]], spacing: f64, points: Option<usize>) -> Result<CurvatureSignal, SpectraError> {
     if !(spacing > 0.0 && spacing.is_finite()) {
-        return Err(SpectraError::Param(super::spectra_params_spec("sample_spacing").check(spacing).unwrap_err()));
+        return Err(SpectraError::Param(crate::params::ParamSpec::find(super::SPECTRA_PARAMS, "sample_spacing").check_number(spacing).unwrap_err()));
     }
     if nodes.len() < 2 {
         return Err(SpectraError::InvalidFibre(format!("{} node(s); need at least 2", nodes.len())));

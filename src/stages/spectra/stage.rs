@@ -30,10 +30,38 @@ const OUTPUT_BYTES_PER_SAMPLE: f64 = 40.0;
 /// x read whole, and the fibre copied out of them.
 const INPUT_BYTES_PER_NODE: f64 = 72.0;
 
+/// A spectra point's parameters ([`ParamSet::to_typed`] of the stage's table): the
+/// analysis of laid fibres ([`SpectraParams`]), or an idealised square-wave spectrum.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SpectraStageParams {
+    pub preset: String,
+    pub belt_removed: bool,
+    /// [`SquareWaveParams`] but N, which is the analysis's `points_per_segment`.
+    pub bending_energy: f64,
+    pub cutoff_number: usize,
+    pub segment_length: f64,
+    #[serde(flatten)]
+    pub analysis: SpectraParams,
+}
+
+impl SpectraStageParams {
+    /// A point's typed parameters (its rows were checked against the table).
+    pub fn of(p: &ParamSet) -> Self {
+        p.to_typed().expect("the spectra table and SpectraStageParams agree (tested)")
+    }
+    /// N of an idealised spectrum: the given one, else 1000.
+    fn idealised_points(&self) -> usize {
+        match self.analysis.points_per_segment {
+            0 => 1000,
+            n => n,
+        }
+    }
+}
+
 /// The spectra of a declared spectra stage, per output point: (spectra, N samples each).
 pub fn declared_spectra(stage: &Declared) -> Vec<(f64, f64)> {
-    let p = &stage.points[0];
-    let given = p.usize("points_per_segment") as f64;
+    let p = SpectraStageParams::of(&stage.points[0]);
+    let given = p.analysis.points_per_segment as f64;
     let laid = match stage.inputs.first() {
         Some(input) if input.kind == "laid_web" => crate::stages::laid_web::stage::declared_fibres(input),
         Some(input) => crate::stages::laydown::declared_fibres(input),
@@ -42,16 +70,14 @@ pub fn declared_spectra(stage: &Declared) -> Vec<(f64, f64)> {
                 .points
                 .iter()
                 .map(|p| {
-                    let n = match (p.text("preset"), p.usize("points_per_segment")) {
-                        ("none", n) if n > 0 => n,
-                        _ => 1000,
-                    };
+                    let p = SpectraStageParams::of(p);
+                    let n = if p.preset == "none" { p.idealised_points() } else { 1000 };
                     (stage.replicates as f64, n as f64)
                 })
                 .collect()
         }
     };
-    let spacing = p.f64("sample_spacing");
+    let spacing = p.analysis.sample_spacing;
     laid.iter().map(|f| (f.count, if given > 0.0 { given } else { (f.length / spacing).floor() + 1.0 })).collect()
 }
 
@@ -88,18 +114,15 @@ impl Stage for SpectraStage {
             if p.name == "points_per_segment" {
                 continue;
             }
-            v.push(p.into());
+            v.push(*p);
         }
-        for p in SPECTRA_PARAMS {
-            v.push(p.into());
-        }
+        v.extend_from_slice(SPECTRA_PARAMS);
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
-        if p.text("preset") == "none" {
-            let n = p.usize("points_per_segment");
-            let n = if n == 0 { 1000 } else { n };
-            let nc = p.usize("cutoff_number");
+        let p = SpectraStageParams::of(p);
+        if p.preset == "none" {
+            let (n, nc) = (p.idealised_points(), p.cutoff_number);
             if 2 * nc >= n {
                 return Err(InvalidParam::new("cutoff_number".into(), format!("n_c = {nc} is at or beyond the Nyquist bin N/2 = {} for N = {n}; allowed: 2·n_c < N", n / 2)));
             }
@@ -119,7 +142,7 @@ impl Stage for SpectraStage {
                 };
                 (laid.iter().map(|f| f.count * f.nodes * INPUT_BYTES_PER_NODE).sum(), &["points_per_segment"], &["sample_spacing"])
             }
-            None if stage.points.iter().all(|p| p.text("preset") != "none") => (0.0, &["replicates"], &[]),
+            None if stage.points.iter().all(|p| SpectraStageParams::of(p).preset != "none") => (0.0, &["replicates"], &[]),
             None => (0.0, &["points_per_segment", "replicates"], &[]),
         };
         let most = spectra.iter().map(|s| s.0).fold(0.0, f64::max);
@@ -139,7 +162,7 @@ impl Stage for SpectraStage {
         };
         let mut out = assemble(&rows)?;
         if let Some(input) = ctx.inputs.first() {
-            laid_fibre_parameters(input, rows.len(), ctx.points[0].bool("belt_removed"), &mut out)?;
+            laid_fibre_parameters(input, rows.len(), SpectraStageParams::of(&ctx.points[0]).belt_removed, &mut out)?;
         }
         Ok(out)
     }
@@ -163,18 +186,11 @@ fn laid_fibre_parameters(input: &crate::stages::Input, points: usize, belt_remov
 }
 
 fn idealised(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Row>> {
-    let mut sq = match p.text("preset") {
-        "none" => SquareWaveParams {
-            bending_energy: p.f64("bending_energy"),
-            cutoff_number: p.usize("cutoff_number"),
-            segment_length: p.f64("segment_length"),
-            points_per_segment: 1000,
-        },
+    let p = SpectraStageParams::of(p);
+    let sq = match p.preset.as_str() {
+        "none" => SquareWaveParams { bending_energy: p.bending_energy, cutoff_number: p.cutoff_number, segment_length: p.segment_length, points_per_segment: p.idealised_points() },
         name => SquareWaveParams::preset(name).ok_or_else(|| anyhow!("unknown preset {name}"))?,
     };
-    if p.text("preset") == "none" && p.usize("points_per_segment") > 0 {
-        sq.points_per_segment = p.usize("points_per_segment");
-    }
     let spectrum = sq.spectrum().map_err(|e| BadInput(e.to_string()))?;
     // One random realisation per replicate (eqs 11-13), to show κ(s) and check e.
     Ok((0..ctx.replicates)
@@ -192,8 +208,7 @@ fn idealised(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Row>> {
 /// One row per sweep point of the input, each with one spectrum per laid fibre.
 fn laid(ctx: &RunContext, p: &ParamSet) -> Result<Vec<Vec<Row>>> {
     let input = ctx.input(0);
-    let belt_removed = p.bool("belt_removed");
-    let params = SpectraParams { sample_spacing: p.f64("sample_spacing"), points_per_segment: p.usize("points_per_segment") };
+    let SpectraStageParams { belt_removed, analysis: params, .. } = SpectraStageParams::of(p);
     params.validate().map_err(|e| BadInput(e.to_string()))?;
     let points = match input.kind.as_str() {
         "laid_web" => laid_web_fibres(input, belt_removed)?,

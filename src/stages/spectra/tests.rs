@@ -142,3 +142,17 @@ fn analyse_fibres_shares_n() {
     let e_mean = 0.5 * (out[0].bending_energy_spectrum + out[1].bending_energy_spectrum);
     assert!((mean.bending_energy() - e_mean).abs() < 1e-9 * e_mean);
 }
+
+#[test]
+fn stage_table_is_its_typed_parameters() {
+    let square = SquareWaveParams::default();
+    let stage = SpectraStageParams {
+        preset: "none".into(),
+        belt_removed: true,
+        bending_energy: square.bending_energy,
+        cutoff_number: square.cutoff_number,
+        segment_length: square.segment_length,
+        analysis: SpectraParams::default(),
+    };
+    crate::params::assert_table_matches(&crate::stages::Stage::params(&SpectraStage), &stage);
+}

@@ -48,102 +48,62 @@ pub mod segments;
 mod stage;
 pub mod trig;
 
-pub use stage::{declared_webs, stored_bytes, web_from_input, DeclaredWeb, WebStage, SCRATCH_BYTES_PER_NODE, SDE_SCRATCH_BYTES_PER_NODE};
+pub use stage::{declared_webs, stored_bytes, web_from_input, DeclaredWeb, WebStage, WebStageParams, SCRATCH_BYTES_PER_NODE, SDE_SCRATCH_BYTES_PER_NODE};
 
 pub use generate::{fibre_rng, FibreScratch, Web};
 pub use segments::LaidTemplates;
 
-use crate::param_table::{spec, ParamDefault, ParamError, ParamSpec};
+use crate::params::{ParamError, ParamSpec};
 use crate::stages::spectra::SpectraError;
 
-/// How a web's fibres are made (the `generator` parameter).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Generator {
-    /// The paper's surrogate (eqs 11-13): segments with the input's curvature spectrum
-    /// and random phases.
-    #[default]
-    RandomPhase,
-    /// Laid fibres (belt removed) followed one after another with their own shape and
-    /// phases, each drawn uniformly, optionally mirrored; joined as [`SegmentJoin`] says.
-    LaidSegments,
-    /// The ITWM stochastic lay-down model ([`sde`]), calibrated on the laid fibres or given.
-    LayDownSde,
-}
-
-impl Generator {
-    pub const CHOICES: &'static [&'static str] = &["random_phase", "laid_segments", "lay_down_sde"];
-    pub fn name(self) -> &'static str {
-        Self::CHOICES[self as usize]
-    }
-    pub fn from_name(name: &str) -> Result<Self, ParamError> {
-        match name {
-            "random_phase" => Ok(Self::RandomPhase),
-            "laid_segments" => Ok(Self::LaidSegments),
-            "lay_down_sde" => Ok(Self::LayDownSde),
-            _ => Err(spec(WEB_PARAMS, "generator").check_choice(name).unwrap_err()),
-        }
+crate::params::choice_enum! {
+    /// How a web's fibres are made (the `generator` parameter).
+    pub enum Generator {
+        /// The paper's surrogate (eqs 11-13): segments with the input's curvature spectrum
+        /// and random phases.
+        #[default]
+        RandomPhase = "random_phase",
+        /// Laid fibres (belt removed) followed one after another with their own shape and
+        /// phases, each drawn uniformly, optionally mirrored; joined as [`SegmentJoin`] says.
+        LaidSegments = "laid_segments",
+        /// The ITWM stochastic lay-down model ([`sde`]), calibrated on the laid fibres or given.
+        LayDownSde = "lay_down_sde",
     }
 }
 
-/// How `laid_segments` joins one laid fibre to the next (the `segment_join` parameter).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum SegmentJoin {
-    /// Each laid fibre kept in its place about the feed axis and its laid orientation,
-    /// entered where it best continues the previous one ([`segments`]).
-    #[default]
-    Matched,
-    /// The laid fibres' curvature samples concatenated and integrated by eq 13: each
-    /// template rotated to continue the previous tangent, starting where it ended.
-    Curvature,
-}
 
-impl SegmentJoin {
-    pub const CHOICES: &'static [&'static str] = &["matched", "curvature"];
-    pub fn name(self) -> &'static str {
-        Self::CHOICES[self as usize]
-    }
-    pub fn from_name(name: &str) -> Result<Self, ParamError> {
-        match name {
-            "matched" => Ok(Self::Matched),
-            "curvature" => Ok(Self::Curvature),
-            _ => Err(spec(WEB_PARAMS, "segment_join").check_choice(name).unwrap_err()),
-        }
+crate::params::choice_enum! {
+    /// How `laid_segments` joins one laid fibre to the next (the `segment_join` parameter).
+    pub enum SegmentJoin {
+        /// Each laid fibre kept in its place about the feed axis and its laid orientation,
+        /// entered where it best continues the previous one ([`segments`]).
+        #[default]
+        Matched = "matched",
+        /// The laid fibres' curvature samples concatenated and integrated by eq 13: each
+        /// template rotated to continue the previous tangent, starting where it ended.
+        Curvature = "curvature",
     }
 }
 
-/// Which spectrum of the set each segment uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum SpectrumSelection {
-    /// Every segment uses the first spectrum of the set (pass a mean spectrum, e.g.
-    /// [`crate::stages::spectra::CurvatureSpectrum::mean`], or an idealised one).
-    #[default]
-    Single,
-    /// Each segment draws one spectrum of the set uniformly (replicate spectra).
-    PerSegment,
+
+crate::params::choice_enum! {
+    /// Which spectrum of the set each segment uses.
+    pub enum SpectrumSelection {
+        /// Every segment uses the first spectrum of the set (pass a mean spectrum, e.g.
+        /// [`crate::stages::spectra::CurvatureSpectrum::mean`], or an idealised one).
+        #[default]
+        Single = "single",
+        /// Each segment draws one spectrum of the set uniformly (replicate spectra).
+        PerSegment = "per_segment",
+    }
 }
 
-impl SpectrumSelection {
-    pub const CHOICES: &'static [&'static str] = &["single", "per_segment"];
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Single => "single",
-            Self::PerSegment => "per_segment",
-        }
-    }
-    pub fn from_name(name: &str) -> Result<Self, ParamError> {
-        match name {
-            "single" => Ok(Self::Single),
-            "per_segment" => Ok(Self::PerSegment),
-            _ => Err(spec(WEB_PARAMS, "spectrum_selection").check_choice(name).unwrap_err()),
-        }
-    }
-}
 
 /// Parameters of a web. Defaults are the paper's converged webs (Tables 2-3:
 /// n_w = 1500, n_l = 100, Δw = 2.5 mm, d = 20 µm) with the baseline belt-to-fibre
 /// speed ratio of Table 1 (v_belt/v_f = 0.2/5.0 = 0.04; the tables' ρ_av ≈ 2.8 g/m²
 /// matches ρA/(Δw·c) = 2.98 g/m² for c = 0.04, not 2.39 for 0.05).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WebParams {
     /// n_w, fibres across the machine.
     pub fibres_across: usize,
@@ -188,12 +148,12 @@ impl Default for WebParams {
 impl WebParams {
     pub fn validate(&self) -> Result<(), WebError> {
         let t = WEB_PARAMS;
-        spec(t, "fibres_across").check(self.fibres_across as f64)?;
-        spec(t, "segments_per_fibre").check(self.segments_per_fibre as f64)?;
-        spec(t, "fibre_spacing").check(self.fibre_spacing)?;
-        spec(t, "belt_speed_ratio").check(self.belt_speed_ratio)?;
-        spec(t, "fibre_diameter").check(self.fibre_diameter)?;
-        spec(t, "fibre_density").check(self.fibre_density)?;
+        ParamSpec::find(t, "fibres_across").check_number(self.fibres_across as f64)?;
+        ParamSpec::find(t, "segments_per_fibre").check_number(self.segments_per_fibre as f64)?;
+        ParamSpec::find(t, "fibre_spacing").check_number(self.fibre_spacing)?;
+        ParamSpec::find(t, "belt_speed_ratio").check_number(self.belt_speed_ratio)?;
+        ParamSpec::find(t, "fibre_diameter").check_number(self.fibre_diameter)?;
+        ParamSpec::find(t, "fibre_density").check_number(self.fibre_density)?;
         Ok(())
     }
     /// Fibre mass per unit length ρπd²/4 (kg/m).
@@ -218,17 +178,17 @@ impl WebParams {
 
 /// Parameter table of [`WebParams`].
 pub const WEB_PARAMS: &[ParamSpec] = &[
-    ParamSpec { name: "fibres_across", unit: "1", default: ParamDefault::Integer(1500), min: 1.0, max: 4294967295.0, choices: &[], doc: "n_w, fibres started across the machine (Table 3)" },
-    ParamSpec { name: "segments_per_fibre", unit: "1", default: ParamDefault::Integer(100), min: 1.0, max: 1e6, choices: &[], doc: "n_l, random segments of length L joined per fibre (Table 2)" },
-    ParamSpec { name: "fibre_spacing", unit: "m", default: ParamDefault::Real(2.5e-3), min: f64::MIN_POSITIVE, max: 10.0, choices: &[], doc: "Δw, CD spacing of the fibres' starting points (§3.3)" },
-    ParamSpec { name: "belt_speed_ratio", unit: "1", default: ParamDefault::Real(0.04), min: 0.0, max: 100.0, choices: &[], doc: "c = v_b/v_f, belt drift per unit fibre length (eqs 14-15); 0.04 = Table 1" },
-    ParamSpec { name: "fibre_diameter", unit: "m", default: ParamDefault::Real(20e-6), min: f64::MIN_POSITIVE, max: 1e-2, choices: &[], doc: "d, fibre diameter (point mass ρπd²/4·Δs)" },
-    ParamSpec { name: "fibre_density", unit: "kg/m^3", default: ParamDefault::Real(950.0), min: f64::MIN_POSITIVE, max: 1e5, choices: &[], doc: "ρ, fibre material density" },
-    ParamSpec { name: "spectrum_selection", unit: "", default: ParamDefault::Choice("single"), min: f64::NAN, max: f64::NAN, choices: SpectrumSelection::CHOICES, doc: "single: every segment uses the first spectrum; per_segment: each segment draws one of the set" },
-    ParamSpec { name: "generator", unit: "", default: ParamDefault::Choice("random_phase"), min: f64::NAN, max: f64::NAN, choices: Generator::CHOICES, doc: "random_phase: the paper's surrogate (eqs 11-13); laid_segments: the input's laid fibres followed one after another (see segment_join); lay_down_sde: the ITWM stochastic lay-down model (see sde_potential_length, sde_noise)" },
-    ParamSpec { name: "mirror", unit: "", default: ParamDefault::Bool(false), min: 0.0, max: 1.0, choices: &[], doc: "laid_segments: mirror each joined template in CD (y → −y, κ → −κ) with probability 1/2" },
-    ParamSpec { name: "segment_join", unit: "", default: ParamDefault::Choice("matched"), min: f64::NAN, max: f64::NAN, choices: SegmentJoin::CHOICES, doc: "laid_segments: matched keeps each laid fibre about its feed axis in its laid orientation, entered where it continues the previous one; curvature integrates the joined curvature (templates rotated, fibre drifts from its hole)" },
-    ParamSpec { name: "seed", unit: "1", default: ParamDefault::Integer(0), min: 0.0, max: 18446744073709551615.0, choices: &[], doc: "master seed; fibre j of realisation k uses ChaCha8 stream k·2³²+j" },
+    ParamSpec::int("fibres_across", "1", 1500, 1, u32::MAX as i64, "n_w, fibres started across the machine (Table 3)"),
+    ParamSpec::int("segments_per_fibre", "1", 100, 1, 1_000_000, "n_l, random segments of length L joined per fibre (Table 2)"),
+    ParamSpec::float("fibre_spacing", "m", 2.5e-3, f64::MIN_POSITIVE, 10.0, "Δw, CD spacing of the fibres' starting points (§3.3)"),
+    ParamSpec::float("belt_speed_ratio", "1", 0.04, 0.0, 100.0, "c = v_b/v_f, belt drift per unit fibre length (eqs 14-15); 0.04 = Table 1"),
+    ParamSpec::float("fibre_diameter", "m", 20e-6, f64::MIN_POSITIVE, 1e-2, "d, fibre diameter (point mass ρπd²/4·Δs)"),
+    ParamSpec::float("fibre_density", "kg/m^3", 950.0, f64::MIN_POSITIVE, 1e5, "ρ, fibre material density"),
+    ParamSpec::choice("spectrum_selection", SpectrumSelection::NAMES, "single", "single: every segment uses the first spectrum; per_segment: each segment draws one of the set"),
+    ParamSpec::choice("generator", Generator::NAMES, "random_phase", "random_phase: the paper's surrogate (eqs 11-13); laid_segments: the input's laid fibres followed one after another (see segment_join); lay_down_sde: the ITWM stochastic lay-down model (see sde_potential_length, sde_noise)"),
+    ParamSpec::flag("mirror", false, "laid_segments: mirror each joined template in CD (y → −y, κ → −κ) with probability 1/2"),
+    ParamSpec::choice("segment_join", SegmentJoin::NAMES, "matched", "laid_segments: matched keeps each laid fibre about its feed axis in its laid orientation, entered where it continues the previous one; curvature integrates the joined curvature (templates rotated, fibre drifts from its hole)"),
+    ParamSpec::int("seed", "1", 0, 0, i64::MAX, "master seed; fibre j of realisation k uses ChaCha8 stream k·2³²+j"),
 ];
 
 /// Errors of the web stage.

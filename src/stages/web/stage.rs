@@ -55,6 +55,38 @@ pub struct WebStage;
 
 const PRESETS: &[&str] = &["none", "spectrum1", "spectrum2", "spectrum3"];
 
+/// A web point's parameters as the pipeline gives them ([`ParamSet::to_typed`] of the
+/// stage's table): [`WebParams`] but for the seed (the pipeline's) and the physical
+/// parameters that may be `auto`, and the stage's own rows.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct WebStageParams {
+    pub preset: String,
+    pub points_per_segment: usize,
+    pub input_point: Option<usize>,
+    pub fibres_across: usize,
+    pub segments_per_fibre: usize,
+    pub fibre_spacing: f64,
+    pub belt_speed_ratio: Option<f64>,
+    pub fibre_diameter: Option<f64>,
+    pub fibre_density: Option<f64>,
+    pub spectrum_selection: SpectrumSelection,
+    pub generator: Generator,
+    pub mirror: bool,
+    pub segment_join: SegmentJoin,
+    pub sde_potential_length: Option<f64>,
+    pub sde_noise: Option<f64>,
+    pub segment_length: f64,
+    pub store_all_max_points: u64,
+    pub sample_fibres: usize,
+}
+
+impl WebStageParams {
+    /// A point's typed parameters (its rows were checked against the table).
+    pub fn of(p: &ParamSet) -> Self {
+        p.to_typed().expect("the web table and WebStageParams agree (tested)")
+    }
+}
+
 /// Bytes per node of a fibre being generated: κ, θ, sin θ, cos θ (8 B each) and the
 /// nodes (x, y).
 pub const SCRATCH_BYTES_PER_NODE: f64 = 48.0;
@@ -88,15 +120,16 @@ pub fn declared_webs(stage: &Declared) -> Vec<DeclaredWeb> {
         .points
         .iter()
         .map(|p| {
+            let p = WebStageParams::of(p);
             let (count, n) = match &input {
                 Some(s) => s.iter().fold((0.0, 0.0), |a, b| (f64::max(a.0, b.0), f64::max(a.1, b.1))),
-                None => (1.0, p.usize("points_per_segment") as f64),
+                None => (1.0, p.points_per_segment as f64),
             };
-            let spectra = if p.text("spectrum_selection") == "per_segment" || p.text("generator") == "laid_segments" { count } else { 1.0 };
-            let n_w = p.usize("fibres_across") as f64;
-            let nodes = p.usize("segments_per_fibre") as f64 * n + 1.0;
-            let stored = if n_w * nodes <= p.int("store_all_max_points") as f64 { n_w } else { (p.usize("sample_fibres") as f64).min(n_w) };
-            let scratch_bytes_per_node = if p.text("generator") == "lay_down_sde" { SDE_SCRATCH_BYTES_PER_NODE } else { SCRATCH_BYTES_PER_NODE };
+            let spectra = if p.spectrum_selection == SpectrumSelection::PerSegment || p.generator == Generator::LaidSegments { count } else { 1.0 };
+            let n_w = p.fibres_across as f64;
+            let nodes = p.segments_per_fibre as f64 * n + 1.0;
+            let stored = if n_w * nodes <= p.store_all_max_points as f64 { n_w } else { (p.sample_fibres as f64).min(n_w) };
+            let scratch_bytes_per_node = if p.generator == Generator::LayDownSde { SDE_SCRATCH_BYTES_PER_NODE } else { SCRATCH_BYTES_PER_NODE };
             DeclaredWeb { fibres_across: n_w, nodes_per_fibre: nodes, stored_fibres: stored, spectra, points_per_segment: n, scratch_bytes_per_node }
         })
         .collect()
@@ -153,9 +186,9 @@ impl Stage for WebStage {
         ];
         for p in WEB_PARAMS {
             if let Some(&(_, doc)) = INHERITED_DOCS.iter().find(|(name, _)| *name == p.name) {
-                v.push(ParamSpec { doc, ..ParamSpec::from(p).auto_default() });
+                v.push(p.auto_default().with_doc(doc));
             } else if p.name != "seed" {
-                v.push(p.into());
+                v.push(*p);
             }
         }
         v.push(ParamSpec::float("sde_potential_length", "m", 5e-3, 1e-9, 10.0, "lay_down_sde: b of the potential V = |η|²/(2b²) (auto: calibrated so the input's laid fibres' S is met)").auto_default());
@@ -208,9 +241,9 @@ impl Stage for WebStage {
 }
 
 fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
+    let p = &WebStageParams::of(p);
     let bad = |e: &dyn std::fmt::Display| BadInput(format!("point {index}: {e}"));
-    let selection = SpectrumSelection::from_name(p.text("spectrum_selection")).map_err(|e| bad(&e))?;
-    let generator = Generator::from_name(p.text("generator")).map_err(|e| bad(&e))?;
+    let (selection, generator) = (p.spectrum_selection, p.generator);
     // The point of the input spectra stage this web reads (read once, used below).
     let input_point = if ctx.inputs.is_empty() { None } else { Some(input_point(ctx, p)?) };
     let physical = physical_parameters(ctx, p, input_point)?;
@@ -219,19 +252,19 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     }
     let [belt_speed_ratio, fibre_diameter, fibre_density] = physical.values;
     let params = WebParams {
-        fibres_across: p.usize("fibres_across"),
-        segments_per_fibre: p.usize("segments_per_fibre"),
-        fibre_spacing: p.f64("fibre_spacing"),
+        fibres_across: p.fibres_across,
+        segments_per_fibre: p.segments_per_fibre,
+        fibre_spacing: p.fibre_spacing,
         belt_speed_ratio,
         fibre_diameter,
         fibre_density,
         spectrum_selection: selection,
         generator,
-        mirror: p.bool("mirror"),
-        segment_join: SegmentJoin::from_name(p.text("segment_join")).map_err(|e| bad(&e))?,
+        mirror: p.mirror,
+        segment_join: p.segment_join,
         seed: ctx.seed,
     };
-    if generator != Generator::RandomPhase && p.text("preset") != "none" {
+    if generator != Generator::RandomPhase && p.preset != "none" {
         return Err(BadInput(format!("`preset` gives a spectrum for generator random_phase; generator {} does not use one", generator.name())).into());
     }
     let laid = input_point.map(|point| laid_fibres(ctx, point)).transpose()?;
@@ -261,10 +294,10 @@ fn point_web(ctx: &RunContext, index: usize, p: &ParamSet) -> Result<PointWeb> {
     };
     let n_w = params.fibres_across;
     let total = n_w as u128 * web.nodes_per_fibre() as u128;
-    let sample = if total <= p.int("store_all_max_points") as u128 {
+    let sample = if total <= p.store_all_max_points as u128 {
         (0..n_w).collect()
     } else {
-        let k = p.usize("sample_fibres").min(n_w);
+        let k = p.sample_fibres.min(n_w);
         (0..k).map(|i| (2 * i + 1) * n_w / (2 * k)).collect()
     };
     let generated_shape = generated_shape(&web);
@@ -293,15 +326,16 @@ struct Physical {
     inherited: Option<String>,
 }
 
-fn physical_parameters(ctx: &RunContext, p: &ParamSet, input_point: Option<usize>) -> Result<Physical> {
+fn physical_parameters(ctx: &RunContext, p: &WebStageParams, input_point: Option<usize>) -> Result<Physical> {
     let laid = match (ctx.inputs.first(), input_point) {
         (Some(input), Some(point)) if input.has("fibre_diameter") => Some((input, point)),
         _ => None,
     };
     let (mut values, mut taken) = ([0.0; 3], vec![]);
-    for (value, name) in values.iter_mut().zip(INHERITED) {
-        let row = WEB_PARAMS.iter().find(|r| r.name == name).expect("inherited parameters are in the web table");
-        *value = match (p.f64_or_auto(name), laid) {
+    let given = [p.belt_speed_ratio, p.fibre_diameter, p.fibre_density];
+    for ((value, name), given) in values.iter_mut().zip(INHERITED).zip(given) {
+        let row = ParamSpec::find(WEB_PARAMS, name);
+        *value = match (given, laid) {
             (Some(given), _) => given,
             (None, Some((input, point))) => {
                 let belt_kept = name == "belt_speed_ratio" && input.has("belt_removed") && input.read_u8("belt_removed")?.iter().all(|&b| b == 0);
@@ -309,10 +343,7 @@ fn physical_parameters(ctx: &RunContext, p: &ParamSet, input_point: Option<usize
                 taken.push(format!("{name} = {laid_value:e} {}{}", row.unit, if belt_kept { " (the laid curves keep the belt drift)" } else { "" }));
                 laid_value
             }
-            (None, None) => match row.default {
-                crate::param_table::ParamDefault::Real(v) => v,
-                _ => unreachable!("inherited parameters are real"),
-            },
+            (None, None) => row.default.number().expect("inherited parameters are numbers"),
         };
     }
     let inherited = laid.filter(|_| !taken.is_empty()).map(|(input, point)| format!("from the laid fibres of {} point {point}: {}", input.version.group_path(), taken.join(", ")));
@@ -337,11 +368,11 @@ fn laid_segments_web(params: WebParams, laid: LaidFibres) -> Result<(Web, String
 
 /// A `lay_down_sde` web: b and A as given, or calibrated on the laid fibres' mean shape at
 /// their Δs and length; without an input, Δs = segment_length / points_per_segment.
-fn sde_web(ctx: &RunContext, p: &ParamSet, params: WebParams, laid: Option<&LaidFibres>, target: Option<ShapeTarget>) -> Result<(Web, String, Option<Calibration>), WebError> {
-    let given = (p.f64_or_auto("sde_potential_length"), p.f64_or_auto("sde_noise"));
+fn sde_web(ctx: &RunContext, p: &WebStageParams, params: WebParams, laid: Option<&LaidFibres>, target: Option<ShapeTarget>) -> Result<(Web, String, Option<Calibration>), WebError> {
+    let given = (p.sde_potential_length, p.sde_noise);
     let (spacing, points) = match laid {
         Some(l) => (l.spacing, l.curvature[0].len()),
-        None => (p.f64("segment_length") / p.usize("points_per_segment") as f64, p.usize("points_per_segment")),
+        None => (p.segment_length / p.points_per_segment as f64, p.points_per_segment),
     };
     let (model, calibration, source) = match (given, target, laid) {
         ((Some(b), Some(a)), _, _) => (LayDownSde { potential_length: b, noise: a }, None, "lay_down_sde: parameters given".to_string()),
@@ -412,11 +443,11 @@ impl LaidFibres {
 }
 
 /// Which point of the input spectra stage a web uses (`input_point`, or its only point).
-fn input_point(ctx: &RunContext, p: &ParamSet) -> Result<usize> {
+fn input_point(ctx: &RunContext, p: &WebStageParams) -> Result<usize> {
     let input = ctx.input(0);
     let npoints = input.read_f64("segment_length")?.len();
-    let point = match p.0.get("input_point") {
-        Some(crate::params::ParamValue::Int(i)) => *i as usize,
+    let point = match p.input_point {
+        Some(i) => i,
         _ if npoints == 1 => 0,
         _ => {
             return Err(BadInput(format!(
@@ -459,13 +490,13 @@ fn laid_fibres(ctx: &RunContext, point: usize) -> Result<LaidFibres> {
     Ok(LaidFibres { curvature, positions, spacing, source: format!("{} point {point}", input.version.group_path()) })
 }
 
-fn spectra_for(ctx: &RunContext, p: &ParamSet, selection: SpectrumSelection, input_point: Option<usize>) -> Result<(Vec<CurvatureSpectrum>, String)> {
-    let preset = p.text("preset");
+fn spectra_for(ctx: &RunContext, p: &WebStageParams, selection: SpectrumSelection, input_point: Option<usize>) -> Result<(Vec<CurvatureSpectrum>, String)> {
+    let preset = p.preset.as_str();
     if ctx.inputs.is_empty() {
         if preset == "none" {
             return Err(BadInput("a web needs a spectrum: give `input: <spectra stage>` or `preset: spectrum1|spectrum2|spectrum3`".into()).into());
         }
-        let sq = SquareWaveParams { points_per_segment: p.usize("points_per_segment"), ..SquareWaveParams::preset(preset).ok_or_else(|| anyhow!("unknown preset {preset}"))? };
+        let sq = SquareWaveParams { points_per_segment: p.points_per_segment, ..SquareWaveParams::preset(preset).ok_or_else(|| anyhow!("unknown preset {preset}"))? };
         let s = sq.spectrum().map_err(|e| BadInput(format!("preset {preset}: {e}")))?;
         return Ok((vec![s], format!("preset {preset}, N = {}", sq.points_per_segment)));
     }

@@ -121,41 +121,29 @@ fn invalid_inputs_are_named() {
     let other = SquareWaveParams { points_per_segment: 500, ..Default::default() }.spectrum().unwrap();
     let err = Web::new(small(2, 2), vec![preset("spectrum1"), other]).unwrap_err();
     assert!(err.to_string().contains("share N and L"), "{err}");
-    assert!(SpectrumSelection::from_name("mean").unwrap_err().to_string().contains("spectrum_selection"));
-    // The table's defaults are the Default impl's.
+    assert_eq!(SpectrumSelection::from_name("mean").unwrap_err().to_string(), "`mean` is not a SpectrumSelection; allowed: single, per_segment");
+    // The table's defaults are the Default impl's, and the stage's rows its typed parameters.
+    crate::params::assert_table_matches(WEB_PARAMS, &WebParams::default());
     let d = WebParams::default();
-    for row in WEB_PARAMS {
-        let v = match row.name {
-            "fibres_across" => d.fibres_across as f64,
-            "segments_per_fibre" => d.segments_per_fibre as f64,
-            "fibre_spacing" => d.fibre_spacing,
-            "belt_speed_ratio" => d.belt_speed_ratio,
-            "fibre_diameter" => d.fibre_diameter,
-            "fibre_density" => d.fibre_density,
-            "seed" => d.seed as f64,
-            "spectrum_selection" => {
-                assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.spectrum_selection.name()));
-                continue;
-            }
-            "generator" => {
-                assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.generator.name()));
-                continue;
-            }
-            "segment_join" => {
-                assert_eq!(row.default, crate::param_table::ParamDefault::Choice(d.segment_join.name()));
-                continue;
-            }
-            "mirror" => {
-                assert_eq!(row.default, crate::param_table::ParamDefault::Bool(d.mirror));
-                continue;
-            }
-            other => panic!("unexpected row {other}"),
-        };
-        let table = match row.default {
-            crate::param_table::ParamDefault::Real(x) => x,
-            crate::param_table::ParamDefault::Integer(i) => i as f64,
-            _ => unreachable!(),
-        };
-        assert_eq!(v, table, "{}", row.name);
-    }
+    let stage = super::stage::WebStageParams {
+        preset: "none".into(),
+        points_per_segment: 1000,
+        input_point: None,
+        fibres_across: d.fibres_across,
+        segments_per_fibre: d.segments_per_fibre,
+        fibre_spacing: d.fibre_spacing,
+        belt_speed_ratio: None,
+        fibre_diameter: None,
+        fibre_density: None,
+        spectrum_selection: d.spectrum_selection,
+        generator: d.generator,
+        mirror: d.mirror,
+        segment_join: d.segment_join,
+        sde_potential_length: None,
+        sde_noise: None,
+        segment_length: 1.0,
+        store_all_max_points: 2_000_000,
+        sample_fibres: 8,
+    };
+    crate::params::assert_table_matches(&crate::stages::Stage::params(&super::WebStage), &stage);
 }

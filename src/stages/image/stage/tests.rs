@@ -74,7 +74,6 @@ fn grid_input_with_bonds_recovers_the_web_cv() {
             ("max_stored_images", ParamValue::Int(1)),
         ],
     );
-    c.points[0].f64("bonds.period1");
     ImageStage.check(&c.points[0]).unwrap();
     let out = ImageStage.run(&c).unwrap();
     assert!(out.dimensions().is_ok());
@@ -246,4 +245,27 @@ fn default_group_labels_are_file_stems_or_the_directory_of_a_whole_directory_glo
     // Labels that would merge distinct entries keep the whole entry.
     assert_eq!(default_groups(&v(&["a/x.png", "b/x.png", "y.png"])), v(&["a/x.png", "b/x.png", "y"]));
     assert_eq!(default_groups(&v(&["*.png"])), v(&["*.png"]), "a glob with no directory has nothing shorter");
+}
+
+/// The stage takes the library's rows as they are (same names, same SI units), its
+/// table is its typed parameters, and its defaults are the library's defaults, with no
+/// rescaling between them.
+#[test]
+fn the_stage_rows_are_the_library_rows_and_map_without_rescaling() {
+    let rows = ImageStage.params();
+    for lib in PARAMETERS {
+        assert_eq!(ParamSpec::find(&rows, lib.name), lib, "{}", lib.name);
+    }
+    let defaults = ParamSet::resolve(&rows, &BTreeMap::new());
+    let typed = ImageStageParams::of(&defaults);
+    assert_eq!(typed.analysis, ImageParams::default());
+    crate::params::assert_table_matches(&rows, &typed);
+    assert_eq!((typed.synthetic.rows, typed.bonds.shape, typed.render.bits), (617, BondShapeKind::None, 0));
+    let given: BTreeMap<String, ParamValue> = [("pixel_size", 4.2e-5), ("zone_min", 1.1e-3), ("zone_max", 7.3e-3)]
+        .iter()
+        .map(|(k, v)| (k.to_string(), ParamValue::Float(*v)))
+        .collect();
+    let ip = ImageStageParams::of(&ParamSet::resolve(&rows, &given)).analysis;
+    assert_eq!((ip.pixel_size, ip.zone_min, ip.zone_max), (Some(4.2e-5), 1.1e-3, 7.3e-3));
+    assert_eq!(ip.pixel_size_or_default(), 4.2e-5);
 }

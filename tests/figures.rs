@@ -67,13 +67,18 @@ stages:
     sweep: {oscillation_amplitude: [0.005, 0.01]}
 ";
 
+/// Run [`PIPELINE`] in `dir`; returns its archive.
+fn run_pipeline(dir: &std::path::Path) -> std::path::PathBuf {
+    write_pipeline(dir, "p.yaml", PIPELINE);
+    let o = run_in(dir, &["run", "p.yaml"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    dir.join("figures.h5")
+}
+
 #[test]
 fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels_or_covering_data() {
     let dir = tempfile::tempdir().unwrap();
-    write_pipeline(dir.path(), "p.yaml", PIPELINE);
-    let o = run_in(dir.path(), &["run", "p.yaml"]);
-    assert!(o.status.success(), "{:?}", text(&o));
-    let archive = dir.path().join("figures.h5");
+    let archive = run_pipeline(dir.path());
 
     let mut kinds = std::collections::BTreeSet::new();
     let mut problems = vec![];
@@ -97,4 +102,44 @@ fn every_figure_kind_is_laid_out_within_its_canvas_without_overlapping_labels_or
     // The text-on-data check had data to check against.
     assert!(data_marks > 1000, "{data_marks} data segments recorded");
     assert!(problems.is_empty(), "{} layout problems:\n{}", problems.len(), problems.join("\n"));
+}
+
+/// Tallest figure of four maps in one journal column (mm): fits a page's text block.
+const MAX_FOUR_MAP_HEIGHT_MM: f64 = 230.0;
+/// Narrowest map there: width of each map's plotting area (mm), a third of the column
+/// (maps keep their aspect ratio, so a wide map is less tall).
+const MIN_MAP_WIDTH_MM: f64 = 28.0;
+
+#[test]
+fn four_maps_in_one_journal_column_fit_a_page_and_stay_legible() {
+    let dir = tempfile::tempdir().unwrap();
+    let archive = run_pipeline(dir.path());
+    let mm = |units: i32, dpi: f64| units as f64 / dpi * 25.4;
+    let mut checked = 0;
+    let mut report = vec![];
+    // square images and spectra (scans), a 62 × 87 image with its square spectra (flat),
+    // and four density maps of one quantity (grid)
+    for (stage, name) in [("scans", "sample000"), ("flat", "point000_sample000"), ("grid", "density")] {
+        let data = laydown::plot::open(&archive, stage).unwrap();
+        let fig = laydown::plot::figures(&data).unwrap().into_iter().find(|f| f.name == name).unwrap();
+        assert_eq!(fig.panels.len(), 4, "{stage}/{name}");
+        for font_pt in [7.0, 8.0] {
+            let opts = RenderOptions { width_mm: Some(85.0), font_pt, ..Default::default() };
+            let r = fig.inspect(&opts).unwrap();
+            let height = mm(r.size.1 as i32, opts.dpi);
+            report.push(format!("{stage}/{name} at 85 mm, {font_pt} pt: {height:.1} mm tall, maps {:?} mm", r.maps.iter().map(|m| (mm(m.2 - m.0, opts.dpi).round(), mm(m.3 - m.1, opts.dpi).round())).collect::<Vec<_>>()));
+            assert!(height <= MAX_FOUR_MAP_HEIGHT_MM, "{}", report.last().unwrap());
+            assert_eq!(r.maps.len(), 4, "{}", report.last().unwrap());
+            for m in &r.maps {
+                assert!(mm(m.2 - m.0, opts.dpi) >= MIN_MAP_WIDTH_MM, "{}", report.last().unwrap());
+            }
+            // the maps take a fair share of the page, not their labels
+            let area: f64 = r.maps.iter().map(|m| mm(m.2 - m.0, opts.dpi) * mm(m.3 - m.1, opts.dpi)).sum();
+            assert!(area >= 0.25 * 85.0 * height, "maps cover {:.0} % of the figure: {}", 100.0 * area / (85.0 * height), report.last().unwrap());
+            assert!(r.problems().is_empty(), "{:?}", r.problems());
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 6);
+    eprintln!("{}", report.join("\n"));
 }

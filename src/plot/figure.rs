@@ -9,9 +9,13 @@
 //! wrap to their panel's width; legends sit under their plot, never on the data; maps
 //! keep the aspect ratio of their extent and share one colour scale per quantity across
 //! the figure; every axis gets its ticks from [`super::ticks`], bounded by the room
-//! their labels take. [`Figure::inspect`] draws onto a recording backend for layout
-//! checks ([`super::inspect`]).
+//! their labels take. A figure of maps on a page too narrow for its panels side by side
+//! goes on a compact sheet ([`sheet`]: shared colour bars and axis labels) rather than
+//! stacking. [`Figure::inspect`] draws onto a recording backend for layout checks
+//! ([`super::inspect`]).
 use super::inspect::{self, Record};
+
+mod sheet;
 use super::ticks;
 use anyhow::{anyhow, Context, Result};
 use ndarray::Array2;
@@ -214,7 +218,13 @@ impl Figure {
         ensure_font(opts.font.as_deref())?;
         let sc = Scale::new(opts, Format::Png, opts.width_for(self));
         let layout = self.layout(&sc);
-        inspect::record(layout.size, |root| self.draw(root, &layout, &sc))
+        let mut maps = vec![];
+        let mut record = inspect::record(layout.size, |root| {
+            maps = self.draw(root, &layout, &sc)?;
+            Ok(())
+        })?;
+        record.maps = maps;
+        Ok(record)
     }
 
     /// Rows and columns of panels: the figure's columns, fewer when the page is too
@@ -226,7 +236,8 @@ impl Figure {
         (self.panels.len().div_ceil(columns), columns)
     }
 
-    /// Canvas size, title lines, row heights and colour ranges.
+    /// Canvas size, title lines, row heights and colour ranges; maps too many for the
+    /// page width side by side as panels go on a compact [`sheet::Sheet`].
     fn layout(&self, sc: &Scale) -> Layout {
         let width = sc.width;
         let (rows, columns) = self.grid(sc);
@@ -234,6 +245,10 @@ impl Figure {
         let title_lines = wrap(&self.title, sc.title, width - 2.0 * sc.m);
         let title_h = title_lines.len() as f64 * sc.title * 1.3 + sc.m;
         let colour_ranges = self.colour_ranges();
+        if let Some(sheet) = sheet::Sheet::new(self, sc, title_h, &colour_ranges) {
+            let size = (width.ceil() as u32, sheet.height.ceil() as u32);
+            return Layout { size, title_lines, title_h, rows: vec![], cell_w, colour_ranges, sheet: Some(sheet) };
+        }
         // Panels of a row share the caption and legend heights, so their plots line up.
         let mut rows_out = vec![Row::default(); rows];
         let mut plots = vec![0.0f64; rows];
@@ -257,7 +272,7 @@ impl Figure {
             r.height = r.caption_h + plot + r.legend_h;
         }
         let height = title_h + rows_out.iter().map(|r| r.height).sum::<f64>();
-        Layout { size: (width.ceil() as u32, height.ceil() as u32), title_lines, title_h, rows: rows_out, cell_w, colour_ranges }
+        Layout { size: (width.ceil() as u32, height.ceil() as u32), title_lines, title_h, rows: rows_out, cell_w, colour_ranges, sheet: None }
     }
 
     /// Per panel, the colour range of a map: over every map of the figure with the
@@ -278,13 +293,18 @@ impl Figure {
             .collect()
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, layout: &Layout, sc: &Scale) -> Result<()> {
+    /// Draw the figure; returns the plotting areas of its maps `(x0, y0, x1, y1)`.
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, layout: &Layout, sc: &Scale) -> Result<Vec<Rect>> {
         root.fill(&WHITE).map_err(plot_err)?;
         let (w, _) = root.dim_in_pixel();
         for (k, line) in layout.title_lines.iter().enumerate() {
             let y = sc.m + (k as f64 + 0.5) * sc.title * 1.3;
             draw_text(root, line, sc.title, (w as f64 / 2.0, y), Pos::new(HPos::Center, VPos::Center), FontTransform::None)?;
         }
+        if let Some(sheet) = &layout.sheet {
+            return sheet.draw(root, self, &layout.colour_ranges, sc);
+        }
+        let mut maps = vec![];
         let (_, columns) = self.grid(sc);
         let mut y = layout.title_h;
         for (r, row) in layout.rows.iter().enumerate() {
@@ -296,12 +316,12 @@ impl Figure {
                 let cell = root.clone().shrink((x.round() as u32, y.round() as u32), (layout.cell_w.floor() as u32, h.floor() as u32));
                 match panel {
                     Panel::Lines(p) => draw_lines(&cell, p, &LineLayout::new(p, sc, layout.cell_w, Some(row)), sc)?,
-                    Panel::Map(p) => draw_map(&cell, p, &MapLayout::new(p, sc, layout.cell_w, Some(row), layout.colour_ranges[i]), sc)?,
+                    Panel::Map(p) => maps.extend(draw_map(&cell, p, &MapLayout::new(p, sc, layout.cell_w, Some(row), layout.colour_ranges[i]), sc)?),
                 }
             }
             y += h;
         }
-        Ok(())
+        Ok(maps)
     }
 }
 
@@ -320,7 +340,12 @@ struct Layout {
     rows: Vec<Row>,
     cell_w: f64,
     colour_ranges: Vec<Option<(f64, f64)>>,
+    /// Maps laid out compactly (then `rows` is empty).
+    sheet: Option<sheet::Sheet>,
 }
+
+/// A rectangle `(x0, y0, x1, y1)` in canvas units.
+type Rect = (i32, i32, i32, i32);
 
 /// Canvas units of one output: `u` units per point, and the sizes every figure uses.
 struct Scale {
@@ -407,7 +432,19 @@ impl Axis {
                 break;
             }
         }
-        let (ticks, labels) = chosen.unwrap_or_default();
+        let (mut ticks, mut labels) = chosen.unwrap_or_default();
+        // A short axis left with one tick: the fewest ticks past one, if their labels
+        // stand apart (the count bound above is stricter than the spacing needs).
+        if ticks.len() < 2 && !log && range.1 > range.0 {
+            if let Some(t) = (3..=10).map(|n| ticks::linear(range.0, range.1, n, integer)).find(|t| t.len() >= 2) {
+                let l = ticks::format(&t);
+                let spacing = length * (t[1] - t[0]) / (range.1 - range.0);
+                let need = if horizontal { l.iter().map(|l| text_width(l, sc.tick_font)).fold(0.0, f64::max) + 0.5 * sc.font } else { 1.5 * sc.tick_font };
+                if spacing >= need {
+                    (ticks, labels) = (t, l);
+                }
+            }
+        }
         Axis { range, log, ticks, labels }
     }
     fn categorical(categories: &[String]) -> Self {
@@ -949,14 +986,14 @@ fn paint(t: f64, grey: bool) -> RGBColor {
     }
 }
 
-fn draw_map<DB: DrawingBackend>(cell: &DrawingArea<DB, Shift>, p: &MapPanel, l: &MapLayout, sc: &Scale) -> Result<()> {
+/// Draw a map panel in its cell; returns its plotting area.
+fn draw_map<DB: DrawingBackend>(cell: &DrawingArea<DB, Shift>, p: &MapPanel, l: &MapLayout, sc: &Scale) -> Result<Option<Rect>> {
     let body = draw_caption(cell, &l.caption, l.caption_h, sc)?;
     let Some(colour) = &l.colour else {
         draw_text(&body, "no finite data", sc.font, (2.0 * sc.m, sc.font), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
-        return Ok(());
+        return Ok(None);
     };
     let (w, h) = body.dim_in_pixel();
-    let (x0, x1, y0, y1) = p.extent;
     let right = w as f64 - sc.m - l.y_area - l.plot.0;
     let mut chart = ChartBuilder::on(&body)
         .margin_top(sc.m.round() as u32)
@@ -968,19 +1005,11 @@ fn draw_map<DB: DrawingBackend>(cell: &DrawingArea<DB, Shift>, p: &MapPanel, l: 
         .build_cartesian_2d(Ticked::new(&l.x), Ticked::new(&l.y))
         .map_err(plot_err)?;
     draw_axes(&mut chart, &p.x_label, &p.y_label, &l.x, &l.y, false, sc)?;
-    let max_side = sc.max_map_cells.min(l.plot.0.max(l.plot.1).ceil() as usize).max(16);
-    let values = downsample(&p.values, max_side);
+    paint_map(&mut chart, p, colour.range, l.plot, sc)?;
     let (vmin, vmax) = colour.range;
-    let (rows, cols) = values.dim();
-    let (dx, dy) = ((x1 - x0) / cols as f64, (y1 - y0) / rows as f64);
-    chart
-        .draw_series(values.indexed_iter().map(|((i, j), &v)| {
-            let (xa, ya) = (x0 + j as f64 * dx, y0 + i as f64 * dy);
-            Rectangle::new([(xa, ya), (xa + dx, ya + dy)], paint((v - vmin) / (vmax - vmin), p.grey).filled())
-        }))
-        .map_err(plot_err)?;
     // The colour bar, right of the plot, as tall as it.
     let (px, py) = chart.plotting_area().get_pixel_range();
+    let plot_rect = (px.start, py.start, px.end, py.end);
     let (ox, oy) = cell.get_base_pixel();
     let (bx, top, bottom) = ((px.end - ox) as f64 + 0.8 * sc.font, (py.start - oy) as f64, (py.end - oy) as f64);
     let bar_w = 0.9 * sc.font;
@@ -1003,6 +1032,24 @@ fn draw_map<DB: DrawingBackend>(cell: &DrawingArea<DB, Shift>, p: &MapPanel, l: 
     for (k, line) in l.colour_title.iter().enumerate() {
         draw_text(cell, line, sc.font, (label_x + k as f64 * 1.25 * sc.font, (top + bottom) / 2.0), Pos::new(HPos::Center, VPos::Top), FontTransform::Rotate270)?;
     }
+    Ok(Some(plot_rect))
+}
+
+/// Paint the values of a map into its chart, coloured over `range` (`plot`: the plot's
+/// size, which bounds the cells drawn).
+fn paint_map<DB: DrawingBackend>(chart: &mut ChartContext<'_, DB, Cartesian2d<Ticked, Ticked>>, p: &MapPanel, range: (f64, f64), plot: (f64, f64), sc: &Scale) -> Result<()> {
+    let (x0, x1, y0, y1) = p.extent;
+    let max_side = sc.max_map_cells.min(plot.0.max(plot.1).ceil() as usize).max(16);
+    let values = downsample(&p.values, max_side);
+    let (vmin, vmax) = range;
+    let (rows, cols) = values.dim();
+    let (dx, dy) = ((x1 - x0) / cols as f64, (y1 - y0) / rows as f64);
+    chart
+        .draw_series(values.indexed_iter().map(|((i, j), &v)| {
+            let (xa, ya) = (x0 + j as f64 * dx, y0 + i as f64 * dy);
+            Rectangle::new([(xa, ya), (xa + dx, ya + dy)], paint((v - vmin) / (vmax - vmin), p.grey).filled())
+        }))
+        .map_err(plot_err)?;
     Ok(())
 }
 
@@ -1077,6 +1124,18 @@ mod tests {
         assert_eq!(fit_axis_label("y, cross direction (mm)", 2000.0, &sc), "y, cross direction (mm)");
         assert_eq!(fit_axis_label("y, cross direction (mm)", 100.0, &sc), "y (mm)");
         assert_eq!(fit_axis_label("x, machine direction", 100.0, &sc), "x");
+    }
+
+    #[test]
+    fn a_short_axis_keeps_two_ticks_when_their_labels_stand_apart() {
+        ensure_font_for_tests();
+        let sc = Scale::new(&RenderOptions::default(), Format::Png, ONE_COLUMN_MM);
+        // a spectrum's ±Nyquist on a 29 mm map: −0.2, 0.0, 0.2 rather than 0 alone
+        let a = Axis::new((-0.255, 0.245), false, false, 29.0 / 25.4 * 72.0 * sc.u, true, &sc);
+        assert!(a.ticks.len() >= 2, "{:?}", a.labels);
+        // too short for two labels apart: one tick
+        let b = Axis::new((-0.255, 0.245), false, false, 3.0 * sc.font, true, &sc);
+        assert_eq!(b.ticks.len(), 1, "{:?}", b.labels);
     }
 
     #[test]

@@ -31,11 +31,14 @@ pub struct Record {
     pub data: Vec<(BackendCoord, BackendCoord)>,
     /// Primitives (or texts) reaching outside the canvas, described.
     pub outside: Vec<String>,
+    /// Plotting areas of the colour maps `(x0, y0, x1, y1)`, in drawing order (filled in
+    /// by [`crate::plot::figure::Figure::inspect`]).
+    pub maps: Vec<(i32, i32, i32, i32)>,
 }
 
 impl Record {
-    /// Every problem found: primitives outside the canvas, overlapping text pairs, then
-    /// texts lying on data marks.
+    /// Every problem found: primitives outside the canvas, overlapping text pairs, texts
+    /// lying on data marks or on a map, then maps overlapping each other.
     pub fn problems(&self) -> Vec<String> {
         let mut out = self.outside.clone();
         for (i, a) in self.texts.iter().enumerate() {
@@ -48,6 +51,16 @@ impl Record {
         for t in &self.texts {
             if let Some(seg) = self.data.iter().find(|&&(p, q)| crosses(t.rect, p, q)) {
                 out.push(format!("text `{}` {:?} lies on data drawn from {:?} to {:?}", t.text, t.rect, seg.0, seg.1));
+            }
+            if let Some(m) = self.maps.iter().find(|&&m| overlap(t.rect, m)) {
+                out.push(format!("text `{}` {:?} lies on the map at {m:?}", t.text, t.rect));
+            }
+        }
+        for (i, a) in self.maps.iter().enumerate() {
+            for b in &self.maps[i + 1..] {
+                if overlap(*a, *b) {
+                    out.push(format!("map {a:?} overlaps map {b:?}"));
+                }
             }
         }
         out
@@ -267,6 +280,24 @@ mod tests {
         assert_eq!(p.len(), 1, "{p:?}");
         assert!(p[0].contains("legend on the line") && p[0].contains("lies on data"), "{p:?}");
         assert!(crosses((0, 0, 10, 10), (-5, 5), (15, 5)) && !crosses((0, 0, 10, 10), (-5, 20), (15, 20)) && !crosses((0, 0, 10, 10), (10, -5), (10, 15)));
+    }
+
+    #[test]
+    fn text_on_a_map_and_overlapping_maps_are_found() {
+        crate::plot::figure::ensure_font_for_tests();
+        let mut r = record((200, 100), |root| {
+            let style = ("sans-serif", 14.0).into_font();
+            root.draw(&Text::new("on the map", (20, 20), style.clone())).unwrap();
+            root.draw(&Text::new("under it", (20, 75), style)).unwrap();
+            Ok(())
+        })
+        .unwrap();
+        r.maps = vec![(10, 10, 90, 60), (120, 10, 190, 60)];
+        let p = r.problems();
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert!(p[0].contains("on the map") && p[0].contains("lies on the map"), "{p:?}");
+        r.maps.push((80, 50, 130, 90));
+        assert_eq!(r.problems().iter().filter(|p| p.contains("overlaps map")).count(), 2, "{:?}", r.problems());
     }
 
     #[test]

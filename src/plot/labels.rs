@@ -85,6 +85,8 @@ pub const QUANTITIES: &[(&str, Quantity)] = &[
     ("work_gravity", q("work of gravity", "", 1.0)),
     ("work_oscillation", q("work of the oscillation", "", 1.0)),
     ("work_damping", q("work of damping", "", 1.0)),
+    ("work_contact", q("work of the belt contact", "", 1.0)),
+    ("work_feed", q("work of the feed drive", "", 1.0)),
 ];
 
 /// A label ready to draw: text and the factor from stored values.

@@ -28,13 +28,11 @@ pub struct BeltContact {
 
 impl BeltContact {
     /// Apply contact and friction to the velocities of the nodes in `nodes` (clamped
-    /// and driven nodes are excluded). Returns the work of the normal and of the
-    /// tangential impulses (J).
+    /// and driven nodes are excluded). Their work is booked by the integrator, from the
+    /// belt's whole reaction over the step ([`super::integrator`], "Work").
     /// Nodes with `supported[i]` set (held up by another fibre in this step, see
     /// [`super::fibre_contact`]) are left alone.
-    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool, supported: &[bool]) -> (f64, f64) {
-        let mut w_normal = 0.0;
-        let mut w_friction = 0.0;
+    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool, supported: &[bool]) {
         let vb = self.belt_speed;
         let idt = 1.0 / dt;
         for i in nodes {
@@ -55,7 +53,6 @@ impl BeltContact {
             }
             let vz = -z * idt;
             let pn = (vz - vz_test).max(0.0);
-            w_normal += m * pn * 0.5 * (vz + v[2]);
             let mut state = NodeContact::Slide;
             let mut vt = [v[0], v[1]];
             if let Some(mu) = self.friction {
@@ -69,8 +66,6 @@ impl BeltContact {
                     let s = limit / wn;
                     vt = [v[0] - s * w[0], v[1] - s * w[1]];
                 }
-                let dv = [vt[0] - v[0], vt[1] - v[1]];
-                w_friction += m * (dv[0] * 0.5 * (vt[0] + v[0]) + dv[1] * 0.5 * (vt[1] + v[1]));
             }
             rod.v[i] = [vt[0], vt[1], vz];
             ws.contact[i] = state;
@@ -81,6 +76,5 @@ impl BeltContact {
                 };
             }
         }
-        (w_normal, w_friction)
     }
 }

@@ -353,6 +353,33 @@ pub fn axial_energy_of(rod: &Rod, ws: &Workspace) -> f64 {
     rod.rest.iter().zip(&ws.seg_len).map(|(l0, l)| 0.5 * rod.axial_stiffness * (l - l0) * (l - l0) / l0).sum()
 }
 
+/// Length and unit tangent of segment k (as [`Workspace::update_geometry`]).
+fn segment(rod: &Rod, k: usize) -> (f64, [f64; 3]) {
+    let (p, q) = (rod.x[k], rod.x[k + 1]);
+    let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+    let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+    let il = if l > 0.0 { 1.0 / l } else { 0.0 };
+    (l, [e[0] * il, e[1] * il, e[2] * il])
+}
+
+/// Elastic energy held by one segment's axial spring and one node's bending term (J):
+/// the terms of [`axial_energy_of`] and [`bending_energy_of`], from the positions, for
+/// the energy that nodes entering or leaving the rod carry ([`super::integrator::Work::transport`]).
+pub fn axial_energy_at(rod: &Rod, k: usize) -> f64 {
+    let (l, l0) = (segment(rod, k).0, rod.rest[k]);
+    0.5 * rod.axial_stiffness * (l - l0) * (l - l0) / l0
+}
+
+/// See [`axial_energy_at`]; 0 at an end node.
+pub fn bending_energy_at(rod: &Rod, i: usize) -> f64 {
+    if i == 0 || i + 1 >= rod.x.len() {
+        return 0.0;
+    }
+    let (ta, tb) = (segment(rod, i - 1).1, segment(rod, i).1);
+    let c = ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2];
+    2.0 * rod.bending_stiffness * rod.inv_voronoi[i] * (1.0 - c) / (1.0 + c).max(MIN_ONE_PLUS_COS)
+}
+
 /// Drag, linearised implicitly: on each element in the zone, with V the relative
 /// velocity of its midpoint, F = −l [γ_t t tᵀ + γ_n (I − t tᵀ)] (v − v_air) with
 /// γ_t = f_t/|V_t| = k_t |V_t|^0.39 and γ_n = k_n |V_n|^0.56 (eqs 1-4), split half to each node.

@@ -34,10 +34,27 @@
 //!   the last step (the start-up impact compresses the column and needs ~µs steps for
 //!   about a millisecond); a step that fails (projection not converging, blow-up) is
 //!   retaken at Δt/4.
+//!
+//! Work ([`Work`], the energy diagnostics). Over a step node i obeys
+//! m(v' − v) = Δt F + I(v') + G/Δt + R (v, v' its start- and end-of-step velocities,
+//! I(v') = r − (A − m I)v' the implicit terms, G = Σ λ e the projection's, R the reaction
+//! of whatever held it: belt, kinematic drive, clamp). The force terms are booked at v'
+//! (Δt F·v': exact for gravity, x' − x = Δt v'; the elastic ones are ΔU). R is an
+//! impulse (a landing stops a node within a step), booked at ½(v + v'): then
+//! m(v' − v)·½(v + v') = ΔK exactly, and ΔK + ΔU − ΣW = −½(Δt F + I + G/Δt)·(v' − v) +
+//! (ΔU + the elastic impulses' work at v') is the scheme's own error, on the belt or off
+//! it (`explicit`: O(Δt²) a step). R is the residual of the node's equation,
+//! R = A v' − b − G/Δt (b = m v + Δt F + r, step 2), so it includes what the step does
+//! not apply: the projection's pull along the directions a held node cannot move, the
+//! push-up of nodes it drove below the belt, the clip at z = 0. R_z → `contact` (≤ 0 on
+//! landing, −½ m v_z² in total), R_xy → `friction`, R_z of the driven top → `feed`
+//! (R_z·(−v_f)), R of clamped nodes → `clamp`. (R at v' misses most of a landing's loss;
+//! step 3's m(v' − v*) at ½(v* + v'), v* before contact, books −|Δt F|²/2m a step that
+//! ΔK never sees for a node resting on the belt under load.)
 
 use super::contact::BeltContact;
 use super::fibre_contact::FibreContact;
-use super::forces::{axial_energy_of, bending_energy_of, Term};
+use super::forces::{axial_energy_at, axial_energy_of, bending_energy_at, bending_energy_of, Term};
 use super::params::Integrator;
 use super::forces::sym_mul;
 use super::state::{sym_inverse, sym_inverse_xy, NodeContact, Rod, Workspace};
@@ -90,17 +107,25 @@ pub fn stable_time_step(
     TimeStepLimits { axial, bending, kinematic, chosen }
 }
 
-/// Cumulative work done on the fibre (J), by source.
+/// Cumulative work done on the fibre (J), by source (booking: module docs, "Work"), so
+/// that K + U − Σ (every field) stays constant up to the integrator's error.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Work {
     pub gravity: f64,
     pub drag: f64,
     pub damping: f64,
     pub oscillation: f64,
-    /// Normal contact impulses (≤ 0: inelastic landing).
+    /// The belt's normal reaction (≤ 0 on an inelastic landing).
     pub contact: f64,
-    /// Tangential friction impulses.
+    /// The belt's tangential reaction (friction, stick included).
     pub friction: f64,
+    /// The kinematic drive of the top node (its reaction R_z times v_z = −v_f).
+    pub feed: f64,
+    /// Continuous feed only: the clamps carrying the first nodes with the belt.
+    pub clamp: f64,
+    /// Continuous feed only: K + U carried in by nodes added at the feed point
+    /// ([`Simulator::push_top`]) and out by frozen nodes ([`Simulator::drop_front`]).
+    pub transport: f64,
 }
 
 /// One energy record.
@@ -321,6 +346,7 @@ impl Simulator {
     /// reallocated (it holds nothing between steps).
     pub fn push_top(&mut self, x: [f64; 3], v: [f64; 3], rest: f64, mass_per_length: f64) {
         let top = self.rod.nodes() - 1;
+        let k_top = 0.5 * (self.rod.v[top][0].powi(2) + self.rod.v[top][1].powi(2) + self.rod.v[top][2].powi(2));
         self.rod.x.push(x);
         self.rod.v.push(v);
         self.rod.rest.push(rest);
@@ -330,6 +356,10 @@ impl Simulator {
         self.rod.inv_voronoi[top] = 2.0 / (self.rod.rest[top - 1] + rest);
         self.rod.inv_voronoi.push(0.0);
         self.rod.refresh_bounds();
+        // energy carried in: the added mass at its speed, the new segment's strain and
+        // the bending at the old top (an end until now)
+        let k_new = 0.5 * half * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        self.work.transport += half * k_top + k_new + axial_energy_at(&self.rod, top) + bending_energy_at(&self.rod, top);
         self.landing_time.push(f64::NAN);
         self.max_lift.push(0.0);
         self.lift_time.push(f64::NAN);
@@ -347,6 +377,13 @@ impl Simulator {
         let r = &mut self.rod;
         // the new first node becomes an end: it keeps only its half of the next element
         let share = r.rest[count] / (r.rest[count - 1] + r.rest[count]);
+        // energy carried out: the dropped nodes' K, the share of node `count`'s mass it
+        // loses, the dropped segments' strain and the bending up to node `count`
+        let kin = |i: usize| 0.5 * r.mass[i] * (r.v[i][0].powi(2) + r.v[i][1].powi(2) + r.v[i][2].powi(2));
+        let out = (0..count).map(|i| kin(i) + axial_energy_at(r, i) + bending_energy_at(r, i)).sum::<f64>()
+            + (1.0 - share) * kin(count)
+            + bending_energy_at(r, count);
+        self.work.transport -= out;
         r.x.drain(..count);
         r.v.drain(..count);
         r.rest.drain(..count);
@@ -429,6 +466,7 @@ impl Simulator {
         if self.forces_for.take() != Some((t, dt, n)) {
             self.evaluate_forces();
         }
+        self.ws.v_start.copy_from_slice(&self.rod.v);
         self.solve_velocities()?;
         let need_w = self.integrator != Integrator::Explicit;
         // 3. contact and friction: with other fibres first (a fibre lying on the belt
@@ -441,9 +479,7 @@ impl Simulator {
             }
         }
         if self.contact.is_some() {
-            let (normal, friction) = self.belt_impulses();
-            self.work.contact += normal;
-            self.work.friction += friction;
+            self.belt_impulses();
         }
 
         // 4./5. positions
@@ -463,6 +499,7 @@ impl Simulator {
                 }
                 // predicted positions; the projection's displacement is added to v below
                 self.ws.x_old.copy_from_slice(&self.rod.x);
+                self.ws.lambda_e.fill([0.0; 3]);
                 self.project()?;
                 if self.contact.is_some() || self.fibre_contact.is_some() {
                     // nodes the projection pushed below the belt join the contact set
@@ -557,7 +594,9 @@ impl Simulator {
             return Err(StepFailure::Penetration { depth: self.max_penetration, tolerance: self.penetration_tolerance, t: t_new });
         }
 
-        // work of the force terms at the end-of-step velocities
+        // work of the force terms at the end-of-step velocities, of the reactions at the
+        // mean velocities
+        self.book_reactions();
         for term in &self.terms {
             let p = term.power(&self.rod, &self.ws, t_new) * dt;
             match term {
@@ -573,11 +612,62 @@ impl Simulator {
         Ok(())
     }
 
+    /// The work of the reactions R = A v' − b − G/Δt over the step just taken, at
+    /// ½(v + v') (module docs, "Work"): the belt's on the nodes in contact or at z ≤ 0
+    /// (normal → `contact`, tangential → `friction`), the drive's on the top node
+    /// (`feed`), the clamps' (`clamp`). A free node's R is round-off and is not booked.
+    fn book_reactions(&mut self) {
+        let (dt, n) = (self.dt, self.rod.nodes());
+        let projected = self.integrator != Integrator::Explicit;
+        let idt = 1.0 / dt;
+        let free = self.free_nodes();
+        let belt = self.contact.is_some();
+        let (ws, rod) = (&self.ws, &self.rod);
+        // R_i and the mean velocity ½(v + v')
+        let reaction = |i: usize| {
+            let (m, v, v0, f, r) = (rod.mass[i], rod.v[i], ws.v_start[i], ws.force[i], ws.rhs[i]);
+            let av = sym_mul(&ws.amat[i], &v);
+            let mut g = [0.0; 3];
+            if projected {
+                let (a, b) = (if i > 0 { ws.lambda_e[i - 1] } else { [0.0; 3] }, if i + 1 < n { ws.lambda_e[i] } else { [0.0; 3] });
+                g = [(a[0] - b[0]) * idt, (a[1] - b[1]) * idt, (a[2] - b[2]) * idt];
+            }
+            let mut out = [[0.0; 3]; 2];
+            for k in 0..3 {
+                out[0][k] = av[k] - (m * v0[k] + dt * f[k] + r[k]) - g[k];
+                out[1][k] = 0.5 * (v0[k] + v[k]);
+            }
+            out
+        };
+        let (mut normal, mut friction, mut feed, mut clamp) = (0.0, 0.0, 0.0, 0.0);
+        if belt {
+            for i in free.clone() {
+                if ws.contact[i] == NodeContact::Free && rod.x[i][2] > 0.0 {
+                    continue;
+                }
+                let [r, vm] = reaction(i);
+                normal += r[2] * vm[2];
+                friction += r[0] * vm[0] + r[1] * vm[1];
+            }
+        }
+        if self.driven_top.is_some() {
+            let [r, vm] = reaction(n - 1);
+            feed += r[2] * vm[2];
+        }
+        for i in 0..free.start {
+            let [r, vm] = reaction(i);
+            clamp += r[0] * vm[0] + r[1] * vm[1] + r[2] * vm[2];
+        }
+        self.work.contact += normal;
+        self.work.friction += friction;
+        self.work.feed += feed;
+        self.work.clamp += clamp;
+    }
+
     /// Step 3, the belt: its normal and friction impulses on the nodes that reach it
-    /// (the nodes held up by another fibre in this step left alone). Returns the work of
-    /// the normal and friction impulses (J).
-    fn belt_impulses(&mut self) -> (f64, f64) {
-        let Some(c) = &self.contact else { return (0.0, 0.0) };
+    /// (the nodes held up by another fibre in this step left alone).
+    fn belt_impulses(&mut self) {
+        let Some(c) = &self.contact else { return };
         let n = self.rod.nodes();
         let need_w = self.integrator != Integrator::Explicit;
         let skip_top = if self.driven_top.is_some() { n - 1 } else { n };
@@ -806,6 +896,10 @@ fn project_run(
             let l = ws.lambda[k] - ws.cprime[k] * lnext;
             ws.lambda[k] = l;
             ws.lambda_acc[k] += l;
+            let (e, s) = (ws.seg_e[k], &mut ws.lambda_e[k]);
+            s[0] += l * e[0];
+            s[1] += l * e[1];
+            s[2] += l * e[2];
             // node k+1: Δx = W (λ_k t_k − λ_{k+1} t_{k+1})
             let wp = ws.we_prev[k + 1];
             let d = if k + 1 < b {

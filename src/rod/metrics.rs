@@ -8,7 +8,10 @@ pub type EnergyColumn = (&'static str, fn(&EnergySample) -> f64);
 
 /// The columns of a replicate's stored energy diagnostics (the laydown stage's
 /// `energy_diagnostics`, along its `diagnostic` dimension), in order: the time (s), the
-/// kinetic and elastic energy and the cumulative work of every source (J).
+/// kinetic and elastic energy and the cumulative work of every source that acts in a
+/// laydown (J), so that kinetic + elastic − Σ work_* is constant up to the integrator's
+/// error (`rod::energy_tests`). `Work::clamp` and `Work::transport` are the continuous
+/// feed's only, zero here.
 pub const ENERGY_COLUMNS: &[EnergyColumn] = &[
     ("time", |d| d.time),
     ("kinetic", |d| d.kinetic),
@@ -18,6 +21,8 @@ pub const ENERGY_COLUMNS: &[EnergyColumn] = &[
     ("work_gravity", |d| d.work.gravity),
     ("work_oscillation", |d| d.work.oscillation),
     ("work_damping", |d| d.work.damping),
+    ("work_contact", |d| d.work.contact),
+    ("work_feed", |d| d.work.feed),
 ];
 
 /// Everything one replicate produces (a plain struct the pipeline stage stores).

@@ -88,11 +88,14 @@ pub struct Workspace {
     /// Constraint (axial) forces of the last projection on each node (N).
     pub lag_force: Vec<[f64; 3]>,
     pub contact: Vec<NodeContact>,
+    /// Velocities at the start of the step (for the work of the constraint reactions).
+    pub v_start: Vec<[f64; 3]>,
+    /// Σ λ e per segment over the step's projections: the segment pushes its end nodes
+    /// by ±(this)/Δt (N·s) (for the reactions on the held nodes).
+    pub lambda_e: Vec<[f64; 3]>,
     // tridiagonal solver buffers (one entry per segment)
     pub seg_e: Vec<[f64; 3]>,
     pub cons: Vec<f64>,
-    pub diag: Vec<f64>,
-    pub off: Vec<f64>,
     pub cprime: Vec<f64>,
     pub lambda: Vec<f64>,
     pub lambda_acc: Vec<f64>,
@@ -115,10 +118,10 @@ impl Workspace {
             x_old: vec![[0.0; 3]; nodes],
             lag_force: vec![[0.0; 3]; nodes],
             contact: vec![NodeContact::Free; nodes],
+            v_start: vec![[0.0; 3]; nodes],
+            lambda_e: vec![[0.0; 3]; s],
             seg_e: vec![[0.0; 3]; s],
             cons: vec![0.0; s],
-            diag: vec![0.0; s],
-            off: vec![0.0; s],
             cprime: vec![0.0; s],
             lambda: vec![0.0; s],
             lambda_acc: vec![0.0; s],

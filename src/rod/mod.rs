@@ -70,32 +70,18 @@
 //! ([`LaydownResult::max_lift_after_landing`]; per node in [`LaydownResult::lift`] and
 //! [`LaydownResult::lift_time`]).
 //!
-//! Why the final profile (diagnosed with `examples/laydown_bounce.rs`, seed 2024): with
-//! the transient test 11/20 baseline replicates (1 m, 1000 elements) and 2/20 of the
-//! quickstart scene (0.3 m, 300 elements) were invalid. The rises are 1-2 mm (up to
-//! 4.9 mm), happen 2-5 ms after landing, at the first node of a group of just-laid
-//! nodes (decreasing along the group: peeling by the loop still falling above), anywhere
-//! in the run, not only at the start-up impact or the free end. They are model dynamics,
-//! not a step artefact: halving the step (`time_step_factor` 0.4) gives the same
-//! rises (4/8 invalid) and the 556-element mesh as many (7/12); the contact is perfectly
-//! inelastic, so no impulse makes a node rebound. All these nodes land again: in the
-//! final profile no landed node of those 20 + 20 replicates is higher than 0.14 mm
-//! (3 d), so with the paper's test 0/20 baseline replicates are invalid (the quickstart
-//! pipeline, 4 replicates: 0/4; earlier code flagged 3/4 there, at the start-up impact of
-//! the free end, before the lagged contact force). We do not reproduce the paper's
-//! ~10 % rejections; its Abaqus contact (penalty, elastic waves in B31 beams) rebounds
-//! where ours does not. A step that cannot be taken (non-finite state, node faster than
+//! Why the final profile, measured: `pipelines/paper/LAYDOWN_MEASUREMENTS.md` ("Which
+//! bounce test"). A step that cannot be taken (non-finite state, node faster than
 //! 50 v_ref + 10 m/s, belt penetration beyond `penetration_tolerance`, explicit strain
 //! above 50 %, projection not converging even at 10⁻⁴ of the step) ends the replicate with
 //! [`LaydownResult::error`] set; positions are then the last good state, never NaN.
 //!
 //! # Metrics
 //! S (eq 5) and e (eq 6, via [`crate::geometry`]) are computed on the laid nodes (finite
-//! landing time) projected on the belt plane, in fibre order, and again after removing
-//! the belt motion x ← x − v_belt (t_end − landing_time), landing_time being the first
-//! touch. The belt-removed e is sensitive to node-scale position noise (nodes laid
-//! out of order during the start-up impact, micro-bounces before sticking): it grows
-//! with refinement and with belt speed; the belt-removed S is robust.
+//! landing time) projected on the belt plane, in fibre order, and again with the belt
+//! motion removed as `belt_removal` says ([`metrics::BeltRemoval`]): the travel since
+//! each node landed (the paper's reading, default; its e grows with refinement) or
+//! since it was fed (converges with the mesh).
 //!
 //! # Use
 //! ```no_run

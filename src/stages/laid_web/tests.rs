@@ -21,38 +21,6 @@ fn mean_se(v: &[f64]) -> (f64, f64) {
     (m, s / (v.len() as f64).sqrt())
 }
 
-#[test]
-#[ignore]
-fn smoke() {
-    let mut scene = small_scene();
-    if let Ok(d) = std::env::var("DIAM") {
-        scene.diameter = d.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("AMP") {
-        scene.oscillation_amplitude = v.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("VB") {
-        scene.belt_speed = v.parse().unwrap();
-    }
-    let duration: f64 = std::env::var("DUR").ok().and_then(|s| s.parse().ok()).unwrap_or(scene.end_time());
-    let mut p = laid_web_for(&scene, duration, 1);
-    p.element_length = 1e-3;
-    let reps: usize = std::env::var("REPS").ok().and_then(|s| s.parse().ok()).unwrap_or(3);
-    p.feed.freeze = std::env::var("FREEZE").map(|v| v != "0").unwrap_or(true);
-    for r in 0..reps {
-        let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(7);
-        let w = lay_web(&p, seed, r, &indicatif::ProgressBar::hidden());
-        let f = &w.fibres[0];
-        println!(
-            "r {r}: S {:.2} mm e {:.0} S_br {:.2} mm e_br {:.0} valid {} laid {} frozen {} steps {} node_steps {} max_active {} wall {:.2}s {:?}",
-            f.radius_of_gyration * 1e3, f.bending_energy, f.radius_of_gyration_belt_removed * 1e3, f.bending_energy_belt_removed,
-            f.valid, f.fed.laid_nodes(), f.fed.frozen_nodes, f.fed.steps, f.fed.node_steps, f.fed.max_active_nodes, f.fed.wall_seconds, f.invalid_reason
-        );
-        let l = simulate(&scene, &mut replicate_rng(7, r as u64));
-        println!("   laydown: S {:.2} mm e {:.0} S_br {:.2} e_br {:.0} valid {} wall {:.2}", l.radius_of_gyration * 1e3, l.bending_energy, l.radius_of_gyration_belt_removed * 1e3, l.bending_energy_belt_removed, l.valid, l.wall_seconds);
-    }
-}
-
 /// n_w = 1 fed for the duration of the laydown scene is the laydown scene with a short
 /// buffer above z0 instead of the long vertical fibre: its S and e distributions agree
 /// with the laydown stage's (different imperfection draws, so within statistical error).

@@ -343,7 +343,7 @@ fn report(r: Result<()>) -> i32 {
     }
 }
 
-/// 2 for bad input, 1 otherwise (see [`report`]).
+/// 2 for bad input, 1 otherwise (see `report`).
 pub fn exit_code(e: &anyhow::Error) -> i32 {
     if e.chain().any(|c| c.is::<BadInput>()) {
         return 2;

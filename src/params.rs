@@ -7,7 +7,7 @@
 //! - A [`ParamSet`] holds one sweep point's checked values; [`ParamSet::to_typed`] turns
 //!   it into the stage's typed parameters (a serde struct whose fields are named as the
 //!   rows), the one way a stage reads its parameters.
-//! - A choice parameter's enum is declared once with its words by [`choice_enum!`].
+//! - A choice parameter's enum is declared once with its words by `choice_enum!`.
 use std::collections::BTreeMap;
 use std::fmt;
 
@@ -384,7 +384,7 @@ impl ParamSet {
     /// The typed parameters `T` of this set, the one way from a pipeline's parameters to
     /// a stage's: every row becomes the field of its name (a dotted name `a.b` the field
     /// `b` of the struct in field `a`), a choice the enum variant of its word
-    /// ([`choice_enum!`]), `auto` `None` (an `Option` field), an integer row any integer
+    /// (`choice_enum!`), `auto` `None` (an `Option` field), an integer row any integer
     /// field. Rows `T` has no field for are left to the caller (a library struct inside
     /// a stage's); a field with no row, or a value its type cannot hold, is an error
     /// naming the field.

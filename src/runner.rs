@@ -13,10 +13,10 @@
 //! ([`VersionInfo::verify`]): a damaged up-to-date version is computed again (and the
 //! reason says so), a damaged input of a stage that must run is an error.
 //!
-//! Each run marks, per stage, the version it matched or wrote as current ([`Marks`],
+//! Each run marks, per stage, the version it matched or wrote as current (`Marks`,
 //! `Archive::current`); stages outside an `--only`/`--from` selection use their current
 //! version and say why it is out of date when it is. A dry run makes the same decisions
-//! without computing or writing ([`Decision::dry_run`]).
+//! without computing or writing (`Decision::dry_run`).
 use crate::archive::data::{Attr, Output};
 use crate::archive::{provenance, Archive, Integrity, VersionInfo};
 use crate::pipeline::stage_run::{fingerprint, pipeline_dir, stage_context};
@@ -320,7 +320,7 @@ fn current_of<'a>(stage: &str, complete: &[&'a VersionInfo], marks: &Marks) -> O
 
 /// Run the pipeline; prints the absolute archive path, then one line per stage, to
 /// stdout. With `opts.dry_run`, says what would run and why, and computes and writes
-/// nothing. Marks every stage's current version (see [`Marks`]), also when a later
+/// nothing. Marks every stage's current version (see `Marks`), also when a later
 /// stage fails.
 pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, RunError> {
     for name in opts.only.iter().chain(opts.from.iter()).chain(opts.force.iter()) {

@@ -43,7 +43,7 @@ pub fn write(path: &Path, out: &Output, attrs: &BTreeMap<String, Attr>) -> Resul
     Ok(())
 }
 
-/// Read a partial written by [`write`]: its output and its provenance attributes.
+/// Read a partial written by [`write()`]: its output and its provenance attributes.
 pub fn read(path: &Path) -> Result<(Output, BTreeMap<String, Attr>)> {
     let file = hdf5::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let attrs = hdf::read_attrs(&file)?;

@@ -10,7 +10,7 @@
 //! keep the aspect ratio of their extent and share one colour scale per quantity across
 //! the figure; every axis gets its ticks from [`super::ticks`], bounded by the room
 //! their labels take. A figure of maps on a page too narrow for its panels side by side
-//! goes on a compact sheet ([`sheet`]: shared colour bars and axis labels) rather than
+//! goes on a compact sheet (`sheet`: shared colour bars and axis labels) rather than
 //! stacking. [`Figure::inspect`] draws onto a recording backend for layout checks
 //! ([`super::inspect`]).
 use super::inspect::{self, Record};

@@ -4,7 +4,7 @@
 //! published archive can be plotted by anyone with the `laydown` binary, no Python
 //! needed. Each stage kind has one module that turns its datasets into a
 //! [`figure::Figure`]; [`figure`] lays out and draws every figure alike, as PNG, SVG or
-//! PDF at print size ([`output`] writes the files with their provenance); [`labels`]
+//! PDF at print size (`output` writes the files with their provenance); [`labels`]
 //! names quantities physically, [`ticks`] places and formats axis ticks, and [`inspect`]
 //! checks a drawn figure's layout.
 //!

@@ -101,7 +101,7 @@ pub fn format(ticks: &[f64]) -> Vec<String> {
     ticks.iter().map(|&v| fixed(v, digits)).collect()
 }
 
-/// One value in the notation [`format`] would give it alone, with at most 3 significant
+/// One value in the notation [`format()`] would give it alone, with at most 3 significant
 /// digits (for titles: `v_b/v_f = 0.05`, `d = 30 µm`).
 pub fn format_one(v: f64) -> String {
     let a = v.abs();

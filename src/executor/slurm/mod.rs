@@ -45,7 +45,7 @@
 //! What the cluster needs (shared file system, the binary, where to run the driver,
 //! throttles, file locking) is in the README's "Running on a Slurm cluster".
 //!
-//! The driver is this module; [`signals`] lets Ctrl-C cancel the running array, and
+//! The driver is this module; `signals` lets Ctrl-C cancel the running array, and
 //! [`worker`] is what each array task runs.
 mod signals;
 mod worker;

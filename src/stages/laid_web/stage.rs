@@ -36,7 +36,7 @@ pub(crate) const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration",
 const KEPT_BYTES_PER_NODE: f64 = 136.0;
 
 /// A laid-web point's parameters as the pipeline gives them ([`ParamSet::to_typed`] of
-/// the stage's table): the laydown's scene but for [`NOT_FROM_LAYDOWN`] (their fields
+/// the stage's table): the laydown's scene but for `NOT_FROM_LAYDOWN` (their fields
 /// keep their defaults until [`LaidWebParams`] sets them) and the laid web's own rows.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LaidWebStageParams {
@@ -115,7 +115,7 @@ impl Stage for LaidWebStage {
         laid_web_params(p).validate()
     }
     /// Every web of the run is held until the output is written
-    /// ([`KEPT_BYTES_PER_NODE`]), and each thread simulates one fibre
+    /// (`KEPT_BYTES_PER_NODE`), and each thread simulates one fibre
     /// ([`SIM_BYTES_PER_NODE`], all its nodes active at worst).
     fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
         let fibres = declared_fibres(stage);

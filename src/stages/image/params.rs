@@ -199,30 +199,20 @@ impl ImageParams {
     }
 }
 
-/// Where a sample's pixel size came from (dataset `pixel_size_source`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PixelSource {
-    /// Declared by the image file (PNG pHYs, TIFF resolution tags, JPEG JFIF density).
-    File,
-    /// The `dpi` parameter.
-    Dpi,
-    /// The `pixel_size` parameter.
-    PixelSize,
-    /// Neither file nor parameter: [`DEFAULT_PIXEL_SIZE`].
-    Default,
-    /// The `cell_size` of the grid an image was rendered from.
-    Grid,
-}
-
-impl PixelSource {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            PixelSource::File => "file",
-            PixelSource::Dpi => "dpi",
-            PixelSource::PixelSize => "pixel_size",
-            PixelSource::Default => "default",
-            PixelSource::Grid => "grid",
-        }
+crate::params::choice_enum! {
+    /// Where a sample's pixel size came from (dataset `pixel_size_source`, by its words).
+    pub enum PixelSource {
+        /// Declared by the image file (PNG pHYs, TIFF resolution tags, JPEG JFIF density).
+        File = "file",
+        /// The `dpi` parameter.
+        Dpi = "dpi",
+        /// The `pixel_size` parameter.
+        PixelSize = "pixel_size",
+        /// Neither file nor parameter: [`DEFAULT_PIXEL_SIZE`].
+        #[default]
+        Default = "default",
+        /// The `cell_size` of the grid an image was rendered from.
+        Grid = "grid",
     }
 }
+

@@ -39,8 +39,8 @@
 //! returned unchanged (`notches` = 0, `cv_corr` = `cv_raw`).
 //!
 //! **Memory** ([`Stage::estimate_memory`]): each thread reads or renders and analyses
-//! one image at a time ([`ANALYSIS_BYTES_PER_PIXEL`]); the first `max_stored_images`
-//! images of every point are kept until written ([`STORED_BYTES_PER_PIXEL`]); a grid
+//! one image at a time (`ANALYSIS_BYTES_PER_PIXEL`); the first `max_stored_images`
+//! images of every point are kept until written (`STORED_BYTES_PER_PIXEL`); a grid
 //! input's density maps are read whole. Image files count with the size in their
 //! header (one that cannot be read there counts nothing; reading it is checked later).
 use crate::error::InvalidParam;
@@ -838,7 +838,7 @@ fn assemble(samples: &[Sample], kept: &[Kept], p: &ImageStageParams, sweep: &Gri
     out.strings(
         "pixel_size_source",
         "sample",
-        kept.iter().map(|k| k.pixel_source.as_str().to_string()).collect(),
+        kept.iter().map(|k| k.pixel_source.name().to_string()).collect(),
         "pixel size source",
     )
     .describe("where pixel_size came from: file (declared by the image file), dpi, pixel_size (parameters, overriding the file), default (297/871 mm), grid (the grid's cell_size)");

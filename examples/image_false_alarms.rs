@@ -1,11 +1,13 @@
 //! Counts peaks detected in bond-free images (false alarms) against the nominal rate.
-//! `cargo run --release --example image_false_alarms [images_per_kind]`
+//! `cargo run --release --example image_false_alarms [images_per_kind] [false_alarm_rate]`
+//! (rate 0.01 unless given; the method's default is 0.001).
 use laydown::stages::image::render::{random_fibre_web, render, smoothed_noise, RenderParams};
 use laydown::stages::image::{analyze, ImageParams};
 fn main() {
     let px = 0.34e-3;
     let n: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(20);
-    let p = ImageParams { false_alarm_rate: 1e-2, ..Default::default() };
+    let alpha: f64 = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(1e-2);
+    let p = ImageParams { false_alarm_rate: alpha, ..Default::default() };
     let kinds = ["white noise", "smoothed noise σ=2 px", "isotropic web", "MD web (35°)", "MD web 8 bit"];
     for (k, kind) in kinds.iter().enumerate() {
         let mut peaks = 0;

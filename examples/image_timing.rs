@@ -10,25 +10,35 @@ fn main() {
     let truth = render(&web, px, &RenderParams { bits: 8, ..Default::default() }).unwrap().grey;
     let cv_truth = laydown::uniformity::coefficient_of_variation(truth.iter().copied());
     let p = ImageParams::default();
+    // The method before issue 17 (no notch growth, no censoring correction, one period
+    // of edge band), timed alternately in the same run for the cost ratio.
+    let before = ImageParams { notch_growth: false, censoring_correction: false, edge_margin_periods: 1.0, ..Default::default() };
     let reps: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(5);
-    let mut times = Vec::new();
-    let mut cpu = Vec::new();
-    let mut last = None;
+    let no_censoring = ImageParams { censoring_correction: false, ..Default::default() };
+    let mut runs = [(Vec::new(), Vec::new(), None), (Vec::new(), Vec::new(), None), (Vec::new(), Vec::new(), None)];
     for _ in 0..reps {
-        let t = std::time::Instant::now();
-        let c = cpu_ms();
-        let a = analyze(&img, px, &p).unwrap();
-        times.push(t.elapsed().as_secs_f64() * 1e3);
-        cpu.push(cpu_ms() - c);
-        last = Some(a);
+        for (k, params) in [&p, &before, &no_censoring].into_iter().enumerate() {
+            let t = std::time::Instant::now();
+            let c = cpu_ms();
+            let a = analyze(&img, px, params).unwrap();
+            runs[k].0.push(t.elapsed().as_secs_f64() * 1e3);
+            runs[k].1.push(cpu_ms() - c);
+            runs[k].2 = Some(a);
+        }
     }
-    cpu.sort_by(|a, b| a.total_cmp(b));
-    times.sort_by(|a, b| a.total_cmp(b));
-    let a = last.unwrap();
-    println!(
-        "871×617: wall min {:.1} ms, median {:.1} ms; CPU (all threads) min {:.1} ms over {reps} runs; web's own CV {:.4}, cv_raw {:.4} cv_corr {:.4} compensated {:.4}, {} peaks, threads {}",
-        times[0], times[reps / 2], cpu[0], cv_truth, a.cv_raw, a.cv_corr, a.cv_corr_compensated, a.peaks.len(), rayon::current_num_threads()
-    );
+    for (k, (times, cpu, last)) in runs.iter_mut().enumerate() {
+        cpu.sort_by(|a, b| a.total_cmp(b));
+        times.sort_by(|a, b| a.total_cmp(b));
+        let a = last.take().unwrap();
+        println!(
+            "{} 871×617: wall min {:.1} ms, median {:.1} ms; CPU (all threads) min {:.1} ms, median {:.1} ms over {reps} runs; web's own CV {:.4}, cv_raw {:.4} cv_corr {:.4} compensated {:.4}, {} peaks, {} bins grown, {:.2} % of pixels restored, threads {}",
+            ["default", "before issue 17", "default without censoring_correction"][k],
+            times[0], times[reps / 2], cpu[0], cpu[reps / 2], cv_truth, a.cv_raw, a.cv_corr, a.cv_corr_compensated, a.peaks.len(), a.grown_bins, 100.0 * a.censored_fraction, rayon::current_num_threads()
+        );
+    }
+    let med = |k: usize, f: fn(&(Vec<f64>, Vec<f64>, Option<laydown::stages::image::ImageAnalysis>)) -> &Vec<f64>| f(&runs[k])[reps / 2];
+    println!("cost ratio default / before: wall {:.2}, CPU {:.2}", med(0, |r| &r.0) / med(1, |r| &r.0), med(0, |r| &r.1) / med(1, |r| &r.1));
+    println!("cost ratio without censoring_correction / before: wall {:.2}, CPU {:.2}", med(2, |r| &r.0) / med(1, |r| &r.0), med(2, |r| &r.1) / med(1, |r| &r.1));
 }
 
 /// CPU time of the whole process (all threads), ms: unaffected by other users of the machine.

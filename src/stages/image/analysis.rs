@@ -40,7 +40,9 @@ pub struct ImageAnalysis {
     /// variance the notches also remove (see `cv_corr_compensated`).
     pub cv_corr_plain: f64,
     /// Best estimate of the web's own CV for a zero-mean bond pattern:
-    /// `√(Var(filtered) + web_variance_notched) / mean`.
+    /// `√(Var(filtered) + web_variance_notched + censored_variance) / mean`, over the
+    /// interior of the filtered image, which for an image with saturated pixels is the
+    /// one with them restored ([`censor`]; its mean then includes the clipped excess).
     pub cv_corr_compensated: f64,
     /// Expected web variance removed with the bond peaks, `Σ (1 − g²)·B / N²` over the
     /// notch gains `g` and the background model `B` (0 without notches).
@@ -57,6 +59,15 @@ pub struct ImageAnalysis {
     /// (`cv_corr*`, `zone_cv_filtered`, `bond_mean_estimate`): `edge_margin_periods`
     /// times the longest lattice period, at most a quarter of each side; 0 without lattice.
     pub margin_px: usize,
+    /// Bins added to the notches by the hysteresis growth over the leakage ridges
+    /// ([`grow`]; conjugates counted; 0 without peaks or with `notch_growth` off).
+    pub grown_bins: usize,
+    /// Fraction of the pixels at 0 or 1 that the censoring correction restored
+    /// ([`censor`]; 0 when it did not run: no lattice, no saturated pixel, or off).
+    pub censored_fraction: f64,
+    /// Web variance the restored pixels cannot show (their mean conditional variance
+    /// over the interior), added to `cv_corr_compensated` (0 without correction).
+    pub censored_variance: f64,
     /// Whitened-power threshold used.
     pub threshold: f64,
     /// Bins searched per pass (M).
@@ -142,6 +153,22 @@ fn log_energies(power: &Array2<f64>, gain: &Array2<f64>, n2: f64) -> (Array2<f64
     (before, after)
 }
 
+/// Per-bin detection threshold: `t` raised for the background's log error `log_sd` of
+/// each flat bin index ([`background::corrected_threshold`]), interpolated from a table
+/// over the log error.
+fn corrected_thresholds(t: f64, log_sd: &Array2<f64>) -> impl Fn(usize) -> f64 + '_ {
+    const STEP: f64 = 0.002;
+    let max_sd = log_sd.iter().copied().fold(0.0, f64::max).min(5.0);
+    let table: Vec<f64> = (0..=((max_sd / STEP).ceil() as usize + 1)).map(|i| background::corrected_threshold(t, i as f64 * STEP)).collect();
+    let sd = log_sd.as_slice().unwrap();
+    move |k: usize| {
+        let x = sd[k].clamp(0.0, max_sd) / STEP;
+        let i = (x.floor() as usize).min(table.len() - 2);
+        let f = x - i as f64;
+        (1.0 - f) * table[i] + f * table[i + 1]
+    }
+}
+
 /// A cached FFT plan per image shape (planning prime sizes such as 617 costs milliseconds).
 fn plan_for(h: usize, w: usize) -> std::sync::Arc<fft2::Fft2> {
     use std::collections::HashMap;
@@ -187,7 +214,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         let sat = raw.iter().filter(|&&v| v <= 0.0 || v >= 1.0).count() as f64 / raw.len() as f64;
         if sat > 0.01 {
             warnings.push(format!(
-                "{:.1} % of pixels are saturated at 0 or 1: the web under clipped pixels is lost and clipped bonds are not purely periodic (part of the pattern survives the notches), so CV_corr is biased (low when bonds clip to white, high when surviving pattern dominates)",
+                "{:.1} % of pixels are saturated at 0 or 1: the web under clipped pixels is censored and clipped bonds are not purely periodic; cv_corr restores the clipped web from the lattice (censoring correction), cv_corr_plain (the paper's) does not and is biased (low when bonds clip to white)",
                 100.0 * sat
             ));
         }
@@ -212,6 +239,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     let mut mask = notch::NotchMask::new(h, w);
     let mut found: Vec<Peak> = Vec::new();
     let mut web_var_notched = 0.0;
+    let mut growth = grow::Growth::default();
 
     let constant = lo == hi;
     if constant || !(total_ac > 0.0) {
@@ -221,18 +249,8 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     } else {
         let bg = background::fit(&power, params.background_sectors, params.background_smoothing, params.background_pool);
         // Per-bin threshold, interpolated from a table over the background's log error.
-        const STEP: f64 = 0.002;
-        let max_sd = bg.log_sd.iter().copied().fold(0.0, f64::max).min(5.0);
-        let table: Vec<f64> = (0..=((max_sd / STEP).ceil() as usize + 1))
-            .map(|i| background::corrected_threshold(space.threshold, i as f64 * STEP))
-            .collect();
-        let sd = bg.log_sd.as_slice().unwrap();
-        let thr = |k: usize| {
-            let x = sd[k].clamp(0.0, max_sd) / STEP;
-            let i = (x.floor() as usize).min(table.len() - 2);
-            let f = x - i as f64;
-            (1.0 - f) * table[i] + f * table[i + 1]
-        };
+        let thr = corrected_thresholds(space.threshold, &bg.log_sd);
+        let mut seeds: Vec<(usize, usize)> = Vec::new();
         let mut taken = Array2::from_elem((h, w), false);
         for pass in 0..params.max_passes {
             let cands = peaks::find_candidates(
@@ -257,6 +275,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
                 let sigma = params.notch_sigma_bins * (1.0 + params.off_grid_widening * 2.0 * off);
                 mask.add_pair(v, u, sigma);
                 taken[[c.q, c.r]] = true;
+                seeds.push((c.q, c.r));
                 let kx = u / (w as f64 * cell);
                 let ky = v / (h as f64 * cell);
                 let kk = kx.hypot(ky);
@@ -281,7 +300,31 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         }
         // The DC bin is never attenuated: notching keeps the image mean (a notch close
         // to DC would otherwise scale the mean and bias every CV).
+        drop(thr);
         mask.keep_dc();
+        let mut bg = bg;
+        if !found.is_empty() && params.notch_growth {
+            // Hysteresis growth over the leakage ridges ([`grow`]).
+            let corrected = |t: f64| -> Box<dyn Fn(usize) -> f64 + '_> { Box::new(corrected_thresholds(t, &bg.log_sd)) };
+            let (region, g) = grow::grow(&power, &bg.mean_power, &seeds, params.false_alarm_rate, &corrected, params.dc_exclusion_bins);
+            growth = g;
+            mask.gain.zip_mut_with(&region, |g, &inside| {
+                if inside {
+                    *g = 0.0;
+                }
+            });
+            mask.keep_dc();
+            // The background refitted without the bond's power: the grown bins and any bin
+            // above `ln(pool)` times the model (one web bin per pool is expected there),
+            // which peak cores and the ridges' tails below the growth threshold are. The
+            // ridges inflate the pools' medians, i.e. the web power the compensation adds
+            // back. Bins are left out by their power, not by the notches' extent: a wide
+            // notch would take whole cells out and leave their pools to bins farther out
+            // on the steep central peak (σ = 6 bins: −1.9 % on a 150 px image).
+            let t_clip = (params.background_pool as f64).ln();
+            let exclude = Array2::from_shape_fn((h, w), |(q, r)| region[[q, r]] || power[[q, r]] > t_clip * bg.mean_power[[q, r]]);
+            bg = background::fit_excluding(&power, params.background_sectors, params.background_smoothing, params.background_pool, Some(&exclude));
+        }
         if !found.is_empty() {
             // Expected web variance inside the notches: Σ (1 − g²) E|F|² / N², DC excluded.
             web_var_notched = mask
@@ -320,21 +363,45 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     let filtered_in = interior(&filtered);
     let (mean_in, var_f) = if found.is_empty() { (mean, var_raw) } else { mean_var(&filtered_in) };
     let cv_corr_plain = if found.is_empty() { cv_raw } else { var_f.sqrt() / mean_in };
-    let var_comp = var_f + web_var_notched;
-    let cv_corr_compensated = if found.is_empty() { cv_raw } else { var_comp.sqrt() / mean_in };
+    // Saturated pixels ([`censor`]): the compensated statistics use the image with the
+    // clipped web restored from the lattice, filtered by the same notches.
+    let censoring = match (&lattice, found.is_empty() || !params.censoring_correction) {
+        (Some(l), false) => censor::censored(&raw).map(|c| censor::correct(&raw, &c, &filtered, cell, l, margin_px)),
+        _ => None,
+    };
+    let (stat_raw_in, stat_filtered_in, var_censored) = match &censoring {
+        Some(c) => {
+            let mut f_hat = plan.forward_real(&c.imputed);
+            f_hat.zip_mut_with(&mask.gain, |f, g| *f *= *g);
+            let f = plan.inverse_real(&f_hat);
+            (interior(&c.imputed), interior(&f), interior(&c.conditional_variance).mean().unwrap_or(0.0))
+        }
+        None => (interior(&raw), filtered_in.clone(), 0.0),
+    };
+    let (mean_c, var_fc) = if censoring.is_some() { mean_var(&stat_filtered_in) } else { (mean_in, var_f) };
+    let var_comp = var_fc + web_var_notched + var_censored;
+    let cv_corr_compensated = if found.is_empty() { cv_raw } else { var_comp.sqrt() / mean_c };
     let fraction_variance_removed = if var_raw > 0.0 { 1.0 - mean_var(&filtered).1 / var_raw } else { 0.0 };
     // One-sided bond mean: median level of the removed (zero-mean) pattern.
     let (bond_mean_estimate, cv_corr_one_sided) = if found.is_empty() {
         (0.0, Some(cv_corr_plain))
     } else {
         // A third of the pixels is plenty for a median.
-        let mut removed: Vec<f64> = interior(&raw).iter().zip(filtered_in.iter()).step_by(3).map(|(a, b)| a - b).collect();
+        let mut removed: Vec<f64> = stat_raw_in.iter().zip(stat_filtered_in.iter()).step_by(3).map(|(a, b)| a - b).collect();
         let k = removed.len() / 2;
         let (_, med, _) = removed.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
         let est = -*med;
-        let m = mean_in - est;
+        let m = mean_c - est;
         (est, if m > 0.0 { Some(var_comp.sqrt() / m) } else { None })
     };
+    if let Some(c) = &censoring {
+        if c.unresolved_phases > 0 {
+            warnings.push(format!(
+                "{} of {} lattice phases are saturated in all their pixels: the level of the bond pattern there is only bounded, so the web restored under them (and cv_corr) is uncertain",
+                c.unresolved_phases, c.phases
+            ));
+        }
+    }
     if !found.is_empty() && lattice.is_none() {
         warnings.push("peaks were found but no lattice fits them".into());
     }
@@ -362,6 +429,9 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         cv_corr_one_sided,
         fraction_variance_removed,
         margin_px,
+        grown_bins: growth.bins,
+        censored_fraction: censoring.as_ref().map_or(0.0, |c| c.fraction),
+        censored_variance: var_censored,
         threshold: space.threshold,
         bins_searched: space.bins,
         zone_cv_raw,

@@ -96,6 +96,13 @@ fn median(v: &mut [f64]) -> f64 {
 /// than about ±17 % in radius). A sector still short of `min_pool/4` bins (near the
 /// centre, or in small images) pools all sectors instead (purely radial there).
 pub fn fit(power: &Array2<f64>, sectors: usize, min_halfwidth: usize, min_pool: usize) -> Background {
+    fit_excluding(power, sectors, min_halfwidth, min_pool, None)
+}
+
+/// [`fit`] with the bins marked in `exclude` left out of every pool (the notched bond
+/// peaks and their leakage ridges, whose power is not the web's): the cells' medians are
+/// then those of the web alone, and every bin, excluded or not, still gets a value.
+pub fn fit_excluding(power: &Array2<f64>, sectors: usize, min_halfwidth: usize, min_pool: usize, exclude: Option<&Array2<bool>>) -> Background {
     let (h, w) = power.dim();
     let sectors = sectors.max(1);
     let df = 1.0 / h.min(w) as f64;
@@ -103,27 +110,16 @@ pub fn fit(power: &Array2<f64>, sectors: usize, min_halfwidth: usize, min_pool: 
     // Largest radius (corner) in annulus units.
     let n_ann = ((0.5f64.hypot(0.5)) / df).ceil() as usize + 2;
     let mut cells: Vec<Vec<f64>> = vec![Vec::new(); n_ann * sectors];
-    // Polar coordinates once per bin (angle folded to the half plane).
+    // Polar coordinates and cell of each bin (cached per shape).
     // Rows above h/2 are the conjugates of rows below: only rows 0..=h/2 are needed.
     let hh = h / 2 + 1;
-    let mut geo: Vec<(f64, f64)> = Vec::with_capacity(hh * w);
-    for q in 0..hh {
-        for r in 0..w {
-            let (rad, th) = polar(q, r, h, w);
-            geo.push((rad, if th >= pi { th - pi } else { th }));
+    let lay = layout(h, w, sectors, n_ann);
+    let geo = &lay.geo;
+    for (k, &c) in lay.cell.iter().enumerate() {
+        if c == u32::MAX || exclude.is_some_and(|e| e.as_slice().unwrap()[k]) {
+            continue;
         }
-    }
-    for q in 0..hh {
-        for r in 0..w {
-            if !in_half_plane(q, r, h, w) {
-                continue;
-            }
-            let (rad, th) = geo[q * w + r];
-            let n = (rad.round() as usize).min(n_ann - 1);
-            // Sectors are centred on θ = s·π/S, so one sits on each image axis (MD/CD).
-            let s = ((th / pi * sectors as f64 + 0.5) as usize) % sectors;
-            cells[n * sectors + s].push(power[[q, r]]);
-        }
+        cells[c as usize].push(power.as_slice().unwrap()[k]);
     }
     let count = |n: usize, s: usize| cells[n * sectors + s].len();
     let tiny = f64::MIN_POSITIVE;
@@ -222,6 +218,50 @@ pub fn fit(power: &Array2<f64>, sectors: usize, min_halfwidth: usize, min_pool: 
         }
     }
     Background { mean_power, log_sd: sd, log_cells, annulus_width: df }
+}
+
+/// Polar geometry of the half-plane rows `0..=h/2` of an (h, w) spectrum: per bin
+/// (radius in annuli, angle folded to [0, π)) and its (annulus, sector) cell, `u32::MAX`
+/// outside the half plane.
+struct Layout {
+    geo: Vec<(f64, f64)>,
+    cell: Vec<u32>,
+}
+
+/// The [`Layout`] of a shape, cached (the two fits of an image, and images of one size,
+/// share it; computing it costs about as much as the rest of a fit).
+fn layout(h: usize, w: usize, sectors: usize, n_ann: usize) -> std::sync::Arc<Layout> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<HashMap<(usize, usize, usize), Arc<Layout>>>> = OnceLock::new();
+    let mut m = CACHE.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap_or_else(|e| e.into_inner());
+    if m.len() > 8 {
+        m.clear();
+    }
+    m.entry((h, w, sectors))
+        .or_insert_with(|| {
+            let pi = std::f64::consts::PI;
+            let hh = h / 2 + 1;
+            let mut geo = Vec::with_capacity(hh * w);
+            let mut cell = Vec::with_capacity(hh * w);
+            for q in 0..hh {
+                for r in 0..w {
+                    let (rad, th) = polar(q, r, h, w);
+                    let th = if th >= pi { th - pi } else { th };
+                    geo.push((rad, th));
+                    cell.push(if in_half_plane(q, r, h, w) {
+                        let n = (rad.round() as usize).min(n_ann - 1);
+                        // Sectors are centred on θ = s·π/S, so one sits on each image axis (MD/CD).
+                        let s = ((th / pi * sectors as f64 + 0.5) as usize) % sectors;
+                        (n * sectors + s) as u32
+                    } else {
+                        u32::MAX
+                    });
+                }
+            }
+            Arc::new(Layout { geo, cell })
+        })
+        .clone()
 }
 
 /// Fills NaN cells from the nearest filled sector of the same annulus (circularly), or,

@@ -41,13 +41,17 @@ pub struct ImageParams {
     pub zone_max: f64,
     /// Zone sizes per doubling. Default 2.
     pub zones_per_octave: usize,
-    /// Edge band left out of the filtered statistics, in longest bond periods. Default 1.
+    /// Edge band left out of the filtered statistics, in longest bond periods. Default 2.
     pub edge_margin_periods: f64,
+    /// Grow each notch over its leakage ridge by hysteresis ([`super::grow`]). Default true.
+    pub notch_growth: bool,
+    /// Restore the web under saturated pixels from the lattice ([`super::censor`]). Default true.
+    pub censoring_correction: bool,
 }
 
 /// How the reported `cv_corr` is chosen among the corrected CVs (stored as the version
 /// attribute `cv_corr_rule`).
-pub const CV_CORR_RULE: &str = "cv_corr = cv_corr_compensated: the CV of the notch-filtered interior with the web variance the notches removed (background model) added back; cv_corr_plain (the paper's CV_corr) and cv_corr_one_sided are stored beside it; without notches all equal cv_raw";
+pub const CV_CORR_RULE: &str = "cv_corr = cv_corr_compensated: the CV of the notch-filtered interior with the web variance the notches removed (background model) added back, pixels saturated at 0 or 1 first restored from the lattice (censoring_correction); cv_corr_plain (the paper's CV_corr) and cv_corr_one_sided are stored beside it; without notches all equal cv_raw";
 
 /// Default pixel size (m): an A4 sheet's long side (297 mm) over 871 pixels, the paper's scans.
 pub const DEFAULT_PIXEL_SIZE: f64 = 297.0 / 871.0 * 1e-3;
@@ -71,7 +75,9 @@ impl Default for ImageParams {
             zone_min: 0.5e-3,
             zone_max: 16e-3,
             zones_per_octave: 2,
-            edge_margin_periods: 1.0,
+            edge_margin_periods: 2.0,
+            notch_growth: true,
+            censoring_correction: true,
         }
     }
 }
@@ -97,7 +103,9 @@ pub const PARAMETERS: &[ParamSpec] = &[
     ParamSpec::int("max_peaks", "1", 400, 1, 100_000, "Upper bound on notched peaks (half plane); reaching it adds a warning."),
     ParamSpec::flag("periodic_decomposition", true, "Periodic-plus-smooth decomposition (Moisan) before the FFT, against edge-jump artefacts."),
     ParamSpec::int("zones_per_octave", "1", 2, 1, 16, "Zone sizes per doubling of the zone side."),
-    ParamSpec::float("edge_margin_periods", "1", 1.0, 0.0, 10.0, "Edge band left out of the filtered-image CVs, in longest detected bond periods (0 = whole image)."),
+    ParamSpec::float("edge_margin_periods", "1", 2.0, 0.0, 10.0, "Edge band left out of the filtered-image CVs, in longest detected bond periods (0 = whole image); the notches leave part of an off-grid harmonic within about two periods of the edges."),
+    ParamSpec::flag("notch_growth", true, "Grow each notch by hysteresis over the connected significant bins of its leakage ridge (threshold ln(n/α) over the n bins tested); their web power is added back by the compensation."),
+    ParamSpec::flag("censoring_correction", true, "Restore the web under pixels saturated at 0 or 1 from the lattice (pattern level per lattice phase matched on the unclipped pixels) before the compensated CV."),
 ];
 
 fn check(name: &'static str, v: f64) -> Result<(), ImageError> {

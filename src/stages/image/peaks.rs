@@ -325,19 +325,22 @@ pub fn fit_lattice(peaks: &mut [Peak], max_basis_candidates: usize) -> Option<La
     };
     if use_two {
         let (_, _, a, b) = best.unwrap();
-        // Least squares: k ≈ m a + n b over explained peaks.
+        // Least squares: k ≈ m a + n b over explained peaks, weighted by their share of
+        // the variance. Unweighted, the many weak high harmonics dominate, and those of
+        // sharp bonds are aliased (beyond Nyquist) next to lower ones: for a 12.02 px
+        // period they pulled the fit to 12.00 px, a phase drift of 1.7 px over 871 px.
         let idx: Vec<Option<[i32; 2]>> = ks.iter().map(|k| indices(*k, a, b)).collect();
         let (mut smm, mut smn, mut snn) = (0.0, 0.0, 0.0);
         let (mut skm, mut skn) = ([0.0; 2], [0.0; 2]);
-        for (k, ix) in ks.iter().zip(&idx) {
+        for ((k, ix), &wt) in ks.iter().zip(&idx).zip(&wts) {
             if let Some([m, n]) = ix {
                 let (m, n) = (*m as f64, *n as f64);
-                smm += m * m;
-                smn += m * n;
-                snn += n * n;
+                smm += wt * m * m;
+                smn += wt * m * n;
+                snn += wt * n * n;
                 for c in 0..2 {
-                    skm[c] += k[c] * m;
-                    skn[c] += k[c] * n;
+                    skm[c] += wt * k[c] * m;
+                    skn[c] += wt * k[c] * n;
                 }
             }
         }

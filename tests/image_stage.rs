@@ -607,8 +607,9 @@ fn cli_zone_curve_stores_the_zone_sizes_actually_used_without_holes() {
 /// The rule behind the reported `cv_corr` (CV_CORR_RULE): on bonded renderings of known
 /// web CV, including strong, rotated, staggered and large elliptical bonds whose periods
 /// do not divide the image, the compensated CV has the smaller worst-case and mean error.
-/// (300 × 360 px here: compensated −0.4 to +1.1 %, plain −7.7 to −0.6 %; at 617 × 871 px,
-/// 3 seeds, examples/image_estimators.rs: +0.03 to +0.68 % and −5.2 to −0.5 %.)
+/// (300 × 360 px here: compensated −0.13 to +1.28 %, plain −7.7 to −0.6 %; at 617 × 871 px,
+/// 3 seeds, examples/image_estimators.rs: +0.03 to +0.68 % and −5.2 to −0.5 %; smaller
+/// images are less accurate, examples/image_size_accuracy.rs.)
 #[test]
 fn reported_cv_corr_is_the_compensated_estimate_and_closer_to_the_truth() {
     let cases = [

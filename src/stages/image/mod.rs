@@ -58,16 +58,11 @@
 //! 11. **The reported `cv_corr`** is chosen by [`CV_CORR_RULE`]: the compensated CV. On
 //!    bonded renderings of known web CV (weak, strong, rotated, staggered and large
 //!    elliptical lattices whose periods do not divide the image, strong and large bonds
-//!    clipping 6–9 % of the pixels to white; `examples/image_estimators.rs`, 617 × 871 px,
-//!    3 seeds) it is within +0.03 to +0.68 % of the truth, against −5.2 to −0.5 % for the
-//!    plain CV (before the growth, the censoring correction and the two-period edge band:
-//!    −2.6 to +0.9 %, the strong, rotated and large cases −1.6 to −2.6 %, most of it
-//!    from the clipped pixels); at 300 × 360 px (tests/image_stage.rs
-//!    `reported_cv_corr_is_the_compensated_estimate_and_closer_to_the_truth`) −0.4 to
-//!    +1.1 % against −7.7 to −0.6 %. It does not drift with the notch width as the plain
-//!    CV does (README, what accuracy costs). What is left (+0.3 to +0.7 % on strong
-//!    bonds) is bond pattern the notches leave: leakage below the growth threshold and
-//!    near the edges. Without notches all of them are the raw CV.
+//!    clipping 6–9 % of the pixels to white) it has the smaller worst-case and mean error
+//!    and does not drift with the notch width as the plain CV does. It is within 1 % of
+//!    the truth at the paper's scan size and over-estimates more on smaller images
+//!    (pattern left below the growth threshold); the measurements and their commands are
+//!    in the README, "What accuracy costs". Without notches all of them are the raw CV.
 //!
 //! # The mean pitfall
 //! Notching never touches the DC bin, so the filtered image keeps the raw mean. If the

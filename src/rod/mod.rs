@@ -99,6 +99,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod air;
+pub mod banded;
 pub mod contact;
 pub mod contact_world;
 pub mod feed;

@@ -218,7 +218,7 @@ impl Default for LaydownParams {
             penetration_tolerance: 1e-5,
             coil_resolution: 2.0,
             duration: 0.0,
-            implicit_step_travel: 1.0,
+            implicit_step_travel: 0.25,
             integrator: Integrator::default(),
             bounce_check: BounceCheck::default(),
             belt_removal: super::metrics::BeltRemoval::default(),
@@ -268,7 +268,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
     real("coil_resolution", "1", 2.0, 0.0, 100.0, "minimum elements per inertial coil scale sqrt(EI/(rho A v_f^2)); 0 = off"),
     real("duration", "s", 0.0, 0.0, 1e3, "simulated time; 0 = until the top node reaches laydown_height"),
-    real("implicit_step_travel", "1", 1.0, 0.01, 100.0, "integrator implicit_bending only: elements a node at the largest imposed speed (feed, belt, omega u0) may travel per step, dt <= time_step_factor * this * element length / v_max"),
+    real("implicit_step_travel", "1", 0.25, 0.01, 100.0, "integrator implicit_bending only: elements a node at the largest imposed speed (feed, belt, omega u0) may travel per step, dt <= time_step_factor * this * element length / v_max"),
 ];
 
 /// A parameter outside its allowed range, or an inconsistent combination.

@@ -335,6 +335,75 @@ fn bending_forces(rod: &Rod, ws: &mut Workspace) {
     }
 }
 
+/// Curvature binormal κb = 2 t_a × t_b/(1 + t_a·t_b) at an interior node (Bergou et al.
+/// 2008; |κb| = 2 tan(φ/2)) and its Jacobians J_a = ∂κb/∂e_a, J_b = ∂κb/∂e_b with respect
+/// to the two edge vectors (row-major 3 × 3, J[r][c] = ∂κb_r/∂e_c), from the unit tangents
+/// and lengths: with D = 1 + c, P_a = I − t_a t_aᵀ,
+/// J_a = (1/l_a) [−(2/D) [t_b]× P_a − κb (t_b − c t_a)ᵀ/D],
+/// J_b = (1/l_b) [ (2/D) [t_a]× P_b − κb (t_a − c t_b)ᵀ/D]
+/// ([t]× y = t × y). D is kept above the fold-back clamp of the energy.
+pub fn curvature_binormal_jacobian(ta: [f64; 3], tb: [f64; 3], la: f64, lb: f64) -> ([f64; 3], [[f64; 3]; 3], [[f64; 3]; 3]) {
+    let c = ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2];
+    let d = (1.0 + c).max(MIN_ONE_PLUS_COS);
+    let cross = [ta[1] * tb[2] - ta[2] * tb[1], ta[2] * tb[0] - ta[0] * tb[2], ta[0] * tb[1] - ta[1] * tb[0]];
+    let kb = [2.0 * cross[0] / d, 2.0 * cross[1] / d, 2.0 * cross[2] / d];
+    let skew = |t: [f64; 3]| [[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]];
+    let jac = |s: f64, tt: [f64; 3], tn: [f64; 3], l: f64| {
+        // (1/l) [s (2/D) [tt]× (I − tn tnᵀ) − κb (tt − c tn)ᵀ/D]
+        let k = skew(tt);
+        let g = [tt[0] - c * tn[0], tt[1] - c * tn[1], tt[2] - c * tn[2]];
+        let mut j = [[0.0; 3]; 3];
+        for r in 0..3 {
+            // row r of [tt]× P = k[r] − (k[r]·tn) tnᵀ
+            let kt = k[r][0] * tn[0] + k[r][1] * tn[1] + k[r][2] * tn[2];
+            for q in 0..3 {
+                j[r][q] = (s * 2.0 / d * (k[r][q] - kt * tn[q]) - kb[r] * g[q] / d) / l;
+            }
+        }
+        j
+    };
+    (kb, jac(-1.0, tb, ta, la), jac(1.0, ta, tb, lb))
+}
+
+/// Half-bandwidth of the 3(N + 1)-unknown bending system (node i couples to i ± 2).
+pub const BENDING_BAND: usize = 8;
+
+/// Adds `scale` times the Gauss-Newton Hessian of the bending energy, Σ_i (EI/V_i) G_iᵀ G_i
+/// with G_i = ∂κb_i/∂(x_{i−1}, x_i, x_{i+1}) = [−J_a, J_a − J_b, J_b], to `h` (unknown
+/// 3j + k is component k of node j). The energy is (EI/2V_i)|κb_i|², so this is its exact
+/// Hessian less the term in κb·∂²κb, which vanishes on a straight rod (where it is the
+/// fourth difference EI/Δs³ D4 on the normal displacements) and is O(κΔs) relative on a
+/// resolved one; it is positive semi-definite at any configuration, so m I + Δt² H stays
+/// positive definite whatever the step. `tangent`, `seg_len`: the segments' unit
+/// tangents and lengths at the rod's positions ([`Workspace::update_geometry`]).
+/// Only nodes `first`.. are unknowns (unknown 3(j − first) + k), and only the bending
+/// terms whose three nodes are among them are added.
+pub fn add_bending_gauss_newton(rod: &Rod, tangent: &[[f64; 3]], seg_len: &[f64], first: usize, scale: f64, h: &mut super::banded::BandSym) {
+    let ei = rod.bending_stiffness;
+    for i in (first + 1).max(1)..rod.x.len() - 1 {
+        let (_, ja, jb) = curvature_binormal_jacobian(tangent[i - 1], tangent[i], seg_len[i - 1], seg_len[i]);
+        // G (3 × 9)
+        let mut g = [[0.0; 9]; 3];
+        for r in 0..3 {
+            for q in 0..3 {
+                g[r][q] = -ja[r][q];
+                g[r][3 + q] = ja[r][q] - jb[r][q];
+                g[r][6 + q] = jb[r][q];
+            }
+        }
+        let w = scale * ei * rod.inv_voronoi[i];
+        let base = 3 * (i - 1 - first);
+        for a in 0..9 {
+            for b in 0..=a {
+                let v = g[0][a] * g[0][b] + g[1][a] * g[1][b] + g[2][a] * g[2][b];
+                if v != 0.0 {
+                    h.add(base + a, base + b, w * v);
+                }
+            }
+        }
+    }
+}
+
 /// Bending energy Σ (2 EI/V_i)(1 − c)/(1 + c) (J).
 pub fn bending_energy_of(rod: &Rod, ws: &Workspace) -> f64 {
     let ei = rod.bending_stiffness;

@@ -21,6 +21,11 @@
 //!    then v ← v + (x − x_predicted)/Δt. The segment forces found are used, one step
 //!    late, in the contact and stick tests, so that tension can lift or unstick a node.
 //!
+//! `ImplicitBending` adds, between steps 3 and 4, a coupled velocity solve with the
+//! bending linearly implicit (`Simulator::solve_implicit_bending`); steps 2-3 then
+//! serve as the contact predictor, with one Jacobi sweep of the implicit system instead
+//! of the explicit bending kick.
+//!
 //! Stable step (ω_max of the lumped chain):
 //! - axial ω_a = 2 c_0/Δs, c_0 = √(E/ρ): Δt_a = Δs/c_0 (0.69 µs at Δs = 1 mm);
 //! - bending ω_b = 4/Δs² · √(EI/ρA): Δt_b = Δs²/2 · √(ρA/EI) (27.6 µs at 1 mm, d = 50 µm);
@@ -98,6 +103,9 @@ pub fn stable_time_step(
                 2.0 / (wa * wa + wb * wb).sqrt()
             }
             Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => bending,
+            // bending and axial springs implicit: no elastic limit (the caller sets the
+            // step from the node motion, `implicit_step_travel`)
+            Integrator::ImplicitBending => f64::INFINITY,
         }
     };
     let mut chosen = factor * elastic_limit.min(kinematic);
@@ -151,6 +159,8 @@ pub enum StepFailure {
     SingularTopNode,
     #[error("singular node matrix at node {node}, t = {t:.6e} s")]
     SingularNode { node: usize, t: f64 },
+    #[error("implicit bending system not positive definite at t = {t:.6e} s, dt = {dt:.3e} s (node {node}, pivot {pivot:.3e})")]
+    BendingSystem { t: f64, dt: f64, node: usize, pivot: f64 },
     #[error("length projection did not converge at t = {t:.6e} s, dt = {dt:.3e} s (relative residual {residual:.3e} at segment {segment}: nodes {from} / {to})")]
     Projection { t: f64, dt: f64, residual: f64, segment: usize, from: String, to: String },
 }
@@ -468,6 +478,15 @@ impl Simulator {
         }
         self.ws.v_start.copy_from_slice(&self.rod.v);
         self.solve_velocities()?;
+        let implicit_bending = self.integrator == Integrator::ImplicitBending;
+        if implicit_bending {
+            // the implicit system over the nodes not held at the last step (a margin of
+            // four nodes that may come loose), and the contact predictor from it
+            let first = self.ws.bend_first.saturating_sub(4);
+            self.assemble_implicit_bending(first);
+            self.predict_implicit_bending();
+            self.ws.v_pred.clone_from(&self.rod.v);
+        }
         let need_w = self.integrator != Integrator::Explicit;
         // 3. contact and friction: with other fibres first (a fibre lying on the belt
         // holds up a node that would otherwise reach the belt in this step), then the belt
@@ -481,6 +500,9 @@ impl Simulator {
         if self.contact.is_some() {
             self.belt_impulses();
         }
+        if implicit_bending {
+            self.solve_implicit_bending()?;
+        }
 
         // 4./5. positions
         match self.integrator {
@@ -491,7 +513,7 @@ impl Simulator {
                     x[2] += dt * v[2];
                 }
             }
-            Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => {
+            Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial | Integrator::ImplicitBending => {
                 for (x, v) in self.rod.x.iter_mut().zip(&self.rod.v) {
                     x[0] += dt * v[0];
                     x[1] += dt * v[1];
@@ -619,6 +641,7 @@ impl Simulator {
     fn book_reactions(&mut self) {
         let (dt, n) = (self.dt, self.rod.nodes());
         let projected = self.integrator != Integrator::Explicit;
+        let implicit_bending = self.integrator == Integrator::ImplicitBending;
         let idt = 1.0 / dt;
         let free = self.free_nodes();
         let belt = self.contact.is_some();
@@ -626,7 +649,12 @@ impl Simulator {
         // R_i and the mean velocity ½(v + v')
         let reaction = |i: usize| {
             let (m, v, v0, f, r) = (rod.mass[i], rod.v[i], ws.v_start[i], ws.force[i], ws.rhs[i]);
-            let av = sym_mul(&ws.amat[i], &v);
+            let mut av = sym_mul(&ws.amat[i], &v);
+            if implicit_bending {
+                // the implicit bending force −Δt² H v' is part of the node's equation
+                let h = ws.bend_impl[i];
+                av = [av[0] + h[0], av[1] + h[1], av[2] + h[2]];
+            }
             let mut g = [0.0; 3];
             if projected {
                 let (a, b) = (if i > 0 { ws.lambda_e[i - 1] } else { [0.0; 3] }, if i + 1 < n { ws.lambda_e[i] } else { [0.0; 3] });
@@ -731,6 +759,139 @@ impl Simulator {
             self.ws.winv[i] = [0.0; 6];
         }
         Ok(())
+    }
+
+    /// `implicit_bending`, after the node-wise predictor and the contact impulses (steps
+    /// 2-3): the velocities again, with the bending linearly implicit (one backward-Euler
+    /// Newton step, F_b(x') ≈ F_b(x) − H (x' − x), x' − x = Δt v'):
+    /// (A + Δt² H) v' = m v + Δt F + r + J,
+    /// H the Gauss-Newton bending Hessian ([`super::forces::add_bending_gauss_newton`]),
+    /// A the node matrices (mass and the implicit node terms), J = A (v_c − v_p) the
+    /// impulses steps 2-3 gave each node (v_p predicted, v_c after contact: friction of a
+    /// sliding node, fibre contact). Held unknowns are Dirichlet rows: every component of
+    /// a clamped or sticking node, v_z of the driven top and of a node on the belt. One
+    /// banded Cholesky solve, half-bandwidth 8 (O(N)). The contact state is decided node by
+    /// node on the predictor (explicit bending force), as in the other projection schemes;
+    /// a node the implicit velocities take below the belt joins the contact set in the
+    /// projection (step 5).
+    fn solve_implicit_bending(&mut self) -> Result<(), StepFailure> {
+        let (dt, n) = (self.dt, self.rod.nodes());
+        let clamped = self.clamped.len();
+        let held = |ws: &Workspace, i: usize| i < clamped || ws.contact[i] == NodeContact::Stick;
+        // the nodes before the first free one are held: the system starts two before it
+        // (those two held too, as Dirichlet rows carrying the bending coupling)
+        let free_from = (0..n).find(|&i| !held(&self.ws, i)).unwrap_or(n);
+        let first = free_from.saturating_sub(2);
+        if first < self.ws.bend_first {
+            // a node before the assembled window came loose in this step
+            self.assemble_implicit_bending(first);
+        }
+        let first = self.ws.bend_first;
+        let nd = 3 * (n - first);
+        let ws = &mut self.ws;
+        ws.bend_k.clone_from(&ws.bend_h);
+        ws.bend_b.clear();
+        ws.bend_b.resize(nd, 0.0);
+        for i in first..n {
+            let a = ws.amat[i];
+            let k = 3 * (i - first);
+            ws.bend_k.add(k, k, a[0]);
+            ws.bend_k.add(k + 1, k + 1, a[1]);
+            ws.bend_k.add(k + 2, k + 2, a[2]);
+            ws.bend_k.add(k + 1, k, a[3]);
+            ws.bend_k.add(k + 2, k, a[4]);
+            ws.bend_k.add(k + 2, k + 1, a[5]);
+            let (m, v0, f, r) = (self.rod.mass[i], ws.v_start[i], ws.force[i], ws.rhs[i]);
+            let (vc, vp) = (self.rod.v[i], ws.v_pred[i]);
+            let j = sym_mul(&a, &[vc[0] - vp[0], vc[1] - vp[1], vc[2] - vp[2]]);
+            for c in 0..3 {
+                ws.bend_b[k + c] = m * v0[c] + dt * f[c] + r[c] + j[c];
+            }
+        }
+        // Dirichlet rows
+        let driven = if self.driven_top.is_some() { n - 1 } else { usize::MAX };
+        for i in first..n {
+            let v = self.rod.v[i];
+            let k = 3 * (i - first);
+            let fixed: &[usize] = if i < clamped || ws.contact[i] == NodeContact::Stick {
+                &[0, 1, 2]
+            } else if i == driven || ws.contact[i] == NodeContact::Slide {
+                &[2]
+            } else {
+                &[]
+            };
+            for &c in fixed {
+                ws.bend_k.fix(k + c, v[c], &mut ws.bend_b);
+            }
+        }
+        if let Err(e) = ws.bend_k.cholesky() {
+            return Err(StepFailure::BendingSystem { t: self.t + dt, dt, node: first + e.row / 3, pivot: e.pivot });
+        }
+        ws.bend_k.solve_factored(&mut ws.bend_b);
+        for i in first..n {
+            let k = 3 * (i - first);
+            self.rod.v[i] = [ws.bend_b[k], ws.bend_b[k + 1], ws.bend_b[k + 2]];
+        }
+        // Δt² H v' per node, for the reactions (zero before the window: held nodes moving
+        // with the belt, a rigid translation that H does not see)
+        ws.bend_h.mul(self.rod.v[first..].as_flattened(), &mut ws.bend_b);
+        ws.bend_impl.clear();
+        ws.bend_impl.resize(first, [0.0; 3]);
+        ws.bend_impl.extend(ws.bend_b.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        ws.bend_first = free_from.saturating_sub(2);
+        Ok(())
+    }
+
+    /// Δt² H of the nodes `first`.. into `ws.bend_h` (`Self::solve_implicit_bending`).
+    fn assemble_implicit_bending(&mut self, first: usize) {
+        use super::forces::{add_bending_gauss_newton, BENDING_BAND};
+        let (dt, n) = (self.dt, self.rod.nodes());
+        let first = first.min(n - 1);
+        let ws = &mut self.ws;
+        ws.bend_first = first;
+        ws.bend_h.reset(3 * (n - first), BENDING_BAND);
+        add_bending_gauss_newton(&self.rod, &ws.tangent, &ws.seg_len, first, dt * dt, &mut ws.bend_h);
+    }
+
+    /// The contact predictor of `implicit_bending`: one Jacobi sweep of the implicit
+    /// system from the start-of-step velocities, node by node,
+    /// (A_i + Δt² H_ii) v_i = m v + Δt F + r − Σ_{j≠i} Δt² H_ij v_j, over the assembled
+    /// nodes (not the clamped ones and the driven top, whose velocities step 2 set). The
+    /// node-wise explicit predictor would push a node by Δt F_b/m, far more than the
+    /// implicit step moves it once Δt is beyond the bending limit, and the belt would
+    /// then book a normal (and Coulomb friction) impulse that is not there.
+    fn predict_implicit_bending(&mut self) {
+        let (dt, n) = (self.dt, self.rod.nodes());
+        let first = self.ws.bend_first;
+        let last = if self.driven_top.is_some() { n - 1 } else { n };
+        let ws = &self.ws;
+        let h = &ws.bend_h;
+        for i in first.max(self.clamped.len())..last {
+            let li = 3 * (i - first);
+            let (m, v0, f, r) = (self.rod.mass[i], ws.v_start[i], ws.force[i], ws.rhs[i]);
+            let mut b = [m * v0[0] + dt * f[0] + r[0], m * v0[1] + dt * f[1] + r[1], m * v0[2] + dt * f[2] + r[2]];
+            for j in i.saturating_sub(2).max(first)..(i + 3).min(n) {
+                if j == i {
+                    continue;
+                }
+                let (lj, vj) = (3 * (j - first), ws.v_start[j]);
+                for (rr, br) in b.iter_mut().enumerate() {
+                    *br -= h.get(li + rr, lj) * vj[0] + h.get(li + rr, lj + 1) * vj[1] + h.get(li + rr, lj + 2) * vj[2];
+                }
+            }
+            let a = ws.amat[i];
+            let k = [
+                a[0] + h.get(li, li),
+                a[1] + h.get(li + 1, li + 1),
+                a[2] + h.get(li + 2, li + 2),
+                a[3] + h.get(li + 1, li),
+                a[4] + h.get(li + 2, li),
+                a[5] + h.get(li + 2, li + 1),
+            ];
+            if let Some(ki) = sym_inverse(&k) {
+                self.rod.v[i] = sym_mul(&ki, &b);
+            }
+        }
     }
 
     /// Constraint projection of the segment lengths, XPBD form solved exactly:

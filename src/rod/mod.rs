@@ -55,6 +55,13 @@
 //! - `implicit_axial`: the same with backward Euler on the axial springs (damps the
 //!   axial waves: e about 6 % above the reference).
 //! - `inextensible`: the same with zero compliance.
+//! - `implicit_bending` (opt-in, issue 15): bending linearly implicit, one backward-Euler
+//!   Newton step with the Gauss-Newton bending Hessian per step ((A + Δt² H) v' = b, a
+//!   banded Cholesky solve of 3(N + 1) unknowns, half-bandwidth 8, [`banded`]), axial
+//!   springs by backward Euler in the projection; held nodes (sticking, on the belt,
+//!   driven top, clamps) are Dirichlet rows. No elastic step limit:
+//!   Δt ≤ factor·`implicit_step_travel`·Δs/v_max and the buckling limit. Dissipative
+//!   (backward Euler): e reads low at large steps (see `pipelines/paper/LAYDOWN_MEASUREMENTS.md`).
 //!
 //! All keep Δt ≤ factor·Δs/(4 v_max) (v_max: feed, belt, ωu0). `coil_resolution` raises N when the inertial
 //! coil scale √(EI/ρA v_f²) (3.6 mm at the baseline, ten times smaller at 50 m/s) would
@@ -99,6 +106,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod air;
+pub mod banded;
 pub mod contact;
 pub mod contact_world;
 pub mod feed;

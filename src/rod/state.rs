@@ -101,6 +101,17 @@ pub struct Workspace {
     pub lambda_acc: Vec<f64>,
     pub we_prev: Vec<[f64; 3]>,
     pub we_next: Vec<[f64; 3]>,
+    // `implicit_bending` only (sized on first use): Δt² H (the Gauss-Newton bending
+    // Hessian), the system matrix, its right-hand side / solution, the node-wise
+    // predictor's velocities and Δt² H v' per node (for the reactions)
+    pub bend_h: super::banded::BandSym,
+    pub bend_k: super::banded::BandSym,
+    pub bend_b: Vec<f64>,
+    pub v_pred: Vec<[f64; 3]>,
+    pub bend_impl: Vec<[f64; 3]>,
+    /// First node of the implicit bending system (the nodes before it are held on the
+    /// belt or clamped); the next step starts from it.
+    pub bend_first: usize,
 }
 
 impl Workspace {
@@ -127,6 +138,12 @@ impl Workspace {
             lambda_acc: vec![0.0; s],
             we_prev: vec![[0.0; 3]; nodes],
             we_next: vec![[0.0; 3]; nodes],
+            bend_h: Default::default(),
+            bend_k: Default::default(),
+            bend_b: Vec::new(),
+            v_pred: Vec::new(),
+            bend_impl: Vec::new(),
+            bend_first: 0,
         }
     }
 

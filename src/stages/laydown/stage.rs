@@ -146,7 +146,7 @@ impl Stage for LaydownStage {
             "integrator",
             Integrator::NAMES,
             Integrator::default().name(),
-            "time integration: explicit (reference), implicit_axial (fast), inextensible",
+            "time integration: explicit (reference), implicit_axial (fast), inextensible, implicit_bending (opt-in: bending implicit, step set by node travel, implicit_step_travel; dissipative)",
         ));
         v.push(ParamSpec::int(
             TARGET,

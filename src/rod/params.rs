@@ -31,11 +31,14 @@ crate::params::choice_enum! {
         /// when a straight column is pushed against the belt, which cannot shorten without
         /// axial compliance; kept for scenes without impact.
         Inextensible = "inextensible",
-        /// Opt-in, fast at fine meshes and high speed: bending linearly implicit (one
-        /// backward-Euler Newton step with the Gauss-Newton bending Hessian, a banded
-        /// 3(N+1) solve per step, O(N)) on top of `TrapezoidalAxial`'s axial projection;
-        /// belt contact, the driven top and clamps held as Dirichlet rows. No elastic step
+        /// Opt-in, experimental: bending linearly implicit (one backward-Euler Newton
+        /// step with the Gauss-Newton bending Hessian, a banded 3(N+1) solve per step,
+        /// O(N)) with backward Euler on the axial springs in the length projection; belt
+        /// contact, the driven top and clamps held as Dirichlet rows. No elastic step
         /// limit: Δt ≤ factor·`implicit_step_travel`·Δs/v_max, and the buckling limit.
+        /// On the coil-resolving mesh it is slower than `TrapezoidalAxial` at the steps
+        /// that keep e near the explicit reference, and damps e at longer ones
+        /// (pipelines/paper/LAYDOWN_MEASUREMENTS.md).
         ImplicitBending = "implicit_bending",
     }
 }

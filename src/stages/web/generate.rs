@@ -379,11 +379,8 @@ impl Web {
         if let Source::Matched { walk, .. } = &self.source {
             // Belt-removed nodes about the deposition point (0, y_j), then the drift of eq 14.
             let mut rng = fibre_rng(self.params.seed, realisation, fibre as u32);
-            walk.walk(&mut Draws::new(&mut rng), self.params.mirror, self.params.segments_per_fibre * self.points, nodes, &mut scratch.curvature);
             let (drift_ds, y) = (self.params.belt_speed_ratio * self.spacing(), self.params.start_y(fibre));
-            for (k, p) in nodes.iter_mut().enumerate() {
-                *p = [p[0] + k as f64 * drift_ds, p[1] + y];
-            }
+            walk.walk_nodes(&mut Draws::new(&mut rng), self.params.mirror, self.params.segments_per_fibre * self.points, nodes, |k, p| [p[0] + k * drift_ds, p[1] + y]);
             return;
         }
         if let Source::Sde(model) = &self.source {

@@ -287,7 +287,7 @@ mod tests {
         let mut draws = Draws::new(&mut rng);
         let (mut positions, mut curvature) = (Vec::new(), Vec::new());
         for i in 0..count {
-            let kappa: Vec<f64> = (0..n).map(|_| if i % 2 == 0 { 200.0 + 50.0 * draws.normal() } else { 300.0 * draws.normal() }).collect();
+            let kappa: Vec<f64> = (0..n).map(|_| if i % 2 == 0 { 200.0 + 100.0 * (draws.uniform() - 0.5) } else { 600.0 * (draws.uniform() - 0.5) }).collect();
             positions.push(crate::stages::spectra::integrate_curvature(&kappa, spacing, 0.0, [0.0, 0.0], 0.0).iter().map(|p| [p[0], p[1]]).collect::<Vec<_>>());
             curvature.push(kappa);
         }

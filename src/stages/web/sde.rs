@@ -31,9 +31,11 @@
 //!
 //! Euler–Maruyama was tried first: its rotation gains energy every orbit, and at
 //! Δs = b/25 the stationary variance of η came out 20 % above b² (A = 2 m^-1/2). With
-//! Heun it is within 1 % for Δs ≤ b/5 ([`RESOLUTION`]) and 27 % low at b/2; a calibrated
-//! model coarser than b/5 is flagged. ξ_k standard normal (Box–Muller on the fibre's ChaCha8 stream). A fibre starts in the
-//! stationary state: η_0 ~ N(0, b²I), α_0 uniform. The curvature κ = dα/ds is white noise
+//! Heun it is within 2 % for Δs ≤ b/5 ([`RESOLUTION`]; sampling error ~1 %) and 27 % low at
+//! b/2; a calibrated model coarser than b/5 is flagged. ξ_k standard normal (Box–Muller on
+//! xoshiro256++ seeded from the fibre's ChaCha8 stream). τ(α) is carried as a unit vector
+//! rotated by each increment α̃ − α_k and α_{k+1} − α_k (the same scheme, other rounding;
+//! see [`SdeLanes`]). A fibre starts in the stationary state: η_0 ~ N(0, b²I), α_0 uniform. The curvature κ = dα/ds is white noise
 //! plus the potential's turning, so the bending energy e depends on Δs: the model is
 //! calibrated at the input's Δs and meant to be used there.
 //!
@@ -556,7 +558,8 @@ mod tests {
     #[test]
     fn step_refinement_of_the_stationary_spread() {
         // The stationary variance of the discrete model against b² (exact for the SDE):
-        // measured 0.734 at Δs = b/2, 0.995 at b/5, 0.992 at b/25 (sampling error ~1 %),
+        // measured 0.734 at Δs = b/2, 0.981 at b/5, 1.003 at b/25 (sampling error ~1 %;
+        // 0.734, 0.995, 0.992 with the Box–Muller/ChaCha8 draws before issue 14's speed work),
         // hence the resolution rule Δs ≤ b/5 the stage checks.
         let model = LayDownSde { potential_length: 5e-3, noise: 2.0 };
         for ratio in [2.0, RESOLUTION, 25.0] {

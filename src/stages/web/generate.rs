@@ -387,7 +387,7 @@ impl Web {
         }
         if let Source::Sde(model) = &self.source {
             // One lane of the lockstep integration (the rotated tangent and the nodes in one pass).
-            let mut lanes = SdeScratch { nodes: vec![std::mem::take(nodes)], ..SdeScratch::default() };
+            let mut lanes = SdeScratch { nodes: vec![std::mem::take(nodes)] };
             self.sde_batch(model, realisation, [fibre], &mut lanes);
             *nodes = lanes.nodes.pop().unwrap();
             return;

@@ -177,6 +177,7 @@ impl<const L: usize> LaneRng<L> {
 
     /// The next word of every lane.
     #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // lane by lane over five arrays: the loop that vectorises
     pub(crate) fn next(&mut self) -> [u64; L] {
         let mut out = [0u64; L];
         for l in 0..L {
@@ -373,6 +374,7 @@ fn normal_pair<const L: usize>(rng: &mut LaneRng<L>) -> ([f64; L], [f64; L]) {
 /// cosine are [`small_sin_cos`] for |δ| ≤ π/4 (every lane, vectorised) and [`sin_cos`]
 /// for a lane beyond.
 #[inline(always)]
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN increment must count as beyond
 fn rotate<const L: usize>(sin: &[f64; L], cos: &[f64; L], delta: &[f64; L]) -> ([f64; L], [f64; L]) {
     let (mut sd, mut cd) = ([0.0; L], [0.0; L]);
     let mut wide = false;

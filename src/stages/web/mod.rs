@@ -226,7 +226,7 @@ pub enum WebError {
     SdeHalfGiven,
     #[error("lay_down_sde: need a positive step and segment, got Δs = {spacing}, N = {points}")]
     SdeStep { spacing: f64, points: usize },
-    #[error("lay_down_sde: the step Δs = {spacing:.3e} m exceeds the potential length b = {potential_length:.3e} m{}: the scheme cannot resolve the potential; allowed: Δs ≤ b (≤ b/{resolution} to be within 1 %): sample the input finer (the spectra stage's sample_spacing) or raise points_per_segment", if *.calibrated { " (calibrated)" } else { "" })]
+    #[error("lay_down_sde: the step Δs = {spacing:.3e} m exceeds the potential length b = {potential_length:.3e} m{}: the scheme cannot resolve the potential; allowed: Δs ≤ b (≤ b/{resolution} to be within 2 %): sample the input finer (the spectra stage's sample_spacing) or raise points_per_segment", if *.calibrated { " (calibrated)" } else { "" })]
     SdeStepBeyondPotential { spacing: f64, potential_length: f64, calibrated: bool, resolution: f64 },
 }
 

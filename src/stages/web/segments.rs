@@ -27,6 +27,7 @@
 //! The fibre's deposition point is its starting point's (0, y_j); the web adds the belt
 //! drift of eq 14 like the other generators.
 use super::sde::Draws;
+use super::trig::widest_isa;
 use crate::stages::spectra::wrap_angle;
 
 /// One laid fibre ready to be walked along.
@@ -51,6 +52,7 @@ impl LaidTemplates {
     /// Templates from the laid fibres' resampled nodes (N + 1 each, at arc-length spacing
     /// `spacing`) and their curvature samples (N each).
     pub fn new(positions: &[Vec<[f64; 2]>], curvature: &[Vec<f64>], spacing: f64) -> Self {
+        assert!(curvature.iter().all(|k| k.len() < i32::MAX as usize), "templates of fewer than 2³¹ samples");
         let templates = positions
             .iter()
             .zip(curvature)
@@ -75,55 +77,244 @@ impl LaidTemplates {
     /// their mirror). Draws per template entered: its index, its mirror flag (with
     /// `mirror`), then for the first template its starting node.
     pub(crate) fn walk(&self, draws: &mut Draws, mirror: bool, samples: usize, nodes: &mut Vec<[f64; 2]>, curvature: &mut Vec<f64>) {
+        curvature.clear();
+        self.walk_with(draws, mirror, samples, nodes, Some(curvature), |_, p| p);
+    }
+
+    /// The walk's nodes with `finish(k, node)` applied to node k (k as f64, exact) as it
+    /// is written (the web adds the belt drift of eq 14 there), without the curvature
+    /// samples. Compiled for the widest vector extension the CPU has (the same IEEE
+    /// operations, so the same bits).
+    pub(crate) fn walk_nodes(&self, draws: &mut Draws, mirror: bool, samples: usize, nodes: &mut Vec<[f64; 2]>, finish: impl Fn(f64, [f64; 2]) -> [f64; 2]) {
+        widest_isa!(
+            generic: self.walk_with(draws, mirror, samples, nodes, None, finish),
+            avx2: self.walk_nodes_avx2(draws, mirror, samples, nodes, finish),
+            avx512: self.walk_nodes_avx512(draws, mirror, samples, nodes, finish),
+        )
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn walk_nodes_avx2(&self, draws: &mut Draws, mirror: bool, samples: usize, nodes: &mut Vec<[f64; 2]>, finish: impl Fn(f64, [f64; 2]) -> [f64; 2]) {
+        self.walk_with(draws, mirror, samples, nodes, None, finish)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn walk_nodes_avx512(&self, draws: &mut Draws, mirror: bool, samples: usize, nodes: &mut Vec<[f64; 2]>, finish: impl Fn(f64, [f64; 2]) -> [f64; 2]) {
+        self.walk_with(draws, mirror, samples, nodes, None, finish)
+    }
+
+    /// The walk. Between joins a template's nodes are copied run by run (the blend, then
+    /// the rest, in loops that vectorise), and each join's entry node is found by
+    /// [`Self::entry`].
+    #[inline(always)]
+    fn walk_with(&self, draws: &mut Draws, mirror: bool, samples: usize, nodes: &mut Vec<[f64; 2]>, mut curvature: Option<&mut Vec<f64>>, finish: impl Fn(f64, [f64; 2]) -> [f64; 2]) {
         let n = self.points();
         let blend = (n / 10).clamp(1, 20);
         let last_entry = n - n / 2; // enter at m < N − N/2: at least N/2 samples before the next join
-        let weight = (5.0 * self.spacing).powi(2);
         nodes.clear();
-        curvature.clear();
+        nodes.reserve(samples + 1);
         let pick = |draws: &mut Draws| {
             let t = ((draws.uniform() * self.templates.len() as f64) as usize).min(self.templates.len() - 1);
             let sign = if mirror && draws.uniform() < 0.5 { -1.0 } else { 1.0 };
             (t, sign)
         };
-        let place = |t: usize, sign: f64, m: usize| {
-            let p = self.templates[t].positions[m];
-            [p[0], sign * p[1]]
-        };
-        let angle = |t: usize, sign: f64, m: usize| sign * self.templates[t].angles[m];
         let (mut t, mut sign) = pick(draws);
         let mut m = ((draws.uniform() * n as f64) as usize).min(n - 1);
         let mut offset = [0.0, 0.0];
         let mut since_join = blend;
-        nodes.push(place(t, sign, m));
+        let p = self.templates[t].positions[m];
+        // The last node written, before `finish` (the state the next join continues).
+        let mut end = [p[0], sign * p[1]];
+        nodes.push(finish(0.0, end));
+        let mut position = Vec::new();
         while nodes.len() < samples + 1 {
             if m == n {
-                let end = *nodes.last().expect("a node");
-                let end_angle = angle(t, sign, m);
+                let end_angle = sign * self.templates[t].angles[m];
                 let (t1, sign1) = pick(draws);
-                let mut best = (f64::INFINITY, 0);
-                for m1 in 0..last_entry.max(1) {
-                    let q = place(t1, sign1, m1);
-                    let position = (q[0] - end[0]).powi(2) + (q[1] - end[1]).powi(2);
-                    if position >= best.0 {
-                        continue; // the angle term only adds: this node cannot win
-                    }
-                    let d = position + weight * wrap_angle(angle(t1, sign1, m1) - end_angle).powi(2);
-                    if d < best.0 {
-                        best = (d, m1);
-                    }
-                }
-                (t, sign, m) = (t1, sign1, best.1);
-                let q = place(t, sign, m);
-                offset = [end[0] - q[0], end[1] - q[1]];
+                (t, sign, m) = (t1, sign1, self.entry(t1, sign1, end, end_angle, last_entry.max(1), &mut position));
+                let p = self.templates[t].positions[m];
+                offset = [end[0] - p[0], end[1] - sign * p[1]];
                 since_join = 0;
             }
-            m += 1;
-            since_join += 1;
-            let fade = (1.0 - since_join as f64 / blend as f64).max(0.0);
-            let q = place(t, sign, m);
-            nodes.push([q[0] + fade * offset[0], q[1] + fade * offset[1]]);
-            curvature.push(sign * self.templates[t].curvature[m.min(n - 1)]);
+            // Nodes m + 1 ..= m + run of template t: node i after the join has fade
+            // max(1 − i/K, 0) (exactly 0 from i = K on, where the division is skipped).
+            let run = (n - m).min(samples + 1 - nodes.len());
+            let template = &self.templates[t];
+            let k0 = nodes.len();
+            let blended = blend.saturating_sub(since_join).min(run);
+            let fade = |i: usize| (1.0 - (since_join + 1 + i) as f64 / blend as f64).max(0.0);
+            let place = |i: usize, f: f64| {
+                let p = template.positions[m + 1 + i];
+                [p[0] + f * offset[0], sign * p[1] + f * offset[1]]
+            };
+            // k as f64: the run's first k (exact) plus i < N < 2³¹ (exact, and a
+            // conversion every vector extension has).
+            let (base, rest_base) = (k0 as f64, (k0 + blended) as f64);
+            let out = &mut nodes.spare_capacity_mut()[..run];
+            for (i, o) in out[..blended].iter_mut().enumerate() {
+                o.write(finish(base + (i as i32) as f64, place(i, fade(i))));
+            }
+            let zero = [0.0 * offset[0], 0.0 * offset[1]]; // the fade-0 term, signed zeros kept
+            let rest = &template.positions[m + 1 + blended..m + 1 + run];
+            for (i, (o, p)) in out[blended..].iter_mut().zip(rest).enumerate() {
+                o.write(finish(rest_base + (i as i32) as f64, [p[0] + zero[0], sign * p[1] + zero[1]]));
+            }
+            // SAFETY: the `run` nodes after the first k0 were all written just above.
+            unsafe { nodes.set_len(k0 + run) };
+            end = place(run - 1, fade(run - 1));
+            if let Some(kappa) = curvature.as_deref_mut() {
+                kappa.extend((m + 1..=m + run).map(|j| sign * template.curvature[j.min(n - 1)]));
+            }
+            m += run;
+            since_join += run;
+        }
+    }
+
+    /// The node of template `t1` (mirrored with `sign1` = −1) among its first `candidates`
+    /// at which the fibre, at `end` with tangent angle `end_angle`, enters it: the least
+    /// |Δr|² + ℓ²Δθ² (ℓ = 5Δs, Δθ wrapped), the first such node on ties. The position
+    /// term of every candidate and their least are computed in one vectorisable pass; as
+    /// the angle term only adds, only candidates whose position term is at most the full
+    /// mismatch of the (first) nearest one can win, and only those are scanned, in order,
+    /// so ties go as in a plain scan of all candidates.
+    #[inline(always)]
+    fn entry(&self, t1: usize, sign1: f64, end: [f64; 2], end_angle: f64, candidates: usize, position: &mut Vec<f64>) -> usize {
+        const LANES: usize = 8;
+        let template = &self.templates[t1];
+        let weight = (5.0 * self.spacing).powi(2);
+        let mismatch = |m1: usize, position: f64| position + weight * wrap_angle(sign1 * template.angles[m1] - end_angle).powi(2);
+        let distance = |p: &[f64; 2]| (p[0] - end[0]).powi(2) + (sign1 * p[1] - end[1]).powi(2);
+        position.clear();
+        position.resize(candidates, 0.0);
+        let mut least = [f64::INFINITY; LANES];
+        let nodes = &template.positions[..candidates];
+        let whole = candidates - candidates % LANES;
+        for (out, p) in position[..whole].chunks_exact_mut(LANES).zip(nodes[..whole].chunks_exact(LANES)) {
+            for l in 0..LANES {
+                out[l] = distance(&p[l]);
+                least[l] = if out[l] < least[l] { out[l] } else { least[l] };
+            }
+        }
+        for (out, p) in position[whole..].iter_mut().zip(&nodes[whole..]) {
+            *out = distance(p);
+            least[0] = if *out < least[0] { *out } else { least[0] };
+        }
+        let least = least.iter().fold(f64::INFINITY, |a, &b| if b < a { b } else { a });
+        let nearest = position.iter().position(|&d| d == least).expect("finite template nodes");
+        let bound = mismatch(nearest, position[nearest]);
+        let mut best = (f64::INFINITY, 0);
+        for (m1, &d) in position.iter().enumerate() {
+            if d <= bound {
+                let d = mismatch(m1, d);
+                if d < best.0 {
+                    best = (d, m1);
+                }
+            }
+        }
+        best.1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_chacha::rand_core::SeedableRng;
+
+    impl LaidTemplates {
+        /// The walk as first written (one node at a time, every candidate scanned), which
+        /// the run-by-run walk and the pruned entry search must reproduce bit for bit.
+        fn walk_reference(&self, draws: &mut Draws, mirror: bool, samples: usize) -> (Vec<[f64; 2]>, Vec<f64>) {
+            let n = self.points();
+            let blend = (n / 10).clamp(1, 20);
+            let last_entry = n - n / 2;
+            let weight = (5.0 * self.spacing).powi(2);
+            let (mut nodes, mut curvature) = (Vec::new(), Vec::new());
+            let pick = |draws: &mut Draws| {
+                let t = ((draws.uniform() * self.templates.len() as f64) as usize).min(self.templates.len() - 1);
+                let sign = if mirror && draws.uniform() < 0.5 { -1.0 } else { 1.0 };
+                (t, sign)
+            };
+            let place = |t: usize, sign: f64, m: usize| {
+                let p = self.templates[t].positions[m];
+                [p[0], sign * p[1]]
+            };
+            let angle = |t: usize, sign: f64, m: usize| sign * self.templates[t].angles[m];
+            let (mut t, mut sign) = pick(draws);
+            let mut m = ((draws.uniform() * n as f64) as usize).min(n - 1);
+            let mut offset = [0.0, 0.0];
+            let mut since_join = blend;
+            nodes.push(place(t, sign, m));
+            while nodes.len() < samples + 1 {
+                if m == n {
+                    let end = *nodes.last().expect("a node");
+                    let end_angle = angle(t, sign, m);
+                    let (t1, sign1) = pick(draws);
+                    let mut best = (f64::INFINITY, 0);
+                    for m1 in 0..last_entry.max(1) {
+                        let q = place(t1, sign1, m1);
+                        let position = (q[0] - end[0]).powi(2) + (q[1] - end[1]).powi(2);
+                        if position >= best.0 {
+                            continue;
+                        }
+                        let d = position + weight * wrap_angle(angle(t1, sign1, m1) - end_angle).powi(2);
+                        if d < best.0 {
+                            best = (d, m1);
+                        }
+                    }
+                    (t, sign, m) = (t1, sign1, best.1);
+                    let q = place(t, sign, m);
+                    offset = [end[0] - q[0], end[1] - q[1]];
+                    since_join = 0;
+                }
+                m += 1;
+                since_join += 1;
+                let fade = (1.0 - since_join as f64 / blend as f64).max(0.0);
+                let q = place(t, sign, m);
+                nodes.push([q[0] + fade * offset[0], q[1] + fade * offset[1]]);
+                curvature.push(sign * self.templates[t].curvature[m.min(n - 1)]);
+            }
+            (nodes, curvature)
+        }
+    }
+
+    /// Templates like laid fibres: random-walk curvature integrated, some of them short
+    /// coils so that joins often have several near candidates (and exact ties: template 0
+    /// is repeated).
+    fn templates(count: usize, n: usize, spacing: f64, seed: u64) -> LaidTemplates {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut draws = Draws::new(&mut rng);
+        let (mut positions, mut curvature) = (Vec::new(), Vec::new());
+        for i in 0..count {
+            let kappa: Vec<f64> = (0..n).map(|_| if i % 2 == 0 { 200.0 + 100.0 * (draws.uniform() - 0.5) } else { 600.0 * (draws.uniform() - 0.5) }).collect();
+            positions.push(crate::stages::spectra::integrate_curvature(&kappa, spacing, 0.0, [0.0, 0.0], 0.0).iter().map(|p| [p[0], p[1]]).collect::<Vec<_>>());
+            curvature.push(kappa);
+        }
+        positions.push(positions[0].clone());
+        curvature.push(curvature[0].clone());
+        LaidTemplates::new(&positions, &curvature, spacing)
+    }
+
+    #[test]
+    fn walk_matches_the_plain_walk_bit_for_bit() {
+        for (count, n, samples, mirror, seed) in [(7, 1000, 20_000, false, 1), (7, 1000, 20_000, true, 2), (3, 40, 1234, true, 3), (2, 7, 100, false, 4), (5, 2, 9, true, 5)] {
+            let walk = templates(count, n, 1e-3, seed);
+            for fibre in 0..4u64 {
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(100 * seed + fibre);
+                let want = walk.walk_reference(&mut Draws::new(&mut rng), mirror, samples);
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(100 * seed + fibre);
+                let (mut nodes, mut kappa) = (Vec::new(), Vec::new());
+                walk.walk(&mut Draws::new(&mut rng), mirror, samples, &mut nodes, &mut kappa);
+                let bits = |v: &[[f64; 2]]| v.iter().flat_map(|p| [p[0].to_bits(), p[1].to_bits()]).collect::<Vec<_>>();
+                assert_eq!(bits(&nodes), bits(&want.0), "nodes, templates {count} × {n}, mirror {mirror}, fibre {fibre}");
+                assert_eq!(kappa.iter().map(|k| k.to_bits()).collect::<Vec<_>>(), want.1.iter().map(|k| k.to_bits()).collect::<Vec<_>>());
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(100 * seed + fibre);
+                let mut drifted = Vec::new();
+                walk.walk_nodes(&mut Draws::new(&mut rng), mirror, samples, &mut drifted, |k, p| [p[0] + k * 2e-5, p[1] + 0.1]);
+                let want_drifted: Vec<[f64; 2]> = want.0.iter().enumerate().map(|(k, p)| [p[0] + k as f64 * 2e-5, p[1] + 0.1]).collect();
+                assert_eq!(bits(&drifted), bits(&want_drifted));
+            }
         }
     }
 }

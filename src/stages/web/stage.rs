@@ -90,9 +90,10 @@ impl WebStageParams {
 /// Bytes per node of a fibre being generated: κ, θ, sin θ, cos θ (8 B each) and the
 /// nodes (x, y).
 pub const SCRATCH_BYTES_PER_NODE: f64 = 48.0;
-/// The same for a `lay_down_sde` web, whose workers integrate up to 8 fibres in lockstep
-/// and hold all their nodes (measured: about 128 B per node of one fibre).
-pub const SDE_SCRATCH_BYTES_PER_NODE: f64 = 128.0;
+/// The same for a `lay_down_sde` web, whose workers integrate up to 16 fibres in lockstep
+/// and hold all their nodes (16 × 16 B; measured: the paper-size web's peak RSS rose by
+/// 25 MB, 2 workers, from 8 to 16 fibres of 1e5 nodes).
+pub const SDE_SCRATCH_BYTES_PER_NODE: f64 = 256.0;
 /// Bytes per stored fibre node: generated, then placed in the (padded) output, x and y each.
 const STORED_BYTES_PER_NODE: f64 = 32.0;
 

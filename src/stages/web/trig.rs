@@ -51,6 +51,17 @@ pub(crate) fn kernel(x: f64) -> (f64, f64) {
     (f64::from_bits(sin_bits ^ sin_sign), f64::from_bits(cos_bits ^ cos_sign))
 }
 
+/// (sin x, cos x) for |x| ≤ π/4: the kernel's polynomials without its range reduction
+/// (there the reduction is exact and the quadrant 0, so this is [`kernel`] bit for bit).
+/// For the rotation of a tangent by a small angle increment; not for |x| > π/4.
+#[inline(always)]
+pub(crate) fn small_sin_cos(x: f64) -> (f64, f64) {
+    let z = x * x;
+    let s = x + x * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))));
+    let c = 1.0 - 0.5 * z + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))));
+    (s, c)
+}
+
 /// (sin x, cos x).
 #[inline]
 pub fn sin_cos(x: f64) -> (f64, f64) {
@@ -66,27 +77,6 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
 #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must count as beyond
 pub(crate) fn beyond_fast_range(x: f64) -> bool {
     !(x.abs() <= FAST_LIMIT)
-}
-
-/// [`sin_cos`] of L independent angles (lanes of a lockstep loop): the kernel on every
-/// lane, branch-free so it vectorises, then `f64::sin_cos` for any lane beyond
-/// [`FAST_LIMIT`] (NaN included), exactly as [`sin_cos`] decides per angle.
-#[inline(always)]
-pub(crate) fn sin_cos_lanes<const L: usize>(x: &[f64; L]) -> ([f64; L], [f64; L]) {
-    let (mut s, mut c) = ([0.0; L], [0.0; L]);
-    let mut wide = false;
-    for l in 0..L {
-        (s[l], c[l]) = kernel(x[l]);
-        wide |= beyond_fast_range(x[l]);
-    }
-    if wide {
-        for l in 0..L {
-            if beyond_fast_range(x[l]) {
-                (s[l], c[l]) = x[l].sin_cos();
-            }
-        }
-    }
-    (s, c)
 }
 
 /// Evaluates the expression compiled for the widest vector extension this CPU has: the
@@ -193,6 +183,12 @@ mod tests {
             }
         }
         assert_eq!(sin_cos(0.0), (0.0, 1.0));
+        // The small-angle form is the kernel on [−π/4, π/4].
+        for i in 0..200_000 {
+            let x = (rng.random::<f64>() * 2.0 - 1.0) * std::f64::consts::FRAC_PI_4 * if i % 2 == 0 { 1.0 } else { 1e-3 };
+            assert_eq!(small_sin_cos(x), kernel(x), "{x}");
+        }
+        assert_eq!(small_sin_cos(std::f64::consts::FRAC_PI_4), kernel(std::f64::consts::FRAC_PI_4));
         let big = 1e7_f64;
         assert_eq!(sin_cos(big), big.sin_cos());
     }

@@ -798,6 +798,16 @@ fn fit_axis_label(label: &str, length: f64, sc: &Scale) -> String {
     }
 }
 
+/// A polyline cut into pieces of at most [`LINE_PIECE`] points, each starting at the
+/// last point of the one before, so that no piece crosses itself.
+fn line_pieces(run: &[(f64, f64)]) -> impl Iterator<Item = &[(f64, f64)]> {
+    let step = LINE_PIECE - 1;
+    (0..run.len().saturating_sub(1).max(1)).step_by(step).map(move |start| &run[start..(start + LINE_PIECE).min(run.len())])
+}
+
+/// Points per piece of a drawn polyline (see [`line_pieces`]).
+const LINE_PIECE: usize = 4;
+
 /// Draw the series of a line panel into a chart of any (linear or log) f64 axes.
 fn draw_series_into<'a, DB, X, Y>(mut chart: ChartContext<'a, DB, Cartesian2d<X, Y>>, p: &LinePanel, x: &Axis, y: &Axis, sc: &Scale) -> Result<()>
 where
@@ -838,7 +848,12 @@ where
                     chart.draw_series(DashedLineSeries::new(run.clone(), dash, gap, style)).map_err(plot_err)?;
                 }
                 Style::Line | Style::LineMarkers => {
-                    chart.draw_series(LineSeries::new(run.clone(), style)).map_err(plot_err)?;
+                    // A thick line is filled as one polygon (even-odd): where a long path
+                    // crosses itself (a laid fibre's loops) the crossing would be left
+                    // blank. Short overlapping pieces cannot cross themselves.
+                    for piece in line_pieces(&run) {
+                        chart.draw_series(LineSeries::new(piece.iter().copied(), style)).map_err(plot_err)?;
+                    }
                 }
                 Style::Markers => {}
             }
@@ -1065,6 +1080,19 @@ fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn line_pieces_draw_every_segment_once_and_are_short() {
+        for n in [1usize, 2, 3, 4, 5, 7, 10, 101] {
+            let run: Vec<(f64, f64)> = (0..n).map(|i| (i as f64, 0.0)).collect();
+            let pieces: Vec<&[(f64, f64)]> = line_pieces(&run).collect();
+            assert!(pieces.iter().all(|p| !p.is_empty() && p.len() <= LINE_PIECE), "{n}");
+            let mut segments: Vec<usize> = pieces.iter().flat_map(|p| p.windows(2).map(|w| w[0].0 as usize)).collect();
+            segments.sort();
+            assert_eq!(segments, (0..n.saturating_sub(1)).collect::<Vec<_>>(), "{n}: each segment drawn exactly once");
+            assert_eq!(pieces.concat().first(), run.first());
+        }
+    }
 
     #[test]
     fn downsample_averages_blocks_and_skips_nan() {

@@ -25,6 +25,11 @@ fn feed_removal_takes_off_a_smooth_drift_and_keeps_the_dynamics() {
     write_pipeline(dir.path(), "p.yaml", PIPELINE);
     let out = run_in(dir.path(), &["run", "p.yaml"]);
     assert_eq!(out.status.code(), Some(0), "{:?}", text(&out));
+    // The half-mesh estimate flags the landing point's belt-removed e (it does not
+    // converge) and names the definition that does; the feed point is never flagged.
+    let stderr = text(&out).1;
+    let flag = stderr.lines().find(|l| l.contains("e with the belt removed by landing time")).unwrap_or_else(|| panic!("no flag: {stderr}"));
+    assert!(flag.contains("at 1 of 2 point(s), most at point 0") && flag.contains("belt_removal: feed"), "{flag}");
     let a = Archive::open_read(&dir.path().join("removal.h5")).unwrap();
     let g = a.version("fibre", None).unwrap().open().unwrap();
     let read = |name: &str| hdf::read_f64(&g, name).unwrap();

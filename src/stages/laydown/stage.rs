@@ -26,7 +26,9 @@
 //! removed) is estimated by Richardson extrapolation, (m_N − m_{N/2}) / ((2^p − 1) m_N)
 //! with p = [`MESH_ORDER`],
 //! with its standard error from the replicate scatter ([`mesh_error`]); points whose e
-//! is more than [`MESH_ERROR_WARNING`] off are counted in one warning on stderr.
+//! is more than [`MESH_ERROR_WARNING`] off are counted in one warning on stderr, and
+//! points with `belt_removal: landing` whose belt-removed e is, in another (that
+//! definition does not converge; `feed` does).
 //!
 //! **Memory** ([`Stage::estimate_memory`]): every replicate's nodes are kept until the
 //! output is written (result, per-replicate row, placed copy: [`KEPT_BYTES_PER_NODE`]),
@@ -261,7 +263,8 @@ impl Stage for LaydownStage {
         let own: Vec<LaydownStageParams> = ctx.points.iter().map(LaydownStageParams::of).collect();
         let targets: Vec<(usize, usize)> = own.iter().map(|p| (p.valid_replicates_target, p.max_replicates)).collect();
         let mesh = own.iter().any(|p| p.mesh_error_estimate);
-        assemble(&rows, &targets, &ctx.stage_name, mesh)
+        let by_landing: Vec<bool> = own.iter().map(|p| p.scene.belt_removal == crate::rod::BeltRemoval::Landing).collect();
+        assemble(&rows, &targets, &ctx.stage_name, mesh, &by_landing)
     }
 }
 
@@ -440,7 +443,10 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
 
 /// Per point, the Richardson estimate ([`mesh_error`]) of the discretisation error of each
 /// mean measure over the used replicates, beside the half-mesh values and their cost.
-fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>>, used: &Array2<bool>, fine: [&Array2<f64>; 4], stage_name: &str) -> Result<()> {
+/// Warns when e is off by more than [`MESH_ERROR_WARNING`], and when the belt-removed e of
+/// a point whose `belt_removal` is `landing` (`by_landing[p]`) is: that definition grows
+/// with refinement, `feed` converges.
+fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>>, used: &Array2<bool>, fine: [&Array2<f64>; 4], stage_name: &str, by_landing: &[bool]) -> Result<()> {
     let (npoints, nreps) = used.dim();
     for (k, &(name, label)) in MESH_METRICS.iter().enumerate() {
         let half = per_rep(&format!("{name}_half_mesh"))?;
@@ -465,6 +471,18 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
                 );
             }
         }
+        if name == "bending_energy_belt_removed" {
+            let off: Vec<usize> = (0..npoints).filter(|&p| by_landing.get(p) == Some(&true) && error[p].abs() > MESH_ERROR_WARNING).collect();
+            if let Some(&worst) = off.iter().max_by(|&&a, &&b| error[a].abs().total_cmp(&error[b].abs())) {
+                eprintln!(
+                    "{stage_name}: warning: e with the belt removed by landing time is estimated more than {:.0} % off its converged value at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % (bending_energy_belt_removed_mesh_error). That definition adds a node-scale jitter v_b·δt_land that refinement sharpens, so it does not converge; belt_removal: feed does (pipelines/paper/LAYDOWN_MEASUREMENTS.md)",
+                    100.0 * MESH_ERROR_WARNING,
+                    off.len(),
+                    100.0 * error[worst],
+                    100.0 * error_std[worst]
+                );
+            }
+        }
         let unit = if name.starts_with("radius") { "m" } else { "1" };
         out.f64(&format!("{name}_half_mesh"), &["point", "replicate"], half, unit, &format!("{label} at half the elements"));
         out.f64(&format!("{name}_mesh_error"), &["point"], Array1::from(error), "1", &format!("mesh error of mean {label}")).describe(format!(
@@ -480,7 +498,7 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
 /// gathered from the parts of a job array): the replicates placed on the (point,
 /// replicate) axes, `used` (the first T valid in replicate order), the shortfall, and the
 /// per-point means and standard deviations over the used replicates.
-fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_error_estimate: bool) -> Result<Output> {
+fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_error_estimate: bool, by_landing: &[bool]) -> Result<Output> {
     use crate::stages::rows as get;
     let nan = f64::NAN;
     let index = get::index(rows)?;
@@ -581,7 +599,7 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
         }
     }
     if mesh_error_estimate {
-        add_mesh_error(&mut out, &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name)?;
+        add_mesh_error(&mut out, &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name, by_landing)?;
     }
     out.f64("steps", &["point", "replicate"], steps, "1", "time steps taken");
     out.f64("time_step", &["point", "replicate"], dt, "s", "time step").describe("time step used (largest allowed for adaptive schemes)");

@@ -153,20 +153,10 @@ fn log_energies(power: &Array2<f64>, gain: &Array2<f64>, n2: f64) -> (Array2<f64
     (before, after)
 }
 
-/// Per-bin detection threshold: `t` raised for the background's log error `log_sd` of
-/// each flat bin index ([`background::corrected_threshold`]), interpolated from a table
-/// over the log error.
-fn corrected_thresholds(t: f64, log_sd: &Array2<f64>) -> impl Fn(usize) -> f64 + '_ {
-    const STEP: f64 = 0.002;
-    let max_sd = log_sd.iter().copied().fold(0.0, f64::max).min(5.0);
-    let table: Vec<f64> = (0..=((max_sd / STEP).ceil() as usize + 1)).map(|i| background::corrected_threshold(t, i as f64 * STEP)).collect();
-    let sd = log_sd.as_slice().unwrap();
-    move |k: usize| {
-        let x = sd[k].clamp(0.0, max_sd) / STEP;
-        let i = (x.floor() as usize).min(table.len() - 2);
-        let f = x - i as f64;
-        (1.0 - f) * table[i] + f * table[i + 1]
-    }
+/// The image whose spectrum is `spectrum` with the notch gains applied.
+fn notch_filtered(plan: &fft2::Fft2, mut spectrum: Array2<num_complex::Complex64>, gain: &Array2<f64>) -> Array2<f64> {
+    spectrum.zip_mut_with(gain, |f, g| *f *= *g);
+    plan.inverse_real(&spectrum)
 }
 
 /// A cached FFT plan per image shape (planning prime sizes such as 617 costs milliseconds).
@@ -249,7 +239,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     } else {
         let bg = background::fit(&power, params.background_sectors, params.background_smoothing, params.background_pool);
         // Per-bin threshold, interpolated from a table over the background's log error.
-        let thr = corrected_thresholds(space.threshold, &bg.log_sd);
+        let thr = background::corrected_thresholds(space.threshold, &bg.log_sd);
         let mut seeds: Vec<(usize, usize)> = Vec::new();
         let mut taken = Array2::from_elem((h, w), false);
         for pass in 0..params.max_passes {
@@ -305,8 +295,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
         let mut bg = bg;
         if !found.is_empty() && params.notch_growth {
             // Hysteresis growth over the leakage ridges ([`grow`]).
-            let corrected = |t: f64| -> Box<dyn Fn(usize) -> f64 + '_> { Box::new(corrected_thresholds(t, &bg.log_sd)) };
-            let (region, g) = grow::grow(&power, &bg.mean_power, &seeds, params.false_alarm_rate, &corrected, params.dc_exclusion_bins);
+            let (region, g) = grow::grow(&power, &bg.mean_power, &bg.log_sd, &seeds, params.false_alarm_rate, params.dc_exclusion_bins);
             growth = g;
             mask.gain.zip_mut_with(&region, |g, &inside| {
                 if inside {
@@ -344,9 +333,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     } else {
         // The notches act on the whole image spectrum (periodic + smooth parts), as in
         // the paper; the decomposition only keeps edge artefacts out of the detection.
-        let mut f_hat = u_hat;
-        f_hat.zip_mut_with(&mask.gain, |f, g| *f *= *g);
-        plan.inverse_real(&f_hat)
+        notch_filtered(&plan, u_hat, &mask.gain)
     };
     // Statistics of the filtered image over the interior: a band of `edge_margin_periods`
     // bond periods along the edges keeps residual bond pattern (the notches cannot remove
@@ -371,9 +358,7 @@ pub fn analyze(image: &Array2<f64>, pixel_size: f64, params: &ImageParams) -> Re
     };
     let (stat_raw_in, stat_filtered_in, var_censored) = match &censoring {
         Some(c) => {
-            let mut f_hat = plan.forward_real(&c.imputed);
-            f_hat.zip_mut_with(&mask.gain, |f, g| *f *= *g);
-            let f = plan.inverse_real(&f_hat);
+            let f = notch_filtered(&plan, plan.forward_real(&c.imputed), &mask.gain);
             (interior(&c.imputed), interior(&f), interior(&c.conditional_variance).mean().unwrap_or(0.0))
         }
         None => (interior(&raw), filtered_in.clone(), 0.0),

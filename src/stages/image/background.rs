@@ -340,6 +340,23 @@ pub fn corrected_threshold(t0: f64, sd: f64) -> f64 {
     hi
 }
 
+
+/// Per-bin detection threshold: `t` raised for the background's log error `log_sd` of
+/// each flat bin index ([`corrected_threshold`]), interpolated from a table
+/// over the log error.
+pub fn corrected_thresholds(t: f64, log_sd: &Array2<f64>) -> impl Fn(usize) -> f64 + '_ {
+    const STEP: f64 = 0.002;
+    let max_sd = log_sd.iter().copied().fold(0.0, f64::max).min(5.0);
+    let table: Vec<f64> = (0..=((max_sd / STEP).ceil() as usize + 1)).map(|i| corrected_threshold(t, i as f64 * STEP)).collect();
+    let sd = log_sd.as_slice().unwrap();
+    move |k: usize| {
+        let x = sd[k].clamp(0.0, max_sd) / STEP;
+        let i = (x.floor() as usize).min(table.len() - 2);
+        let f = x - i as f64;
+        (1.0 - f) * table[i] + f * table[i + 1]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

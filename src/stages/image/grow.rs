@@ -33,6 +33,7 @@
 //! the Gaussian notches' (`Σ(1 − g²)·B/N²`), with `B` refitted without the notched bins.
 use ndarray::Array2;
 
+use super::background::corrected_thresholds;
 use super::fft2::{signed_index, wrap_index};
 
 /// What the growth did.
@@ -101,21 +102,15 @@ fn flood(
     (region, tested)
 }
 
-/// Hysteresis growth (module docs). `corrected(t)` gives, per flat bin index `k`, the
-/// threshold `t` raised for the background error of bin `k`. Returns the grown region
+/// Hysteresis growth (module docs) from `seeds` over the whitened spectrum
+/// `power / bg`, the threshold of each bin raised for the background's log error
+/// `log_sd` ([`super::background::corrected_thresholds`]). Returns the grown region
 /// (full plane, conjugates included; the seeds are in it) and what was done.
-pub(crate) fn grow<'a>(
-    power: &Array2<f64>,
-    bg: &Array2<f64>,
-    seeds: &[(usize, usize)],
-    alpha: f64,
-    corrected: &dyn Fn(f64) -> Box<dyn Fn(usize) -> f64 + 'a>,
-    dc_exclusion: f64,
-) -> (Array2<bool>, Growth) {
+pub(crate) fn grow(power: &Array2<f64>, bg: &Array2<f64>, log_sd: &Array2<f64>, seeds: &[(usize, usize)], alpha: f64, dc_exclusion: f64) -> (Array2<bool>, Growth) {
     let t0 = ((4 * seeds.len()).max(1) as f64 / alpha).ln().max(1.0);
-    let (_, n1) = flood(power, bg, seeds, &*corrected(t0), dc_exclusion);
+    let (_, n1) = flood(power, bg, seeds, &corrected_thresholds(t0, log_sd), dc_exclusion);
     let t1 = (n1.max(4 * seeds.len()).max(1) as f64 / alpha).ln().max(t0);
-    let (region, tested) = flood(power, bg, seeds, &*corrected(t1), dc_exclusion);
+    let (region, tested) = flood(power, bg, seeds, &corrected_thresholds(t1, log_sd), dc_exclusion);
     let bins = region.iter().filter(|&&b| b).count();
     (region, Growth { bins, tested, threshold: t1 })
 }
@@ -135,9 +130,8 @@ mod tests {
         }
         p[[5, 7]] = 1e6;
         p[[20, 20]] = 1e6;
-        let bg = Array2::from_elem((h, w), 1.0);
-        let none = |t: f64| -> Box<dyn Fn(usize) -> f64> { Box::new(move |_| t) };
-        let (region, g) = grow(&p, &bg, &[(5, 7)], 1e-3, &none, 2.0);
+        let (bg, exact) = (Array2::from_elem((h, w), 1.0), Array2::zeros((h, w)));
+        let (region, g) = grow(&p, &bg, &exact, &[(5, 7)], 1e-3, 2.0);
         for q in 2..=12 {
             assert!(region[[q, 7]], "ridge bin {q}");
             assert!(region[[(h - q) % h, (w - 7) % w]], "conjugate of ridge bin {q}");
@@ -158,9 +152,8 @@ mod tests {
         for r in 0..8 {
             p[[0, r]] = 1e4;
         }
-        let bg = Array2::from_elem((h, w), 1.0);
-        let none = |t: f64| -> Box<dyn Fn(usize) -> f64> { Box::new(move |_| t) };
-        let (region, _) = grow(&p, &bg, &[(0, 7)], 1e-3, &none, 3.0);
+        let (bg, exact) = (Array2::from_elem((h, w), 1.0), Array2::zeros((h, w)));
+        let (region, _) = grow(&p, &bg, &exact, &[(0, 7)], 1e-3, 3.0);
         assert!(region[[0, 7]] && region[[0, 4]] && !region[[0, 3]] && !region[[0, 0]]);
     }
 }

@@ -459,29 +459,27 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
             error.push(err);
             error_std.push(sd);
         }
-        if name == "bending_energy" {
-            let off: Vec<usize> = (0..npoints).filter(|&p| error[p].abs() > MESH_ERROR_WARNING).collect();
+        // Points more than MESH_ERROR_WARNING off, counted in one warning.
+        let warn = |flagged: &dyn Fn(usize) -> bool, what: &str, advice: &str| {
+            let off: Vec<usize> = (0..npoints).filter(|&p| flagged(p) && error[p].abs() > MESH_ERROR_WARNING).collect();
             if let Some(&worst) = off.iter().max_by(|&&a, &&b| error[a].abs().total_cmp(&error[b].abs())) {
                 eprintln!(
-                    "{stage_name}: warning: e is estimated more than {:.0} % off its converged value at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % (bending_energy_mesh_error; Richardson from N and N/2 elements); raise elements or coil_resolution",
+                    "{stage_name}: warning: {what} is estimated more than {:.0} % off its converged value at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % ({name}_mesh_error{advice}",
                     100.0 * MESH_ERROR_WARNING,
                     off.len(),
                     100.0 * error[worst],
                     100.0 * error_std[worst]
                 );
             }
-        }
-        if name == "bending_energy_belt_removed" {
-            let off: Vec<usize> = (0..npoints).filter(|&p| by_landing.get(p) == Some(&true) && error[p].abs() > MESH_ERROR_WARNING).collect();
-            if let Some(&worst) = off.iter().max_by(|&&a, &&b| error[a].abs().total_cmp(&error[b].abs())) {
-                eprintln!(
-                    "{stage_name}: warning: e with the belt removed by landing time is estimated more than {:.0} % off its converged value at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % (bending_energy_belt_removed_mesh_error). That definition adds a node-scale jitter v_b·δt_land that refinement sharpens, so it does not converge; belt_removal: feed does (pipelines/paper/LAYDOWN_MEASUREMENTS.md)",
-                    100.0 * MESH_ERROR_WARNING,
-                    off.len(),
-                    100.0 * error[worst],
-                    100.0 * error_std[worst]
-                );
-            }
+        };
+        match name {
+            "bending_energy" => warn(&|_| true, "e", "; Richardson from N and N/2 elements); raise elements or coil_resolution"),
+            "bending_energy_belt_removed" => warn(
+                &|p| by_landing.get(p) == Some(&true),
+                "e with the belt removed by landing time",
+                "). That definition adds a node-scale jitter v_b·δt_land that refinement sharpens, so it does not converge; belt_removal: feed does (pipelines/paper/LAYDOWN_MEASUREMENTS.md)",
+            ),
+            _ => {}
         }
         let unit = if name.starts_with("radius") { "m" } else { "1" };
         out.f64(&format!("{name}_half_mesh"), &["point", "replicate"], half, unit, &format!("{label} at half the elements"));

@@ -122,6 +122,16 @@ impl DensityGrid {
         }
     }
 
+    /// One point mass at each of `points` inside the window.
+    #[inline]
+    fn deposit_points(&self, points: &[[f64; 2]]) {
+        for &p in points {
+            if let Some((i, j)) = self.cell_of(p) {
+                self.add(i, j, QUANTA_PER_POINT);
+            }
+        }
+    }
+
     /// Deposits one fibre (all its nodes, see the web conventions) by `method`.
     pub fn deposit_fibre(&self, nodes: &[[f64; 2]], method: Deposit) {
         if nodes.len() < 2 {
@@ -129,11 +139,22 @@ impl DensityGrid {
         }
         match (method, self.period) {
             (Deposit::PointMass, None) => {
-                for &p in &nodes[..nodes.len() - 1] {
-                    if let Some((i, j)) = self.cell_of(p) {
-                        self.add(i, j, QUANTA_PER_POINT);
+                // Most nodes of a web lie outside the window: a branch-free test of eight
+                // at a time (it vectorises) passes over runs of them.
+                let deposited = &nodes[..nodes.len() - 1];
+                let (n, [x_min, y_min], inverse) = (self.cells as f64, [self.x_min, self.y_min], self.inverse_cell);
+                let mut runs = deposited.chunks_exact(8);
+                for run in &mut runs {
+                    let mut any = false;
+                    for p in run {
+                        let (u, v) = ((p[0] - x_min) * inverse, (p[1] - y_min) * inverse);
+                        any |= (u >= 0.0) & (v >= 0.0) & (u < n) & (v < n);
+                    }
+                    if any {
+                        self.deposit_points(run);
                     }
                 }
+                self.deposit_points(runs.remainder());
             }
             (Deposit::PointMass, Some(period)) => {
                 for &p in &nodes[..nodes.len() - 1] {

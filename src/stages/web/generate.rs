@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use rustfft::{Fft, FftPlanner};
 
 use super::trig::{beyond_fast_range, sin_cos_slices, widest_isa};
-use super::sde::{Draws, LayDownSde, SdeLanes, SdeStep};
+use super::sde::{Draws, LayDownSde, SdeLanes, SdeStep, SDE_BLOCK};
 use super::segments::LaidTemplates;
 use super::{Generator, SegmentJoin, SpectrumSelection, WebError, WebParams};
 use crate::stages::spectra::{check_compatible, CurvatureSpectrum};
@@ -388,8 +388,9 @@ impl Web {
         if let Source::Sde(model) = &self.source {
             // One lane of the lockstep integration (the rotated tangent and the nodes in one pass).
             let mut lanes = SdeScratch { nodes: vec![std::mem::take(nodes)] };
-            self.sde_batch(model, realisation, [fibre], &mut lanes);
-            *nodes = lanes.nodes.pop().unwrap();
+            let mut whole = Vec::new();
+            self.sde_batch(model, realisation, [fibre], usize::MAX, &mut lanes, &mut |_, _, piece| whole = piece.to_vec());
+            *nodes = whole;
             return;
         }
         // Curvature, then θ, its sines and cosines and the nodes in one blocked pass.
@@ -534,21 +535,53 @@ impl Web {
     where
         F: Fn(usize, &[[f64; 2]]) + Sync + Send,
     {
+        self.par_visit(realisation, usize::MAX, &|j, _, nodes| visit(j, nodes));
+    }
+
+    /// As [`Self::par_for_each_fibre`], but a fibre may come in consecutive pieces:
+    /// `visit(fibre, first, nodes)` gets nodes `first..first + nodes.len()` of the fibre,
+    /// and consecutive pieces share one node (the last of one is the first of the next),
+    /// so every node and every chord is in exactly one piece, counting the shared node
+    /// with the piece it ends. A `lay_down_sde` web streams in pieces of about
+    /// [`SDE_PIECE_STEPS`] steps, which keeps its sixteen fibres' nodes in cache for the
+    /// visitor; the other generators give each fibre whole.
+    ///
+    /// ```
+    /// use laydown::stages::web::{sde::LayDownSde, Web, WebParams};
+    /// let params = WebParams { fibres_across: 3, segments_per_fibre: 20, ..WebParams::default() };
+    /// let web = Web::lay_down_sde(params, LayDownSde { potential_length: 5e-3, noise: 2.0 }, 1e-3, 1000).unwrap();
+    /// let whole = web.generate_fibre(0, 1);
+    /// let rebuilt = std::sync::Mutex::new(vec![[f64::NAN; 2]; whole.len()]);
+    /// web.par_for_each_fibre_piece(0, |j, first, nodes| {
+    ///     if j == 1 {
+    ///         rebuilt.lock().unwrap()[first..first + nodes.len()].copy_from_slice(nodes);
+    ///     }
+    /// });
+    /// assert_eq!(rebuilt.into_inner().unwrap(), whole);
+    /// ```
+    pub fn par_for_each_fibre_piece<F>(&self, realisation: u32, visit: F)
+    where
+        F: Fn(usize, usize, &[[f64; 2]]) + Sync + Send,
+    {
+        self.par_visit(realisation, SDE_PIECE_STEPS, &visit);
+    }
+
+    fn par_visit(&self, realisation: u32, piece: usize, visit: &(dyn Fn(usize, usize, &[[f64; 2]]) + Sync)) {
         let n_w = self.params.fibres_across;
         if let Source::Sde(model) = &self.source {
             let lanes = self.sde_width();
             let batches = n_w.div_ceil(lanes);
-            // Few jobs per thread, and their node buffers (16 fibres, 26 MB at paper size)
-            // handed from job to job through a pool: fresh ones per job cost page faults
-            // (measured ~10 % of the paper web's time). Buffers are overwritten whole, so
-            // which one a job gets changes no result.
+            // Few jobs per thread, and their node buffers (16 fibres, 26 MB at paper size
+            // when whole) handed from job to job through a pool: fresh ones per job cost
+            // page faults (measured ~10 % of the paper web's time). Buffers are
+            // overwritten, so which one a job gets changes no result.
             let min_len = (batches / (8 * rayon::current_num_threads())).max(1);
             let pool = std::sync::Mutex::new(Vec::new());
             (0..batches).into_par_iter().with_min_len(min_len).for_each_init(
                 || PooledScratch(pool.lock().expect("pool").pop().unwrap_or_default(), &pool),
                 |scratch, batch| {
                     let first = batch * lanes;
-                    self.sde_visit(model, realisation, first, lanes.min(n_w - first), &mut scratch.0, &visit);
+                    self.sde_visit(model, realisation, first..(first + lanes).min(n_w), piece, &mut scratch.0, &mut |j, node, nodes| visit(j, node, nodes));
                 },
             );
             return;
@@ -558,7 +591,7 @@ impl Web {
             || (FibreScratch::default(), Vec::new()),
             |(scratch, nodes), j| {
                 self.generate_fibre_into(realisation, j, scratch, nodes);
-                visit(j, nodes);
+                visit(j, 0, nodes);
             },
         );
     }
@@ -570,7 +603,7 @@ impl Web {
             let n_w = self.params.fibres_across;
             let lanes = self.sde_width();
             for first in (0..n_w).step_by(lanes) {
-                self.sde_visit(model, realisation, first, lanes.min(n_w - first), &mut scratch, &mut visit);
+                self.sde_visit(model, realisation, first..(first + lanes).min(n_w), usize::MAX, &mut scratch, &mut |j, _, nodes| visit(j, nodes));
             }
             return;
         }
@@ -581,6 +614,14 @@ impl Web {
         }
     }
 }
+
+/// A visitor of fibre pieces: (fibre or lane, index of the piece's first node, nodes).
+type PieceVisitor<'a> = dyn FnMut(usize, usize, &[[f64; 2]]) + 'a;
+
+/// Steps of a `lay_down_sde` piece in [`Web::par_for_each_fibre_piece`]: sixteen lanes'
+/// pieces then take 16 × 1025 × 16 B = 262 kB, well inside a core's L2 cache, where the
+/// visitor (the grid's deposit) reads them back.
+pub const SDE_PIECE_STEPS: usize = 1024;
 
 /// Fibres of a `lay_down_sde` web integrated in lockstep, one per lane: the recurrence of
 /// one fibre is a dependent chain (two rotations of the tangent per Heun step), so
@@ -610,78 +651,89 @@ struct SdeScratch {
 
 impl Web {
     /// Integrates the SDE fibres `fibres` (L of them, repeats allowed) of one realisation
-    /// in lockstep ([`SdeLanes`]) and fills `scratch.nodes[l]` with fibre `fibres[l]`'s
-    /// nodes: η_0 + (0, y_j), then eqs 13-14 with the belt drift. Every lane performs the
-    /// same IEEE operations on its own fibre's stream whatever L (Rust never contracts to
-    /// FMA), so each fibre's bits are those of the one-fibre path.
+    /// in lockstep ([`SdeLanes`]) and hands each lane's nodes to `emit(lane, first, nodes)`
+    /// in pieces of at most `piece` steps: node `first` of the fibre is `nodes[0]`, and
+    /// consecutive pieces share one node (the last of one is the first of the next), so
+    /// each chord lies in exactly one piece. Node k is η_k + (c k Δs, y_j): the SDE's
+    /// eq 13 and the belt drift of eq 14. Every lane performs the same IEEE operations on its own
+    /// fibre's stream whatever L and `piece` (Rust contracts nothing to FMA; the fused
+    /// operations are written out), so each fibre's bits are those of the one-fibre path.
     #[inline(always)]
-    fn sde_lanes<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) {
+    fn sde_lanes<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], piece: usize, scratch: &mut SdeScratch, emit: &mut PieceVisitor) {
         let total = self.params.segments_per_fibre * self.points;
+        let piece = piece.min(total).max(1);
         let spacing = self.spacing();
         let mut streams: Vec<ChaCha8Rng> = fibres.iter().map(|&j| fibre_rng(self.params.seed, realisation, j as u32)).collect();
         let mut lanes = SdeLanes::<L>::start(model, &mut streams);
-        let half_ds = 0.5 * spacing;
         let drift_ds = self.params.belt_speed_ratio * spacing;
-        let (mut p0, mut p1) = ([0.0; L], [0.0; L]);
+        let mut y = [0.0; L];
         if scratch.nodes.len() < L {
             scratch.nodes.resize_with(L, Vec::new);
         }
-        for l in 0..L {
-            p0[l] = lanes.eta[0][l];
-            p1[l] = self.params.start_y(fibres[l]) + lanes.eta[1][l];
-            let nodes = &mut scratch.nodes[l];
-            // Every node is written below, so the buffer is not zero-filled first.
-            nodes.clear();
-            nodes.reserve(total + 1);
-            nodes.spare_capacity_mut()[0].write([p0[l], p1[l]]);
-        }
-        let outs: [&mut [std::mem::MaybeUninit<[f64; 2]>]; L] = {
+        // A piece ends at a block's end; blocks are SDE_BLOCK long, so a piece may run
+        // up to SDE_BLOCK − 1 steps past `piece`.
+        let capacity = (piece + SDE_BLOCK).min(total) + 1;
+        let mut outs: [&mut [[f64; 2]]; L] = {
             let mut it = scratch.nodes.iter_mut();
-            std::array::from_fn(|_| &mut it.next().unwrap().spare_capacity_mut()[1..total + 1])
+            std::array::from_fn(|_| {
+                let buffer = it.next().unwrap();
+                if buffer.len() < capacity {
+                    buffer.resize(capacity, [0.0; 2]);
+                }
+                &mut buffer[..capacity]
+            })
         };
+        for l in 0..L {
+            y[l] = self.params.start_y(fibres[l]);
+            outs[l][0] = [lanes.eta[0][l], y[l] + lanes.eta[1][l]];
+        }
         let (mut normals, constants) = (Vec::new(), SdeStep::new(model, spacing));
-        let mut done = 0;
+        let (mut done, mut filled, mut first) = (0, 0, 0);
         while done < total {
             let block = lanes.draw_block(total - done, &mut normals);
             for (k, z) in normals[..block].iter().enumerate() {
-                let (sum_cos, sum_sin) = lanes.step(&constants, z);
+                lanes.step::<false>(&constants, z);
+                // Eq 14: node k sits at η_k + (c k Δs, y_j).
+                let drift = (done + k + 1) as f64 * drift_ds;
                 for l in 0..L {
-                    p0[l] += sum_cos[l] * half_ds + drift_ds; // eqs 13-14
-                    p1[l] += sum_sin[l] * half_ds;
-                }
-                for l in 0..L {
-                    outs[l][done + k].write([p0[l], p1[l]]);
+                    outs[l][filled + 1 + k] = [lanes.eta[0][l] + drift, lanes.eta[1][l] + y[l]];
                 }
             }
             lanes.end_block();
             done += block;
-        }
-        for nodes in &mut scratch.nodes[..L] {
-            // SAFETY: nodes 0..=total were all written above.
-            unsafe { nodes.set_len(total + 1) };
+            filled += block;
+            if filled >= piece || done == total {
+                for (l, out) in outs.iter_mut().enumerate() {
+                    emit(l, first, &out[..=filled]);
+                    out[0] = out[filled];
+                }
+                first += filled;
+                filled = 0;
+            }
         }
     }
 
     /// [`Self::sde_lanes`] compiled for the widest vector extension the CPU has (the same
-    /// IEEE operations on wider registers, no FMA: the same bits).
-    fn sde_batch<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) {
+    /// IEEE operations on wider registers, the written-out FMAs as instructions: the same
+    /// bits).
+    fn sde_batch<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], piece: usize, scratch: &mut SdeScratch, emit: &mut PieceVisitor) {
         widest_isa!(
-            generic: self.sde_lanes(model, realisation, fibres, scratch),
-            avx2: self.sde_lanes_avx2(model, realisation, fibres, scratch),
-            avx512: self.sde_lanes_avx512(model, realisation, fibres, scratch),
+            generic: self.sde_lanes(model, realisation, fibres, piece, scratch, emit),
+            avx2: self.sde_lanes_avx2(model, realisation, fibres, piece, scratch, emit),
+            avx512: self.sde_lanes_avx512(model, realisation, fibres, piece, scratch, emit),
         )
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn sde_lanes_avx512<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) {
-        self.sde_lanes(model, realisation, fibres, scratch)
+    #[target_feature(enable = "avx512f,fma")]
+    unsafe fn sde_lanes_avx512<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], piece: usize, scratch: &mut SdeScratch, emit: &mut PieceVisitor) {
+        self.sde_lanes(model, realisation, fibres, piece, scratch, emit)
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn sde_lanes_avx2<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], scratch: &mut SdeScratch) {
-        self.sde_lanes(model, realisation, fibres, scratch)
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn sde_lanes_avx2<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], piece: usize, scratch: &mut SdeScratch, emit: &mut PieceVisitor) {
+        self.sde_lanes(model, realisation, fibres, piece, scratch, emit)
     }
 
     /// Fibres an SDE batch integrates at once: [`SDE_LANES`], fewer (a power of two) for
@@ -695,20 +747,24 @@ impl Web {
         lanes
     }
 
-    /// Calls `visit(j, nodes)` for fibres `first..first + count` of an SDE web, integrated
+    /// Calls `visit(j, first_node, nodes)` for the fibres `batch` of an SDE
+    /// web in pieces of about `piece` steps (see [`Self::sde_lanes`]), integrated
     /// [`Self::sde_width`] at a time (one lane for a lone fibre; a short batch repeats its
     /// first fibre in the idle lanes).
-    fn sde_visit<F: FnMut(usize, &[[f64; 2]])>(&self, model: &LayDownSde, realisation: u32, first: usize, count: usize, scratch: &mut SdeScratch, mut visit: F) {
+    fn sde_visit(&self, model: &LayDownSde, realisation: u32, batch: std::ops::Range<usize>, piece: usize, scratch: &mut SdeScratch, visit: &mut PieceVisitor) {
+        let (first, count) = (batch.start, batch.len());
         let fibres = |l: usize| if l < count { first + l } else { first };
+        let mut emit = |l: usize, node: usize, nodes: &[[f64; 2]]| {
+            if l < count {
+                visit(first + l, node, nodes)
+            }
+        };
         match count {
-            1 => self.sde_batch(model, realisation, [first], scratch),
-            2 => self.sde_batch::<2>(model, realisation, std::array::from_fn(fibres), scratch),
-            3 | 4 => self.sde_batch::<4>(model, realisation, std::array::from_fn(fibres), scratch),
-            5..=8 => self.sde_batch::<8>(model, realisation, std::array::from_fn(fibres), scratch),
-            _ => self.sde_batch::<SDE_LANES>(model, realisation, std::array::from_fn(fibres), scratch),
-        }
-        for l in 0..count {
-            visit(first + l, &scratch.nodes[l]);
+            1 => self.sde_batch(model, realisation, [first], piece, scratch, &mut emit),
+            2 => self.sde_batch::<2>(model, realisation, std::array::from_fn(fibres), piece, scratch, &mut emit),
+            3 | 4 => self.sde_batch::<4>(model, realisation, std::array::from_fn(fibres), piece, scratch, &mut emit),
+            5..=8 => self.sde_batch::<8>(model, realisation, std::array::from_fn(fibres), piece, scratch, &mut emit),
+            _ => self.sde_batch::<SDE_LANES>(model, realisation, std::array::from_fn(fibres), piece, scratch, &mut emit),
         }
     }
 }
@@ -804,44 +860,43 @@ mod bit_identity {
             }
         }
 
-        /// The SDE's tangent angles, η_0 and per step (sin α_k + sin α_{k+1}, cos α_k +
-        /// cos α_{k+1}) with the tangents as the integration carries them (stochastic Heun, eq 13; the tangent rotated by each
-        /// increment's `sin_cos`, renormalised every 128 steps).
-        #[allow(clippy::type_complexity)]
-        pub fn sde_angles(b: f64, noise: f64, rng: &mut ChaCha8Rng, steps: usize, spacing: f64) -> (Vec<f64>, [f64; 2], Vec<(f64, f64)>) {
+        /// The SDE's tangent angles and positions η_k (stochastic Heun, eq 13), one fibre,
+        /// one step at a time: the predictor's turn rotates τ_k with the small-angle
+        /// polynomials (the kernel beyond π/4), the corrector's turn rotates the predicted
+        /// tangent with the tiny-angle ones (`sin_cos` beyond 1/8), τ renormalised every
+        /// 128 steps, the multiply-adds fused where the scheme fuses them.
+        pub fn sde_angles(b: f64, noise: f64, rng: &mut ChaCha8Rng, steps: usize, spacing: f64) -> (Vec<f64>, Vec<[f64; 2]>) {
+            use crate::stages::web::trig::{small_sin_cos, tiny_sin_cos, TINY_ANGLE};
             let mut draws = Normals::new(rng);
-            let start = [b * draws.next(), b * draws.next()];
+            let mut eta = [b * draws.next(), b * draws.next()];
             draws.1 = None;
             let mut angle = 2.0 * PI * draws.unit();
             let (inv_b2, kick) = (1.0 / (b * b), noise * spacing.sqrt());
-            let mut eta = start;
+            let (half_ds, drift_ds, drift_half_ds) = (0.5 * spacing, inv_b2 * spacing, 0.5 * inv_b2 * spacing);
             let (mut sin, mut cos) = sin_cos(angle);
-            let mut alpha = vec![angle];
-            let mut sums = Vec::with_capacity(steps);
-            let rotate = |sin: f64, cos: f64, delta: f64| {
-                let (sd, cd) = sin_cos(delta);
-                (sin * cd + cos * sd, cos * cd - sin * sd)
-            };
+            let (mut alpha, mut etas) = (vec![angle], vec![eta]);
+            let turn = |sin: f64, cos: f64, (sd, cd): (f64, f64)| (sin.mul_add(cd, cos * sd), cos.mul_add(cd, -(sin * sd)));
             for k in 0..steps {
-                let noise = kick * draws.next();
-                let drift = -(-eta[0] * sin + eta[1] * cos) * inv_b2;
-                let (sin_p, cos_p) = rotate(sin, cos, drift * spacing + noise);
-                let eta_p = [eta[0] + 0.5 * (cos + cos_p) * spacing, eta[1] + 0.5 * (sin + sin_p) * spacing];
-                let drift_p = -(-eta_p[0] * sin_p + eta_p[1] * cos_p) * inv_b2;
-                let step = 0.5 * (drift + drift_p) * spacing + noise;
-                angle += step;
-                let (sin1, cos1) = rotate(sin, cos, step);
-                eta[0] += 0.5 * (cos + cos1) * spacing;
-                eta[1] += 0.5 * (sin + sin1) * spacing;
-                sums.push((sin + sin1, cos + cos1));
+                let z = draws.next();
+                let torque = eta[0].mul_add(sin, -(eta[1] * cos));
+                let step_p = torque.mul_add(drift_ds, kick * z);
+                let half = [cos.mul_add(half_ds, eta[0]), sin.mul_add(half_ds, eta[1])];
+                let (sin_p, cos_p) = turn(sin, cos, if step_p.abs() <= std::f64::consts::FRAC_PI_4 { small_sin_cos(step_p) } else { sin_cos(step_p) });
+                let eta_p = [cos_p.mul_add(half_ds, half[0]), sin_p.mul_add(half_ds, half[1])];
+                let torque_p = eta_p[0].mul_add(sin_p, -(eta_p[1] * cos_p));
+                let turn_c = (torque_p - torque) * drift_half_ds;
+                angle += step_p + turn_c;
+                let (sin1, cos1) = turn(sin_p, cos_p, if turn_c.abs() <= TINY_ANGLE { tiny_sin_cos(turn_c) } else { sin_cos(turn_c) });
+                eta = [cos1.mul_add(half_ds, half[0]), sin1.mul_add(half_ds, half[1])];
                 (sin, cos) = (sin1, cos1);
                 alpha.push(angle);
+                etas.push(eta);
                 if (k + 1) % 128 == 0 {
                     let norm = (cos * cos + sin * sin).sqrt();
                     (cos, sin) = (cos / norm, sin / norm);
                 }
             }
-            (alpha, start, sums)
+            (alpha, etas)
         }
 
         /// Start angle and curvature of a random_phase or laid_segments fibre.
@@ -904,9 +959,11 @@ mod bit_identity {
             let total = web.params.segments_per_fibre * web.points;
             let (theta, offset) = match &web.source {
                 Source::Sde(m) => {
+                    // Eq 14: node k is η_k + (c k Δs, y_j).
                     let mut rng = fibre_rng(web.params.seed, realisation, fibre as u32);
-                    let (_, offset, sc) = sde_angles(m.potential_length, m.noise, &mut rng, total, web.spacing());
-                    return nodes_from(web, fibre, offset, &sc);
+                    let (_, etas) = sde_angles(m.potential_length, m.noise, &mut rng, total, web.spacing());
+                    let (drift_ds, y) = (web.params.belt_speed_ratio * web.spacing(), web.params.start_y(fibre));
+                    return etas.iter().enumerate().map(|(k, e)| [e[0] + k as f64 * drift_ds, e[1] + y]).collect();
                 }
                 _ => {
                     let (t0, kappa) = curvature(web, realisation, fibre);
@@ -969,9 +1026,18 @@ mod bit_identity {
             web.par_for_each_fibre(r, |j, nodes| par.lock().unwrap()[j] = nodes.to_vec());
             let mut seq = vec![Vec::new(); n_w];
             web.for_each_fibre(r, |j, nodes| seq[j] = nodes.to_vec());
+            // Pieces put back together: each starts on the node the last one ended on.
+            let pieces = Mutex::new(vec![Vec::new(); n_w]);
+            web.par_for_each_fibre_piece(r, |j, first, nodes| {
+                let mut pieces = pieces.lock().unwrap();
+                assert_eq!(pieces[j].len(), if first == 0 { 0 } else { first + 1 }, "{name}: piece of fibre {j} at node {first}");
+                pieces[j].truncate(first);
+                pieces[j].extend_from_slice(nodes);
+            });
             for (j, want) in expected.iter().enumerate() {
                 assert!(web.generate_fibre(r, j) == *want, "{name}: generate_fibre({r}, {j})");
                 assert!(par.lock().unwrap()[j] == *want, "{name}: par_for_each_fibre({r}) fibre {j}");
+                assert!(pieces.lock().unwrap()[j] == *want, "{name}: par_for_each_fibre_piece({r}) fibre {j}");
                 assert!(seq[j] == *want, "{name}: for_each_fibre({r}) fibre {j}");
                 hash_nodes(&mut h, want);
             }
@@ -1025,8 +1091,9 @@ mod bit_identity {
         // fibre), another model, a noise whose increments pass π/4 in some lanes of a
         // step and not in others (the rotation's fallback), and one so strong that every
         // increment does and the angles leave the fast-trig range. The hashes are those of
-        // this scheme as first written (the rotated tangent and xoshiro256++ draws; the
-        // Box–Muller/ChaCha8 angle scheme of d053cab had other values).
+        // this scheme as it stands: the fused step whose corrector turns the predicted
+        // tangent, nodes η_k + (c k Δs, y_j) (the two-rotation step before it, and the
+        // Box–Muller/ChaCha8 angle scheme of d053cab, had other values).
         let mut got = Vec::new();
         let web = sde_web(17, 100, 5e-3, 2.0, 0);
         got.push(check("lay_down_sde paper", &web));
@@ -1040,7 +1107,7 @@ mod bit_identity {
         let escaped = (0..9).filter(|&j| reference::sde_angles(5e-3, 2e5, &mut fibre_rng(2, 0, j as u32), 10_000, 1e-3).0.iter().any(|a| a.abs() > 8.0e5)).count();
         assert!(escaped > 0, "{escaped} of 9 fibres beyond the fast range");
         got.push(check("lay_down_sde beyond the fast range", &web));
-        assert_eq!(got, ["88e23318dfafe676", "24e9bc62958d61c4", "7c6fe8d6c10d8091", "505f9d1df478fd66"]);
+        assert_eq!(got, ["af0e4deaa7db86a6", "c1acda5700175d56", "96659edd58882ca9", "c2b162b323dc31d3"]);
     }
 
     #[test]
@@ -1050,27 +1117,33 @@ mod bit_identity {
         let model = sde.sde_model().unwrap();
         let fibres = [0, 1, 2, 3, 4, 0, 1, 2];
         let want: Vec<Vec<[f64; 2]>> = fibres.iter().map(|&j| reference::fibre(&sde, 6, j)).collect();
-        let mut paths: Vec<(&str, SdeScratch)> = Vec::new();
-        let mut generic = SdeScratch::default();
-        sde.sde_lanes(&model, 6, fibres, &mut generic);
-        paths.push(("generic", generic));
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                let mut s = SdeScratch::default();
-                unsafe { sde.sde_lanes_avx2(&model, 6, fibres, &mut s) };
-                paths.push(("avx2", s));
-            }
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                let mut s = SdeScratch::default();
-                unsafe { sde.sde_lanes_avx512(&model, 6, fibres, &mut s) };
-                paths.push(("avx512f", s));
+        // Whole fibres, and pieces of 128 and 384 steps put back together.
+        let mut paths: Vec<(String, Vec<Vec<[f64; 2]>>)> = Vec::new();
+        for piece in [usize::MAX, 128, 384] {
+            let run = |name: &str, lanes: &dyn Fn(&mut SdeScratch, &mut PieceVisitor)| {
+                let mut got = vec![Vec::new(); 8];
+                lanes(&mut SdeScratch::default(), &mut |l, first, nodes| {
+                    assert_eq!(got[l].len(), if first == 0 { 0 } else { first + 1 }, "{name}: pieces share one node");
+                    got[l].truncate(first);
+                    got[l].extend_from_slice(nodes);
+                });
+                (format!("{name}, pieces of {piece}"), got)
+            };
+            paths.push(run("generic", &|s, e| sde.sde_lanes(&model, 6, fibres, piece, s, e)));
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                    paths.push(run("avx2", &|s, e| unsafe { sde.sde_lanes_avx2(&model, 6, fibres, piece, s, e) }));
+                }
+                if std::arch::is_x86_feature_detected!("avx512f") {
+                    paths.push(run("avx512f", &|s, e| unsafe { sde.sde_lanes_avx512(&model, 6, fibres, piece, s, e) }));
+                }
             }
         }
-        eprintln!("SDE lanes checked: {:?}", paths.iter().map(|p| p.0).collect::<Vec<_>>());
-        for (name, s) in &paths {
+        eprintln!("SDE lanes checked: {:?}", paths.iter().map(|p| &p.0).collect::<Vec<_>>());
+        for (name, got) in &paths {
             for (l, w) in want.iter().enumerate() {
-                assert!(s.nodes[l] == *w, "{name}: lane {l}");
+                assert!(got[l] == *w, "{name}: lane {l}");
             }
         }
         let web = Web::new(params(3, 5, 9), vec![spectrum("spectrum2")]).unwrap();
@@ -1104,7 +1177,7 @@ mod bit_identity {
         let mut h = blake3::Hasher::new();
         for j in 0..4 {
             let (theta0, kappa) = web.fibre_curvature(1, j);
-            let (alpha, _, _) = reference::sde_angles(5e-3, 2.0, &mut fibre_rng(11, 1, j as u32), 2000, 1e-3);
+            let (alpha, _) = reference::sde_angles(5e-3, 2.0, &mut fibre_rng(11, 1, j as u32), 2000, 1e-3);
             assert_eq!(theta0.to_bits(), alpha[0].to_bits());
             let want = crate::stages::web::sde::chord_curvature(&alpha, 1e-3);
             assert!(kappa.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()) && kappa.len() == want.len(), "fibre {j}");
@@ -1114,12 +1187,13 @@ mod bit_identity {
         }
         // `positions` (now through the fast trig kernel) and `measure` (S of the nodes, not of
         // the rebuilt curve) changed on purpose after d053cab, and all of it with the rotated
-        // tangent and xoshiro256++ draws (issue 14's speed work): the hash is that scheme's.
+        // tangent and xoshiro256++ draws (issue 14's speed work), then with the fused
+        // step and the corrector turning the predicted tangent: the hash is that scheme's.
         let positions = model.positions(&mut fibre_rng(1, 2, 3), 5000, 1e-3);
         hash_nodes(&mut h, &positions);
         let m = crate::stages::web::sde::measure(&model, 1e-3, 300, 4);
         h.update(&m.radius_of_gyration.to_bits().to_le_bytes());
         h.update(&m.bending_energy.to_bits().to_le_bytes());
-        assert_eq!(&h.finalize().to_hex()[..16], "be48c6a69f3dee51");
+        assert_eq!(&h.finalize().to_hex()[..16], "b6e9a73a461d75d2");
     }
 }

@@ -34,8 +34,8 @@
 //! Heun it is within 2 % for Δs ≤ b/5 ([`RESOLUTION`]; sampling error ~1 %) and 27 % low at
 //! b/2; a calibrated model coarser than b/5 is flagged. ξ_k standard normal (Box–Muller on
 //! xoshiro256++ seeded from the fibre's ChaCha8 stream). τ(α) is carried as a unit vector
-//! rotated by each increment α̃ − α_k and α_{k+1} − α_k (the same scheme, other rounding;
-//! see [`SdeLanes`]). A fibre starts in the stationary state: η_0 ~ N(0, b²I), α_0 uniform. The curvature κ = dα/ds is white noise
+//! rotated by α̃ − α_k and then by α_{k+1} − α̃ (the same scheme, other rounding; see
+//! [`SdeLanes`]). A fibre starts in the stationary state: η_0 ~ N(0, b²I), α_0 uniform. The curvature κ = dα/ds is white noise
 //! plus the potential's turning, so the bending energy e depends on Δs: the model is
 //! calibrated at the input's Δs and meant to be used there.
 //!
@@ -59,7 +59,7 @@ use std::f64::consts::{FRAC_PI_4, PI};
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::trig::{kernel, sin_cos, small_sin_cos};
+use super::trig::{kernel, sin_cos, small_sin_cos, tiny_sin_cos, widest_isa, TINY_ANGLE};
 use crate::geometry::radius_of_gyration;
 use crate::stages::spectra::integrate_curvature;
 
@@ -117,7 +117,30 @@ impl LayDownSde {
     /// fibre's stream `rng` (see [`SdeLanes`]): fills `alpha` with the steps + 1 tangent
     /// angles and, if given, `eta` with the steps + 1 positions η_k (m, relative to the
     /// deposition point).
-    pub(crate) fn integrate(&self, rng: &mut ChaCha8Rng, steps: usize, spacing: f64, alpha: &mut Vec<f64>, mut eta: Option<&mut Vec<[f64; 2]>>) {
+    pub(crate) fn integrate(&self, rng: &mut ChaCha8Rng, steps: usize, spacing: f64, alpha: &mut Vec<f64>, eta: Option<&mut Vec<[f64; 2]>>) {
+        widest_isa!(
+            generic: self.integrate_one(rng, steps, spacing, alpha, eta),
+            avx2: self.integrate_avx2(rng, steps, spacing, alpha, eta),
+            avx512: self.integrate_avx512(rng, steps, spacing, alpha, eta),
+        )
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,fma")]
+    unsafe fn integrate_avx512(&self, rng: &mut ChaCha8Rng, steps: usize, spacing: f64, alpha: &mut Vec<f64>, eta: Option<&mut Vec<[f64; 2]>>) {
+        self.integrate_one(rng, steps, spacing, alpha, eta)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn integrate_avx2(&self, rng: &mut ChaCha8Rng, steps: usize, spacing: f64, alpha: &mut Vec<f64>, eta: Option<&mut Vec<[f64; 2]>>) {
+        self.integrate_one(rng, steps, spacing, alpha, eta)
+    }
+
+    /// [`Self::integrate`] in whatever instruction set the caller is compiled for (the
+    /// fused multiply-adds of the step are hardware instructions only where FMA is on).
+    #[inline(always)]
+    fn integrate_one(&self, rng: &mut ChaCha8Rng, steps: usize, spacing: f64, alpha: &mut Vec<f64>, mut eta: Option<&mut Vec<[f64; 2]>>) {
         let mut lanes = SdeLanes::<1>::start(self, std::slice::from_mut(rng));
         alpha.clear();
         alpha.reserve(steps + 1);
@@ -132,7 +155,7 @@ impl LayDownSde {
         while done < steps {
             let block = lanes.draw_block(steps - done, &mut normals);
             for z in &normals[..block] {
-                lanes.step(&constants, z);
+                lanes.step::<true>(&constants, z);
                 alpha.push(lanes.angle[0]);
                 if let Some(eta) = eta.as_deref_mut() {
                     eta.push([lanes.eta[0][0], lanes.eta[1][0]]);
@@ -248,13 +271,19 @@ pub(crate) const SDE_BLOCK: usize = 128;
 /// used), vectorised over the lanes with [`ln_normal`] and the fast trig kernel.
 ///
 /// **Tangent.** The scheme of the module docs, with the tangent τ = (cos α, sin α)
-/// carried as a vector: the predictor's and the corrector's τ are τ_k rotated by their
-/// angle increments δ (α̃ − α_k and α_{k+1} − α_k), whose sine and cosine are the fast
-/// kernel's polynomials without its range reduction for |δ| ≤ π/4 (bit for bit
-/// [`sin_cos`] there; beyond, a lane takes [`sin_cos`]). A rotation is exact to a few
-/// ulps, so |τ| drifts from 1 by ~1e-16 per step; it is renormalised every [`SDE_BLOCK`]
-/// steps. α itself (for the curvature samples) is the sum of the increments: it no longer
-/// goes through the trig, and no |α| leaves the fast range of the node computation.
+/// carried as a vector: the predictor's τ̃ is τ_k rotated by α̃ − α_k (sine and cosine
+/// from [`small_sin_cos`] for |δ| ≤ π/4, [`sin_cos`] beyond), and τ_{k+1} is τ̃ rotated on
+/// by the corrector's small turn α_{k+1} − α̃ = (f(η̃, α̃) − f(η_k, α_k)) Δs/2
+/// ([`tiny_sin_cos`] up to 1/8 rad, [`sin_cos`] beyond): the same two angles as
+/// rotating τ_k by α_{k+1} − α_k, for half the polynomial work. A rotation is exact to a
+/// few ulps, so |τ| drifts from 1 by ~1e-16 per step; it is renormalised every
+/// [`SDE_BLOCK`] steps. α itself (for the curvature samples) is the sum of the turns: it
+/// never goes through the trig, and the web's nodes, η_k + (c k Δs, y_j), do not need it.
+///
+/// **Speed.** One fibre's step is a chain of about 25 dependent operations (each waits
+/// for the one before), so lanes hide the latency: 16 of them run twice as fast per node
+/// as 8, while 32 spill registers and are slower (README, performance). The step fuses its
+/// multiply-adds (one rounding each, the same bits on every instruction set).
 pub(crate) struct SdeLanes<const L: usize> {
     rng: LaneRng<L>,
     /// η_k per axis (m).
@@ -305,39 +334,45 @@ impl<const L: usize> SdeLanes<L> {
         }
     }
 
-    /// One step with the normal draws `z` (constants from [`SdeStep::new`]); returns
-    /// (cos α_k + cos α_{k+1}, sin α_k + sin α_{k+1}), what eqs 13-14 need for the nodes.
+    /// One step with the normal draws `z` (constants from [`SdeStep::new`]); with
+    /// `ANGLE`, α is carried too (the web's nodes need only η and τ).
     #[inline(always)]
-    pub(crate) fn step(&mut self, c: &SdeStep, z: &[f64; L]) -> ([f64; L], [f64; L]) {
+    pub(crate) fn step<const ANGLE: bool>(&mut self, c: &SdeStep, z: &[f64; L]) {
         let SdeStep { inv_b2, kick, spacing } = *c;
-        // Stochastic Heun (additive noise): predictor, then the trapezoid of the drift.
+        // The step is one long chain of dependent operations (each fibre's latency, not
+        // the vector units, sets the pace), so the constants are folded and whatever does
+        // not wait for the rotations is computed beside them.
+        let (half_ds, drift_ds, drift_half_ds) = (0.5 * spacing, inv_b2 * spacing, 0.5 * inv_b2 * spacing);
         let [cos, sin] = self.tau;
         let [eta0, eta1] = self.eta;
-        let (mut noise, mut drift, mut step_p) = ([0.0; L], [0.0; L], [0.0; L]);
+        // Stochastic Heun (additive noise): the predictor's turn α̃ − α_k, with the drift
+        // f = −∇V·τ⊥ = (η₀ sin α − η₁ cos α)/b² (the "torque" is its numerator) ...
+        let (mut torque, mut step_p, mut half0, mut half1) = ([0.0; L], [0.0; L], [0.0; L], [0.0; L]);
         for l in 0..L {
-            noise[l] = kick * z[l];
-            drift[l] = -(-eta0[l] * sin[l] + eta1[l] * cos[l]) * inv_b2; // −∇V·τ⊥
-            step_p[l] = drift[l] * spacing + noise[l]; // α̃ − α_k
+            torque[l] = eta0[l].mul_add(sin[l], -(eta1[l] * cos[l]));
+            step_p[l] = torque[l].mul_add(drift_ds, kick * z[l]);
+            half0[l] = cos[l].mul_add(half_ds, eta0[l]); // η_k + τ_k Δs/2, of eq 13
+            half1[l] = sin[l].mul_add(half_ds, eta1[l]);
         }
         let (sin_p, cos_p) = rotate(&sin, &cos, &step_p);
-        let mut step_c = [0.0; L];
+        // ... then the corrector's α_{k+1} − α̃ = (f(η̃, α̃) − f(η_k, α_k)) Δs/2, which
+        // turns the predicted tangent on by a small angle.
+        let mut turn_c = [0.0; L];
         for l in 0..L {
-            let eta_p0 = eta0[l] + 0.5 * (cos[l] + cos_p[l]) * spacing;
-            let eta_p1 = eta1[l] + 0.5 * (sin[l] + sin_p[l]) * spacing;
-            let drift_p = -(-eta_p0 * sin_p[l] + eta_p1 * cos_p[l]) * inv_b2;
-            step_c[l] = 0.5 * (drift[l] + drift_p) * spacing + noise[l]; // α_{k+1} − α_k
-            self.angle[l] += step_c[l];
+            let eta_p0 = cos_p[l].mul_add(half_ds, half0[l]);
+            let eta_p1 = sin_p[l].mul_add(half_ds, half1[l]);
+            let torque_p = eta_p0.mul_add(sin_p[l], -(eta_p1 * cos_p[l]));
+            turn_c[l] = (torque_p - torque[l]) * drift_half_ds;
+            if ANGLE {
+                self.angle[l] += step_p[l] + turn_c[l];
+            }
         }
-        let (sin1, cos1) = rotate(&sin, &cos, &step_c);
-        let (mut sum_cos, mut sum_sin) = ([0.0; L], [0.0; L]);
+        let (sin1, cos1) = rotate_tiny(&sin_p, &cos_p, &turn_c);
         for l in 0..L {
-            sum_cos[l] = cos[l] + cos1[l];
-            sum_sin[l] = sin[l] + sin1[l];
-            self.eta[0][l] += 0.5 * sum_cos[l] * spacing; // eq 13
-            self.eta[1][l] += 0.5 * sum_sin[l] * spacing;
+            self.eta[0][l] = cos1[l].mul_add(half_ds, half0[l]); // eq 13
+            self.eta[1][l] = sin1[l].mul_add(half_ds, half1[l]);
         }
         self.tau = [cos1, sin1];
-        (sum_cos, sum_sin)
     }
 }
 
@@ -389,12 +424,39 @@ fn rotate<const L: usize>(sin: &[f64; L], cos: &[f64; L], delta: &[f64; L]) -> (
             }
         }
     }
+    turn(sin, cos, &sd, &cd)
+}
+
+/// (sin, cos) of α + δ from (sin α, cos α) and (sin δ, cos δ), per lane.
+#[inline(always)]
+fn turn<const L: usize>(sin: &[f64; L], cos: &[f64; L], sd: &[f64; L], cd: &[f64; L]) -> ([f64; L], [f64; L]) {
     let (mut s1, mut c1) = ([0.0; L], [0.0; L]);
     for l in 0..L {
-        s1[l] = sin[l] * cd[l] + cos[l] * sd[l];
-        c1[l] = cos[l] * cd[l] - sin[l] * sd[l];
+        s1[l] = sin[l].mul_add(cd[l], cos[l] * sd[l]);
+        c1[l] = cos[l].mul_add(cd[l], -(sin[l] * sd[l]));
     }
     (s1, c1)
+}
+
+/// The rotation by the corrector's small turn ε = α_{k+1} − α̃: [`tiny_sin_cos`], a lane
+/// beyond [`TINY_ANGLE`] [`sin_cos`].
+#[inline(always)]
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN turn must count as beyond
+fn rotate_tiny<const L: usize>(sin: &[f64; L], cos: &[f64; L], eps: &[f64; L]) -> ([f64; L], [f64; L]) {
+    let (mut sd, mut cd) = ([0.0; L], [0.0; L]);
+    let mut wide = false;
+    for l in 0..L {
+        (sd[l], cd[l]) = tiny_sin_cos(eps[l]);
+        wide |= !(eps[l].abs() <= TINY_ANGLE);
+    }
+    if wide {
+        for l in 0..L {
+            if !(eps[l].abs() <= TINY_ANGLE) {
+                (sd[l], cd[l]) = sin_cos(eps[l]);
+            }
+        }
+    }
+    turn(sin, cos, &sd, &cd)
 }
 
 /// Steps per potential length b the scheme needs for its stationary spread to be within
@@ -654,7 +716,7 @@ mod tests {
         for _ in 0..1_000_000 / SDE_BLOCK {
             let block = lanes.draw_block(SDE_BLOCK, &mut normals);
             for z in &normals[..block] {
-                lanes.step(&constants, z);
+                lanes.step::<true>(&constants, z);
                 worst_norm = worst_norm.max((lanes.tau[0][0].hypot(lanes.tau[1][0]) - 1.0).abs());
                 let (sn, cs) = lanes.angle[0].sin_cos();
                 worst_angle = worst_angle.max((sn - lanes.tau[1][0]).abs()).max((cs - lanes.tau[0][0]).abs());

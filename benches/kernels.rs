@@ -3,8 +3,8 @@
 //!   points: random phases, inverse DFT, trapezoidal integration, belt drift), spectrum1;
 //! - `web/laid_segments_fibre_100_segments`, `web/lay_down_sde_fibre_100_segments`: the same
 //!   fibre from 64 laid templates joined, and from the lay-down SDE (b = 5 mm, A = 2);
-//! - `web/*_16_fibres_streamed`: 16 such fibres as a web's visitors stream them (one thread;
-//!   the SDE integrates several fibres in lockstep there): divide by 16 × 100 001 nodes;
+//! - `web/*_16_fibres_streamed`: 16 such fibres as the grid streams them (one thread; the
+//!   SDE integrates 16 fibres in lockstep there, in pieces): divide by 16 × 100 001 nodes;
 //! - `grid/deposit_point_mass` and `grid/deposit_segment_clipping`: scattering that fibre
 //!   (1e5 nodes) into a 500 × 500 mm grid of 1 mm cells;
 //! - `image/analyze_871x617`: the whole bond-removal method on a paper-size scan (2-D
@@ -54,8 +54,9 @@ fn web_and_grid(c: &mut Criterion) {
             black_box(sde.generate_fibre(0, k))
         })
     });
-    // Whole webs' worth of fibres as the grid streams them (`for_each_fibre`, one thread):
-    // the SDE integrates SDE_LANES fibres in lockstep there. 16 fibres per iteration.
+    // Whole webs' worth of fibres as the grid streams them (`par_for_each_fibre_piece` on a
+    // one-thread pool): the SDE integrates 16 fibres in lockstep there and hands them over in
+    // pieces of 1024 steps. 16 fibres per iteration.
     for (name, w) in [("generate_16_fibres_streamed", &web), ("laid_segments_16_fibres_streamed", &laid), ("lay_down_sde_16_fibres_streamed", &sde)] {
         let small = match w.sde_model() {
             Some(m) => Web::lay_down_sde(WebParams { fibres_across: 16, ..params }, m, w.spacing(), 1000).unwrap(),
@@ -66,11 +67,14 @@ fn web_and_grid(c: &mut Criterion) {
             None => Web::new(WebParams { fibres_across: 16, ..params }, vec![SquareWaveParams::preset("spectrum1").unwrap().spectrum().unwrap()]).unwrap(),
         };
         let mut r = 0u32;
+        let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         g.bench_function(name, |b| {
             b.iter(|| {
                 r += 1;
-                small.for_each_fibre(r, |_, nodes| {
-                    black_box(nodes);
+                one_thread.install(|| {
+                    small.par_for_each_fibre_piece(r, |_, _, nodes| {
+                        black_box(nodes);
+                    })
                 })
             })
         });

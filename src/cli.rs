@@ -10,12 +10,17 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
-const AFTER_HELP: &str = "Stage kinds: laydown, spectra, web, grid, image. \
-`laydown stages KIND` prints a kind's parameters with units, defaults and allowed ranges.\n\
-Exit codes: 0 success, 1 runtime failure or damaged archive, 2 bad input.";
+/// The text after `laydown --help`: every registered stage kind, and the exit codes.
+fn after_help() -> String {
+    format!(
+        "Stage kinds: {}. `laydown stages KIND` prints a kind's parameters with units, defaults and allowed ranges.\n\
+         Exit codes: 0 success, 1 runtime failure or damaged archive, 2 bad input.",
+        crate::stages::kinds().join(", ")
+    )
+}
 
 #[derive(Parser, Debug)]
-#[command(name = "laydown", version, about = "Fibre laydown, curvature spectra, stochastic nonwoven webs and their uniformity, in one versioned HDF5 archive per study.", after_help = AFTER_HELP)]
+#[command(name = "laydown", version, about = "Fibre laydown, curvature spectra, stochastic nonwoven webs and their uniformity, in one versioned HDF5 archive per study.", after_help = after_help())]
 pub struct Cli {
     /// Say nothing but warnings and errors: no progress bars, per-stage lines or stage
     /// summaries (exit codes are unchanged).

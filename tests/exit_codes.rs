@@ -56,3 +56,17 @@ fn an_archive_hdf5_cannot_open_is_1_for_every_command() {
     assert_eq!(out.status.code(), Some(1), "{e}");
     assert!(e.contains("cannot be opened by HDF5") && e.contains("it is damaged or not a laydown archive"), "{e}");
 }
+
+#[test]
+fn help_names_every_stage_kind_and_the_exit_codes() {
+    // The list comes from the stage registry, so a new kind cannot be left out of it.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = run_in(tmp.path(), &["--help"]);
+    let (o, _) = text(&out);
+    assert_eq!(out.status.code(), Some(0));
+    let kinds = o.lines().find(|l| l.starts_with("Stage kinds:")).expect("a Stage kinds line");
+    for kind in ["laydown", "laid_web", "spectra", "web", "grid", "image", "accuracy"] {
+        assert!(kinds.contains(&format!(" {kind},")) || kinds.contains(&format!(" {kind}.")), "{kind} missing from: {kinds}");
+    }
+    assert!(o.contains("Exit codes: 0 success, 1 runtime failure or damaged archive, 2 bad input."), "{o}");
+}

@@ -127,6 +127,20 @@ def table4_table():
         n_w = int((laid["fibre_node_start"][p, 0] >= 0).sum())
         dw = laid["cd_period"][p] / n_w
         print(f"| {c[p]:g} | {n_w} | {dw * 1e3:.4f} | {g['expected_interior_density'][p]:.2f} | {row[0]} | {row[1]} | {row[2]} | {ref[p]:g} | {int(laid['valid_fibres'][p].sum())} |")
+    # Like for like: surrogates from the same laid fibres on the same window (if run).
+    surrogates = [s for s in ("random_phase_grid", "laid_segments_grid") if s in f]
+    if not surrogates:
+        return
+    print()
+    print("| c | laid web: ρ_av (g/m²), CV (%) | " + " | ".join(f"{s[:-5]}: ρ_av (g/m²), CV (%)" for s in surrogates) + " | measured CV_corr (%) |")
+    print("|---:|---|" + "---|" * len(surrogates) + "---:|")
+    for p in range(len(c)):
+        row, _ = grid_row(g, p)
+        cells = []
+        for s in surrogates:
+            r, _ = grid_row(current(f, s), p)
+            cells.append(f"{r[0]}, {r[1]}")
+        print(f"| {c[p]:g} | {row[0]}, {row[1]} | " + " | ".join(cells) + f" | {ref[p]:g} |")
 
 
 def figure():

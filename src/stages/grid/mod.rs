@@ -259,30 +259,29 @@ pub fn grid_realisation(web: &Web, params: &GridParams, realisation: u32) -> Res
     }
     // Per-fibre displacements, stored by index and summed in order (deterministic). A
     // fibre may come in pieces (consecutive ones share a node, so each chord and each
-    // deposited node is in one piece): its start, node k_w and its end are picked from
-    // the pieces that hold them.
+    // deposited node is in one piece), in order: its start is read before node k_w, and
+    // −y_0 + y_{k_w} is `displacement`'s y_{k_w} − y_0 to the bit.
     let n_w = p.fibres_across;
     let last = web.nodes_per_fibre() - 1;
-    let marks = Mutex::new(crate::memory::try_vec(n_w, [0.0f64; 3], "the fibres' displacements")?);
+    let displacements = Mutex::new(crate::memory::try_vec(n_w, [0.0f64; 2], "the fibres' displacements")?);
     web.par_for_each_fibre_piece(realisation, |j, first, nodes| {
         grid.deposit_fibre(nodes, params.deposit);
         let end = first + nodes.len() - 1;
         let holds_k_w = (first..=end).contains(&k_w);
         if first == 0 || holds_k_w || end == last {
-            let mut marks = marks.lock().unwrap();
+            let mut d = displacements.lock().unwrap();
             if first == 0 {
-                marks[j][0] = nodes[0][1];
+                d[j][0] = -nodes[0][1];
             }
             if holds_k_w {
-                marks[j][1] = nodes[k_w - first][1];
+                d[j][0] += nodes[k_w - first][1];
             }
             if end == last {
-                marks[j][2] = nodes[nodes.len() - 1][0];
+                d[j][1] = nodes[nodes.len() - 1][0] - drift_end;
             }
         }
     });
-    // As `displacement` of the whole fibre.
-    let displacements: Vec<[f64; 2]> = marks.into_inner().unwrap().iter().map(|m| [m[1] - m[0], m[2] - drift_end]).collect();
+    let displacements = displacements.into_inner().unwrap();
     let spreads = Spreads { cross_direction: rms(&displacements, 0), machine_direction: rms(&displacements, 1) };
     if params.boundary == Boundary::Open {
         check_margins(params, &p, x_min, y_min, drift_end, &spreads, 1.0, n_w)?;

@@ -542,7 +542,7 @@ impl Web {
     /// `visit(fibre, first, nodes)` gets nodes `first..first + nodes.len()` of the fibre,
     /// and consecutive pieces share one node (the last of one is the first of the next),
     /// so every node and every chord is in exactly one piece, counting the shared node
-    /// with the piece it ends. A `lay_down_sde` web streams in pieces of about
+    /// with the piece it ends. A fibre's pieces come in order, on one thread. A `lay_down_sde` web streams in pieces of about
     /// [`SDE_PIECE_STEPS`] steps, which keeps its sixteen fibres' nodes in cache for the
     /// visitor; the other generators give each fibre whole.
     ///

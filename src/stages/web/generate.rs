@@ -578,7 +578,7 @@ impl Web {
             let min_len = (batches / (8 * rayon::current_num_threads())).max(1);
             let pool = std::sync::Mutex::new(Vec::new());
             (0..batches).into_par_iter().with_min_len(min_len).for_each_init(
-                || PooledScratch(pool.lock().expect("pool").pop().unwrap_or_default(), &pool),
+                || Pooled::take(&pool),
                 |scratch, batch| {
                     let first = batch * lanes;
                     self.sde_visit(model, realisation, first..(first + lanes).min(n_w), piece, &mut scratch.0, &mut |j, node, nodes| visit(j, node, nodes));
@@ -586,10 +586,13 @@ impl Web {
             );
             return;
         }
+        // The same pool for the one-fibre generators' buffers.
         let min_len = (n_w / (8 * rayon::current_num_threads())).max(2);
+        let pool = std::sync::Mutex::new(Vec::new());
         (0..n_w).into_par_iter().with_min_len(min_len).for_each_init(
-            || (FibreScratch::default(), Vec::new()),
-            |(scratch, nodes), j| {
+            || Pooled::<(FibreScratch, Vec<[f64; 2]>)>::take(&pool),
+            |pooled, j| {
+                let (scratch, nodes) = &mut pooled.0;
                 self.generate_fibre_into(realisation, j, scratch, nodes);
                 visit(j, 0, nodes);
             },
@@ -631,10 +634,17 @@ const SDE_LANES: usize = 16;
 /// (64 MiB / 16 lanes / 16 B) are integrated fewer at a time, down to one.
 const SDE_LANE_BYTES: usize = 64 << 20;
 
-/// An [`SdeScratch`] taken from a pool, returned to it when dropped.
-struct PooledScratch<'a>(SdeScratch, &'a std::sync::Mutex<Vec<SdeScratch>>);
+/// Buffers taken from a pool, returned to it when dropped: rayon makes one per job, and
+/// fresh ones would cost page faults on every job.
+struct Pooled<'a, T: Default>(T, &'a std::sync::Mutex<Vec<T>>);
 
-impl Drop for PooledScratch<'_> {
+impl<'a, T: Default> Pooled<'a, T> {
+    fn take(pool: &'a std::sync::Mutex<Vec<T>>) -> Self {
+        Self(pool.lock().expect("pool").pop().unwrap_or_default(), pool)
+    }
+}
+
+impl<T: Default> Drop for Pooled<'_, T> {
     fn drop(&mut self) {
         if let Ok(mut pool) = self.1.lock() {
             pool.push(std::mem::take(&mut self.0));

@@ -79,6 +79,7 @@ pub mod run_summary;
 pub mod runner;
 pub mod schema;
 pub mod signal_scope;
+pub(crate) mod simd;
 pub mod stages;
 pub mod table;
 pub mod uniformity;

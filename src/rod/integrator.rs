@@ -700,15 +700,21 @@ impl Simulator {
         let need_w = self.integrator != Integrator::Explicit;
         let skip_top = if self.driven_top.is_some() { n - 1 } else { n };
         if need_w {
-            for f in self.ws.lag_force.iter_mut() {
+            // Node by node (no chain of read-modify-writes between segments): the force of
+            // segment i − 1 along its tangent, minus segment i's, summed in that order.
+            let ns = self.rod.rest.len();
+            let (p, t) = (&self.segment_force, &self.ws.tangent);
+            for (i, f) in self.ws.lag_force.iter_mut().enumerate() {
                 *f = [0.0; 3];
-            }
-            for k in 0..self.rod.rest.len() {
-                let p = self.segment_force[k];
-                let tk = self.ws.tangent[k];
-                for (j, t) in tk.iter().enumerate() {
-                    self.ws.lag_force[k][j] -= p * t;
-                    self.ws.lag_force[k + 1][j] += p * t;
+                if i > 0 {
+                    for j in 0..3 {
+                        f[j] += p[i - 1] * t[i - 1][j];
+                    }
+                }
+                if i < ns {
+                    for j in 0..3 {
+                        f[j] -= p[i] * t[i][j];
+                    }
                 }
             }
         }

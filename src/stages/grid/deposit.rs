@@ -112,14 +112,19 @@ impl DensityGrid {
     /// Cell of a point, if inside the window.
     #[inline]
     fn cell_of(&self, p: [f64; 2]) -> Option<(usize, usize)> {
-        let u = (p[0] - self.x_min) * self.inverse_cell;
-        let v = (p[1] - self.y_min) * self.inverse_cell;
-        let n = self.cells as f64;
-        if u >= 0.0 && v >= 0.0 && u < n && v < n {
+        let [u, v] = self.cell_coordinates(p);
+        if self.inside([u, v]) {
             Some((u as usize, v as usize))
         } else {
             None
         }
+    }
+
+    /// Whether cell coordinates lie in the window (branch-free).
+    #[inline]
+    fn inside(&self, [u, v]: [f64; 2]) -> bool {
+        let n = self.cells as f64;
+        (u >= 0.0) & (v >= 0.0) & (u < n) & (v < n)
     }
 
     /// One point mass at each of `points` inside the window.
@@ -141,16 +146,9 @@ impl DensityGrid {
             (Deposit::PointMass, None) => {
                 // Most nodes of a web lie outside the window: a branch-free test of eight
                 // at a time (it vectorises) passes over runs of them.
-                let deposited = &nodes[..nodes.len() - 1];
-                let (n, [x_min, y_min], inverse) = (self.cells as f64, [self.x_min, self.y_min], self.inverse_cell);
-                let mut runs = deposited.chunks_exact(8);
+                let mut runs = nodes[..nodes.len() - 1].chunks_exact(8);
                 for run in &mut runs {
-                    let mut any = false;
-                    for p in run {
-                        let (u, v) = ((p[0] - x_min) * inverse, (p[1] - y_min) * inverse);
-                        any |= (u >= 0.0) & (v >= 0.0) & (u < n) & (v < n);
-                    }
-                    if any {
+                    if run.iter().fold(false, |any, &p| any | self.inside(self.cell_coordinates(p))) {
                         self.deposit_points(run);
                     }
                 }

@@ -387,10 +387,11 @@ impl Web {
         }
         if let Source::Sde(model) = &self.source {
             // One lane of the lockstep integration (the rotated tangent and the nodes in one pass).
+            // One piece, written into the caller's buffer lent as the lane's.
             let mut lanes = SdeScratch { nodes: vec![std::mem::take(nodes)] };
-            let mut whole = Vec::new();
-            self.sde_batch(model, realisation, [fibre], usize::MAX, &mut lanes, &mut |_, _, piece| whole = piece.to_vec());
-            *nodes = whole;
+            self.sde_batch(model, realisation, [fibre], usize::MAX, &mut lanes, &mut |_, _, _| {});
+            *nodes = lanes.nodes.pop().unwrap();
+            nodes.truncate(self.nodes_per_fibre());
             return;
         }
         // Curvature, then θ, its sines and cosines and the nodes in one blocked pass.
@@ -542,9 +543,10 @@ impl Web {
     /// `visit(fibre, first, nodes)` gets nodes `first..first + nodes.len()` of the fibre,
     /// and consecutive pieces share one node (the last of one is the first of the next),
     /// so every node and every chord is in exactly one piece, counting the shared node
-    /// with the piece it ends. A fibre's pieces come in order, on one thread. A `lay_down_sde` web streams in pieces of about
-    /// [`SDE_PIECE_STEPS`] steps, which keeps its sixteen fibres' nodes in cache for the
-    /// visitor; the other generators give each fibre whole.
+    /// with the piece it ends. A fibre's pieces come in order, on one thread. A
+    /// `lay_down_sde` web streams in pieces of about [`SDE_PIECE_STEPS`] steps, which
+    /// keeps its sixteen fibres' nodes in cache for the visitor; the other generators
+    /// give each fibre whole.
     ///
     /// ```
     /// use laydown::stages::web::{sde::LayDownSde, Web, WebParams};
@@ -627,8 +629,9 @@ type PieceVisitor<'a> = dyn FnMut(usize, usize, &[[f64; 2]]) + 'a;
 pub const SDE_PIECE_STEPS: usize = 1024;
 
 /// Fibres of a `lay_down_sde` web integrated in lockstep, one per lane: the recurrence of
-/// one fibre is a dependent chain (two rotations of the tangent per Heun step), so
-/// independent fibres side by side fill the vector units and hide its latency.
+/// one fibre is a dependent chain (the predictor's and the corrector's rotations of the
+/// tangent per Heun step), so independent fibres side by side fill the vector units and
+/// hide its latency.
 const SDE_LANES: usize = 16;
 /// Most bytes of lane node buffers one worker holds: fibres longer than 2²¹ nodes
 /// (64 MiB / 16 lanes / 16 B) are integrated fewer at a time, down to one.
@@ -665,9 +668,10 @@ impl Web {
     /// in pieces of at most `piece` steps: node `first` of the fibre is `nodes[0]`, and
     /// consecutive pieces share one node (the last of one is the first of the next), so
     /// each chord lies in exactly one piece. Node k is η_k + (c k Δs, y_j): the SDE's
-    /// eq 13 and the belt drift of eq 14. Every lane performs the same IEEE operations on its own
-    /// fibre's stream whatever L and `piece` (Rust contracts nothing to FMA; the fused
-    /// operations are written out), so each fibre's bits are those of the one-fibre path.
+    /// eq 13 and the belt drift of eq 14. Every lane performs the same IEEE operations on
+    /// its own fibre's stream whatever L and `piece` (Rust contracts nothing to FMA; the
+    /// fused operations are written out), so each fibre's bits are those of the one-fibre
+    /// path.
     #[inline(always)]
     fn sde_lanes<const L: usize>(&self, model: &LayDownSde, realisation: u32, fibres: [usize; L], piece: usize, scratch: &mut SdeScratch, emit: &mut PieceVisitor) {
         let total = self.params.segments_per_fibre * self.points;
@@ -715,7 +719,9 @@ impl Web {
             if filled >= piece || done == total {
                 for (l, out) in outs.iter_mut().enumerate() {
                     emit(l, first, &out[..=filled]);
-                    out[0] = out[filled];
+                    if done < total {
+                        out[0] = out[filled]; // the next piece starts where this one ends
+                    }
                 }
                 first += filled;
                 filled = 0;

@@ -354,7 +354,7 @@ impl<const L: usize> SdeLanes<L> {
             half0[l] = cos[l].mul_add(half_ds, eta0[l]); // η_k + τ_k Δs/2, of eq 13
             half1[l] = sin[l].mul_add(half_ds, eta1[l]);
         }
-        let (sin_p, cos_p) = rotate(&sin, &cos, &step_p);
+        let (sin_p, cos_p) = rotate(&sin, &cos, &step_p, FRAC_PI_4, small_sin_cos);
         // ... then the corrector's α_{k+1} − α̃ = (f(η̃, α̃) − f(η_k, α_k)) Δs/2, which
         // turns the predicted tangent on by a small angle.
         let mut turn_c = [0.0; L];
@@ -367,7 +367,7 @@ impl<const L: usize> SdeLanes<L> {
                 self.angle[l] += step_p[l] + turn_c[l];
             }
         }
-        let (sin1, cos1) = rotate_tiny(&sin_p, &cos_p, &turn_c);
+        let (sin1, cos1) = rotate(&sin_p, &cos_p, &turn_c, TINY_ANGLE, tiny_sin_cos);
         for l in 0..L {
             self.eta[0][l] = cos1[l].mul_add(half_ds, half0[l]); // eq 13
             self.eta[1][l] = sin1[l].mul_add(half_ds, half1[l]);
@@ -406,20 +406,21 @@ fn normal_pair<const L: usize>(rng: &mut LaneRng<L>) -> ([f64; L], [f64; L]) {
 }
 
 /// (sin, cos) of α + δ per lane from (sin α, cos α): the rotation by δ, whose sine and
-/// cosine are [`small_sin_cos`] for |δ| ≤ π/4 (every lane, vectorised) and [`sin_cos`]
-/// for a lane beyond.
+/// cosine are `polynomial`'s for |δ| ≤ `limit` (every lane, vectorised) and [`sin_cos`]
+/// for a lane beyond. The predictor turns with [`small_sin_cos`] up to π/4, the
+/// corrector's small turn with [`tiny_sin_cos`] up to [`TINY_ANGLE`].
 #[inline(always)]
 #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN increment must count as beyond
-fn rotate<const L: usize>(sin: &[f64; L], cos: &[f64; L], delta: &[f64; L]) -> ([f64; L], [f64; L]) {
+fn rotate<const L: usize>(sin: &[f64; L], cos: &[f64; L], delta: &[f64; L], limit: f64, polynomial: fn(f64) -> (f64, f64)) -> ([f64; L], [f64; L]) {
     let (mut sd, mut cd) = ([0.0; L], [0.0; L]);
     let mut wide = false;
     for l in 0..L {
-        (sd[l], cd[l]) = small_sin_cos(delta[l]);
-        wide |= !(delta[l].abs() <= FRAC_PI_4);
+        (sd[l], cd[l]) = polynomial(delta[l]);
+        wide |= !(delta[l].abs() <= limit);
     }
     if wide {
         for l in 0..L {
-            if !(delta[l].abs() <= FRAC_PI_4) {
+            if !(delta[l].abs() <= limit) {
                 (sd[l], cd[l]) = sin_cos(delta[l]);
             }
         }
@@ -436,27 +437,6 @@ fn turn<const L: usize>(sin: &[f64; L], cos: &[f64; L], sd: &[f64; L], cd: &[f64
         c1[l] = cos[l].mul_add(cd[l], -(sin[l] * sd[l]));
     }
     (s1, c1)
-}
-
-/// The rotation by the corrector's small turn ε = α_{k+1} − α̃: [`tiny_sin_cos`], a lane
-/// beyond [`TINY_ANGLE`] [`sin_cos`].
-#[inline(always)]
-#[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN turn must count as beyond
-fn rotate_tiny<const L: usize>(sin: &[f64; L], cos: &[f64; L], eps: &[f64; L]) -> ([f64; L], [f64; L]) {
-    let (mut sd, mut cd) = ([0.0; L], [0.0; L]);
-    let mut wide = false;
-    for l in 0..L {
-        (sd[l], cd[l]) = tiny_sin_cos(eps[l]);
-        wide |= !(eps[l].abs() <= TINY_ANGLE);
-    }
-    if wide {
-        for l in 0..L {
-            if !(eps[l].abs() <= TINY_ANGLE) {
-                (sd[l], cd[l]) = sin_cos(eps[l]);
-            }
-        }
-    }
-    turn(sin, cos, &sd, &cd)
 }
 
 /// Steps per potential length b the scheme needs for its stationary spread to be within

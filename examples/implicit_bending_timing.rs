@@ -8,7 +8,8 @@
 //!     [replicates] [schemes,comma,separated] [name=value ...]`
 //! e.g. `... -- 4 trapezoidal_axial,implicit_bending,explicit`, or the 50 m/s scene
 //! `... -- 2 trapezoidal_axial,implicit_bending fibre_speed=50 air_speed=150 belt_speed=2 oscillation_frequency=100`.
-//! A scheme may carry its own setting after a colon: `implicit_bending:implicit_step_travel=0.5`.
+//! A scheme may carry its own setting after a colon: `implicit_bending:implicit_step_travel=0.5`,
+//! or switch on the opt-in twist (feed clamped): `trapezoidal_axial:twist=1`.
 use laydown::stages::laydown::{replicate_rng, simulate, Integrator, LaydownParams, LaydownResult};
 
 fn main() {
@@ -34,7 +35,10 @@ fn main() {
             p.integrator = Integrator::from_name(parts.next().unwrap()).expect("an integrator name");
             for kv in parts {
                 let (k, v) = kv.split_once('=').expect("name=value");
-                p.set(k, v.parse().unwrap()).unwrap();
+                match k {
+                    "twist" => p.effects.twist = v != "0",
+                    _ => p.set(k, v.parse().unwrap()).unwrap(),
+                }
             }
             p.validate().unwrap();
             p

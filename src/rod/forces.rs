@@ -345,16 +345,16 @@ fn axial_forces(rod: &Rod, ws: &mut Workspace) {
 }
 
 /// Lower bound on 1 + cos φ in the bending energy (φ → π is a fold-back).
-const MIN_ONE_PLUS_COS: f64 = 1e-2;
+pub(super) const MIN_ONE_PLUS_COS: f64 = 1e-2;
 
 /// Discrete-elastic-rod bending (Bergou et al. 2008) of an isotropic rod without twist.
 ///
 /// At interior node i with unit tangents t_a, t_b of the adjacent segments and
 /// c = cos φ = t_a·t_b, the curvature binormal has |κb| = 2 tan(φ/2) and the energy is
 /// V_i = EI |κb|²/(2 V_i) = (2 EI/V_i)(1 − c)/(1 + c), V_i the Voronoi (rest) length,
-/// which tends to EI φ²/(2 V_i) = ½ EI κ² V_i, the discrete form of eq 6. Twist is
-/// omitted: for an isotropic, initially straight and untwisted rod with no applied
-/// torque the twist stays zero and decouples from bending (Kirchhoff).
+/// which tends to EI φ²/(2 V_i) = ½ EI κ² V_i, the discrete form of eq 6. For an
+/// isotropic rod twist does not enter this energy; its force on the centreline is the
+/// opt-in [`super::twist`].
 fn bending_forces(rod: &Rod, ws: &mut Workspace) {
     let ei = rod.bending_stiffness;
     let n = rod.x.len();

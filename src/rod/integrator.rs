@@ -63,6 +63,7 @@ use super::forces::{axial_energy_at, axial_energy_of, bending_energy_at, bending
 use super::params::Integrator;
 use super::forces::sym_mul;
 use super::state::{sym_inverse, sym_inverse_xy, NodeContact, Rod, Workspace};
+use super::twist::Twist;
 
 /// Components of the automatic time step (s).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -141,10 +142,12 @@ pub struct Work {
 pub struct EnergySample {
     pub time: f64,
     pub kinetic: f64,
-    /// Axial + bending.
+    /// Axial + bending + twist.
     pub elastic: f64,
     pub axial: f64,
     pub bending: f64,
+    /// Twist energy of the span and of the laid fibre ([`Twist::energy`]; 0 without twist).
+    pub twist: f64,
     pub work: Work,
 }
 
@@ -217,6 +220,8 @@ pub struct Simulator {
     pub projection_calls: u64,
     /// Contact with other fibres (opt-in; see [`super::fibre_contact`]).
     pub fibre_contact: Option<FibreContact>,
+    /// Rod twist (opt-in; see [`super::twist`]).
+    pub twist: Option<Twist>,
     /// (t, Δt, nodes) of the forces in the workspace when [`Self::predict_velocities`]
     /// left them for the step that follows; None: the step evaluates them.
     pub(super) forces_for: Option<(f64, f64, usize)>,
@@ -366,6 +371,12 @@ impl Simulator {
         self.rod.inv_voronoi[top] = 2.0 / (self.rod.rest[top - 1] + rest);
         self.rod.inv_voronoi.push(0.0);
         self.rod.refresh_bounds();
+        if let Some(twist) = &mut self.twist {
+            let (p, q) = (self.rod.x[top], x);
+            let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+            twist.push_top([e[0] / l, e[1] / l, e[2] / l]);
+        }
         // energy carried in: the added mass at its speed, the new segment's strain and
         // the bending at the old top (an end until now)
         let k_new = 0.5 * half * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
@@ -409,6 +420,9 @@ impl Simulator {
         if let Some(c) = &mut self.fibre_contact {
             c.dropped += count;
         }
+        if let Some(twist) = &mut self.twist {
+            twist.drop_front(count);
+        }
         let t = self.t;
         self.clamped = (0..clamp).collect();
         self.clamp_velocity = velocity;
@@ -426,7 +440,8 @@ impl Simulator {
         self.ws.update_geometry(&self.rod);
         let axial = axial_energy_of(&self.rod, &self.ws);
         let bending = bending_energy_of(&self.rod, &self.ws);
-        EnergySample { time: self.t, kinetic: self.rod.kinetic_energy(), elastic: axial + bending, axial, bending, work: self.work }
+        let twist = self.twist.as_ref().map_or(0.0, Twist::energy);
+        EnergySample { time: self.t, kinetic: self.rod.kinetic_energy(), elastic: axial + bending + twist, axial, bending, twist, work: self.work }
     }
 
     /// Advance one step. On failure the state is left as it was after the failing step.
@@ -443,6 +458,13 @@ impl Simulator {
         }
         for term in &self.terms {
             term.accumulate(&self.rod, &mut self.ws, t, dt);
+        }
+        if let Some(twist) = &mut self.twist {
+            // held: the clamped leading nodes and landed nodes lying on the belt
+            let (clamped, landing, x) = (self.clamped.len(), &self.landing_time, &self.rod.x);
+            let hold = twist.hold_height;
+            let holds = |i: usize| i < clamped || (!landing[i].is_nan() && x[i][2] <= hold);
+            twist.accumulate(&self.rod, &mut self.ws, self.driven_top.is_some(), holds);
         }
     }
 

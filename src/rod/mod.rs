@@ -8,7 +8,7 @@
 //! plane, Coulomb friction), [`integrator`] (time steppers and their step control),
 //! [`params`] (the scene's parameter table), [`air`] (the opt-in air field near the belt), [`scene`] (the paper's single-fibre scene),
 //! [`feed`] (continuous feed: a fibre of any length fed through the laydown zone, the
-//! stuck part frozen), [`fibre_contact`] and [`contact_world`] (opt-in contact between
+//! stuck part frozen), [`twist`] (opt-in rod twist), [`fibre_contact`] and [`contact_world`] (opt-in contact between
 //! fibres: narrow and broad phase), [`metrics`] (S and e of the laid fibre).
 //!
 //! # Conventions
@@ -24,9 +24,11 @@
 //! one is a separate term built once:
 //! - elasticity: discrete elastic rod, axial springs EA (explicit scheme) and bending EI
 //!   with the curvature-binormal energy (2EI/V_i)(1 − cos φ)/(1 + cos φ) at interior nodes
-//!   (geometrically exact, large rotations). Twist is omitted: for an isotropic,
-//!   initially straight, untwisted rod with no applied torques it stays zero and
-//!   decouples from bending (Kirchhoff), so `poisson_ratio` does not enter;
+//!   (geometrically exact, large rotations);
+//! - twist (opt-in, [`twist`]): quasistatic discrete-elastic-rod twist, GJ = EI/(1 + ν).
+//!   With a feed free to spin it vanishes (the paper's model, and the default); with
+//!   `feed_end: clamped` the coiling twists the hanging fibre between the spinneret and
+//!   the laid fibre, and the twist acts back on the centreline;
 //! - gravity;
 //! - drag in 0 ≤ z ≤ z0 with air moving down at `air_speed`: tangential eqs 1-2
 //!   (C_t = β Re^-0.61, β = 0.37 after Matsui 1976, C_f = 0.37 Re^-0.61) and normal
@@ -117,6 +119,7 @@ pub mod metrics;
 pub mod params;
 pub mod scene;
 pub mod state;
+pub mod twist;
 
 #[cfg(test)]
 mod energy_tests;
@@ -125,5 +128,5 @@ mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, BeltMotion, BeltRemoval, LaydownResult};
-pub use params::{parameter_table_markdown, AirField, BounceCheck, Effects, Integrator, LaydownParams, ParamError, PARAMETERS};
+pub use params::{parameter_table_markdown, AirField, BounceCheck, Effects, FeedEnd, Integrator, LaydownParams, ParamError, PARAMETERS};
 pub use scene::{prepared_simulator, replicate_rng, run_jobs, simulate, LaydownJob};

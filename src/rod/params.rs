@@ -1,7 +1,7 @@
 //! Scene parameters of one laydown replicate (SI units throughout) and their table.
 //!
-//! `LaydownParams::default()` is the paper's Table 1 baseline with the full model
-//! (all effects on). Every numeric field is described once in [`PARAMETERS`]
+//! `LaydownParams::default()` is the paper's Table 1 baseline with the paper's model
+//! (every effect on but the opt-in twist). Every numeric field is described once in [`PARAMETERS`]
 //! (name, unit, default, allowed range, one-line doc); [`LaydownParams::validate`]
 //! checks against that table so the pipeline can reuse it for YAML validation,
 //! `--help` and a JSON schema.
@@ -58,6 +58,19 @@ crate::params::choice_enum! {
 }
 
 
+crate::params::choice_enum! {
+    /// How the spinneret holds the fibre against spinning about its axis (effect `twist`).
+    pub enum FeedEnd {
+        /// The fibre cannot spin at the feed: the twist that coiling puts into the hanging
+        /// fibre stays in it (and is laid down with it).
+        #[default]
+        Clamped = "clamped",
+        /// Free to spin: the twist relaxes through the feed end, Ω ≡ 0, the model without
+        /// twist (nothing is built).
+        Free = "free",
+    }
+}
+
 /// Opt-in physical effects. A disabled effect is not built at all (no cost).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -78,6 +91,9 @@ pub struct Effects {
     pub damping: bool,
     /// Random initial x/y node offsets N(0, imperfection_std).
     pub imperfections: bool,
+    /// Rod twist (opt-in, off by default; [`super::twist`]): with `feed_end` clamped the
+    /// twist the coiling puts into the hanging fibre acts back on its centreline.
+    pub twist: bool,
 }
 
 impl Default for Effects {
@@ -91,13 +107,14 @@ impl Default for Effects {
             friction: true,
             damping: true,
             imperfections: true,
+            twist: false,
         }
     }
 }
 
 impl Effects {
     /// (name, doc) of every flag, for --help and schemas.
-    pub const FLAGS: [(&'static str, &'static str); 8] = [
+    pub const FLAGS: [(&'static str, &'static str); 9] = [
         ("elasticity", "axial stretching (explicit integrator) and bending EI of the rod"),
         ("gravity", "weight of the fibre, -g along z"),
         ("drag", "air drag of eqs 1-4 in the laydown zone 0 <= z <= laydown_height"),
@@ -106,6 +123,7 @@ impl Effects {
         ("friction", "Coulomb stick/slip friction against the belt moving at belt_speed along +x"),
         ("damping", "Rayleigh mass damping rayleigh_damping"),
         ("imperfections", "initial x/y node offsets N(0, imperfection_std)"),
+        ("twist", "opt-in (off by default): rod twist, quasistatic, GJ = EI/(1 + poisson_ratio); with feed_end clamped the twist that coiling puts into the hanging fibre acts on it (src/rod/twist.rs)"),
     ];
 }
 
@@ -145,7 +163,7 @@ pub struct LaydownParams {
     pub youngs_modulus: f64,
     /// Fibre density ρ (kg/m³).
     pub density: f64,
-    /// Poisson's ratio ν (only enters twist, which decouples; kept for provenance).
+    /// Poisson's ratio ν: GJ = EI/(1 + ν) of the opt-in twist.
     pub poisson_ratio: f64,
     /// Air density ρ_a (kg/m³).
     pub air_density: f64,
@@ -184,6 +202,8 @@ pub struct LaydownParams {
     pub bounce_check: BounceCheck,
     /// How the belt motion is taken off the laid nodes for the belt-removed S and e.
     pub belt_removal: super::metrics::BeltRemoval,
+    /// With `effects.twist`: whether the feed end is clamped against spinning.
+    pub feed_end: FeedEnd,
     /// Physical effects switched on.
     pub effects: Effects,
 }
@@ -225,6 +245,7 @@ impl Default for LaydownParams {
             integrator: Integrator::default(),
             bounce_check: BounceCheck::default(),
             belt_removal: super::metrics::BeltRemoval::default(),
+            feed_end: FeedEnd::default(),
             effects: Effects::default(),
         }
     }
@@ -256,7 +277,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("laydown_height", "m", 0.05, 1e-4, 100.0, "height z0 of the laydown zone, below length"),
     real("youngs_modulus", "Pa", 2e9, 1e3, 1e13, "Young's modulus E"),
     real("density", "kg/m^3", 950.0, 1.0, 1e5, "fibre density rho"),
-    real("poisson_ratio", "1", 0.3, 0.0, 0.5, "Poisson's ratio (enters only twist, which decouples)"),
+    real("poisson_ratio", "1", 0.3, 0.0, 0.5, "Poisson's ratio nu: torsional stiffness GJ = EI/(1 + nu) of the opt-in twist"),
     real("air_density", "kg/m^3", 1.2, 0.0, 100.0, "air density rho_a"),
     real("air_kinematic_viscosity", "m^2/s", 1.51e-5, 1e-8, 1.0, "air kinematic viscosity nu_a in Re = V d / nu_a"),
     real("tangential_drag_beta", "1", 0.37, 0.0, 10.0, "beta in C_t = beta Re^-0.61 (eq 2); 0.37 after Matsui (1976)"),
@@ -422,6 +443,10 @@ impl LaydownParams {
     /// Bending stiffness EI, I = πd⁴/64 (N·m²).
     pub fn bending_stiffness(&self) -> f64 {
         self.youngs_modulus * PI * self.diameter.powi(4) / 64.0
+    }
+    /// Torsional stiffness GJ = EI/(1 + ν) of a round section (N·m²): G = E/2(1 + ν), J = 2I.
+    pub fn twist_stiffness(&self) -> f64 {
+        self.bending_stiffness() / (1.0 + self.poisson_ratio)
     }
     /// Mass per unit length ρA (kg/m).
     pub fn mass_per_length(&self) -> f64 {

@@ -5,7 +5,8 @@ use super::contact::BeltContact;
 use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
 use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
-use super::params::{BounceCheck, Integrator, LaydownParams};
+use super::params::{BounceCheck, FeedEnd, Integrator, LaydownParams};
+use super::twist::Twist;
 use super::state::{Rod, Workspace};
 use crate::geometry::arc_length;
 use rand::Rng;
@@ -126,6 +127,8 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
     let top_start_z = start.positions[n - 1][2];
     let clamp_positions = start.positions[..start.clamped].to_vec();
     let rod = Rod::new(start.positions, start.velocities, rest, p.mass_per_length(), p.axial_stiffness(), p.bending_stiffness());
+    // a feed free to spin leaves the hanging span a free end: no twist (super::twist)
+    let twist = (e.twist && e.elasticity && p.feed_end == FeedEnd::Clamped).then(|| Twist::new(&rod, p.twist_stiffness(), p.diameter));
     Simulator {
         ws: Workspace::new(n),
         rod,
@@ -154,6 +157,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         projection_iterations: 0,
         projection_calls: 0,
         fibre_contact: None,
+        twist,
         forces_for: None,
         compliance: match p.integrator {
             Integrator::ImplicitAxial | Integrator::TrapezoidalAxial | Integrator::ImplicitBending => 1.0 / p.axial_stiffness(),

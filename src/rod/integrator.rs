@@ -440,7 +440,7 @@ impl Simulator {
         self.ws.update_geometry(&self.rod);
         let axial = axial_energy_of(&self.rod, &self.ws);
         let bending = bending_energy_of(&self.rod, &self.ws);
-        let twist = self.twist.as_ref().map_or(0.0, Twist::energy);
+        let twist = self.twist.as_ref().map_or(0.0, |t| t.energy(&self.rod));
         EnergySample { time: self.t, kinetic: self.rod.kinetic_energy(), elastic: axial + bending + twist, axial, bending, twist, work: self.work }
     }
 

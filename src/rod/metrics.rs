@@ -61,6 +61,11 @@ pub struct LaydownResult {
     pub radius_of_gyration_belt_removed: f64,
     /// e with the belt motion removed.
     pub bending_energy_belt_removed: f64,
+    /// Opt-in twist ([`super::twist`]), at the end of the run: the hanging span's twist
+    /// rate Ω (rad/m) and the twist laid down with the fibre, Σ τ over the laid nodes
+    /// (rad); 0 without twist.
+    pub twist_rate: f64,
+    pub laid_twist: f64,
     /// Energy records every `diagnostic_stride` steps and at the end.
     pub diagnostics: Vec<EnergySample>,
     pub steps: u64,
@@ -117,6 +122,8 @@ impl LaydownResult {
             laid_belt_removed: Vec::new(),
             radius_of_gyration_belt_removed: 0.0,
             bending_energy_belt_removed: 0.0,
+            twist_rate: 0.0,
+            laid_twist: 0.0,
             diagnostics: Vec::new(),
             steps: 0,
             time_step: 0.0,

@@ -321,6 +321,8 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         radius_of_gyration_belt_removed: sr,
         laid_belt_removed: laid_removed,
         bending_energy_belt_removed: er,
+        twist_rate: sim.twist.as_ref().map_or(0.0, |t| t.twist_rate),
+        laid_twist: sim.twist.as_ref().map_or(0.0, |t| t.laid_twist()),
         diagnostics,
         steps: sim.steps,
         time_step: sim.dt,

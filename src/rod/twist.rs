@@ -56,8 +56,8 @@ pub struct Twist {
     reference_twist: Vec<f64>,
     /// Material angle θ_j of each segment (rad); set when it is held.
     theta: Vec<f64>,
-    /// Twist energy each node carried when a landing took it out of the span (J).
-    laid_energy: Vec<f64>,
+    /// Twist τ_i each node carried when a landing took it out of the span (rad).
+    laid_twist: Vec<f64>,
     /// Topmost held segment below the top (None: the span ends at a free front).
     held: Option<usize>,
     /// Twist rate Ω of the span at the last evaluation (rad/m).
@@ -171,7 +171,7 @@ impl Twist {
             director_tangent: ws.tangent.clone(),
             reference_twist: vec![0.0; ns + 1],
             theta: vec![0.0; ns],
-            laid_energy: vec![0.0; ns + 1],
+            laid_twist: vec![0.0; ns + 1],
             held: None,
             twist_rate: 0.0,
             span_length: 0.0,
@@ -183,11 +183,22 @@ impl Twist {
         self.held
     }
 
-    /// Twist energy (J): the span's ½ GJ Ω² Σ V_i and what landings laid down with the fibre.
-    pub fn energy(&self) -> f64 {
+    /// The laid nodes below the span (0..=held).
+    fn laid(&self) -> std::ops::Range<usize> {
+        0..self.held.map_or(0, |b| b + 1)
+    }
+
+    /// Twist energy (J): the span's ½ GJ Ω² Σ V_i and Σ GJ τ_i²/(2V_i) of the twist
+    /// landings laid down with the fibre.
+    pub fn energy(&self, rod: &Rod) -> f64 {
         let span = 0.5 * self.twist_stiffness * self.twist_rate * self.twist_rate * self.span_length;
-        let below = self.held.map_or(0, |b| b + 1);
-        span + self.laid_energy[..below.min(self.laid_energy.len())].iter().sum::<f64>()
+        let laid: f64 = self.laid().map(|i| 0.5 * self.twist_stiffness * self.laid_twist[i] * self.laid_twist[i] * rod.inv_voronoi[i]).sum();
+        span + laid
+    }
+
+    /// Total twist laid down with the fibre, Σ τ_i over the laid nodes (rad).
+    pub fn laid_twist(&self) -> f64 {
+        self.laid().map(|i| self.laid_twist[i]).sum()
     }
 
     /// Transport the directors to `tangent` (unit tangents of the current positions).
@@ -255,7 +266,7 @@ impl Twist {
                 }
             }
             for i in first_landed.max(1)..=new_low {
-                self.laid_energy[i] = 0.5 * self.twist_stiffness * rate * rate / rod.inv_voronoi[i];
+                self.laid_twist[i] = rate / rod.inv_voronoi[i];
             }
         }
         self.held = held;
@@ -298,7 +309,7 @@ impl Twist {
         self.director_tangent.push(new_tangent);
         self.theta.push(0.0);
         self.reference_twist.push(0.0);
-        self.laid_energy.push(0.0);
+        self.laid_twist.push(0.0);
     }
 
     /// Continuous feed: the first `count` nodes leave the rod.
@@ -307,7 +318,7 @@ impl Twist {
         self.director_tangent.drain(..count);
         self.theta.drain(..count);
         self.reference_twist.drain(..count);
-        self.laid_energy.drain(..count);
+        self.laid_twist.drain(..count);
         self.reference_twist[0] = 0.0;
         self.held = self.held.and_then(|b| b.checked_sub(count));
     }
@@ -465,7 +476,7 @@ mod tests {
                     w.update_geometry(&r);
                     let mut t = twist.clone();
                     t.accumulate(&r, &mut w, true, |i| i < 2);
-                    e[side] = t.energy();
+                    e[side] = t.energy(&r);
                 }
                 let fd = -(e[0] - e[1]) / (2.0 * h);
                 let f = ws.force[node][c];
@@ -499,12 +510,14 @@ mod tests {
         // uniform twist, so Ω and the total energy are unchanged by the landing
         let n = 16;
         let (rod, mut ws, mut twist) = carried(|s| quarter_circle(n, 0.01, TAU * s), 800);
-        let (rate, energy) = (twist.twist_rate, twist.energy());
+        let (rate, energy) = (twist.twist_rate, twist.energy(&rod));
         ws.force.fill([0.0; 3]);
         twist.accumulate(&rod, &mut ws, true, |i| i < 4);
         assert_eq!(twist.held_segment(), Some(2));
         assert!((twist.twist_rate - rate).abs() < 1e-12 * rate.abs(), "{} vs {rate}", twist.twist_rate);
-        assert!((twist.energy() - energy).abs() < 1e-12 * energy, "{} vs {energy}", twist.energy());
+        assert!((twist.energy(&rod) - energy).abs() < 1e-12 * energy, "{} vs {energy}", twist.energy(&rod));
+        let laid = rate * (1.0 / rod.inv_voronoi[1] + 1.0 / rod.inv_voronoi[2]);
+        assert!((twist.laid_twist() - laid).abs() < 1e-12 * laid.abs(), "laid twist {} vs {laid}", twist.laid_twist());
         // lifting off again restores the longer span
         twist.accumulate(&rod, &mut ws, true, |i| i < 2);
         assert!((twist.twist_rate - rate).abs() < 1e-12 * rate.abs());

@@ -435,6 +435,8 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
     out.f64("max_lift_after_landing", &[unit], column(&|r| r.max_lift_after_landing), "m", "");
     out.f64("final_lift_of_landed", &[unit], column(&|r| r.final_lift_of_landed), "m", "");
     out.f64("laid_length", &[unit], column(&|r| r.laid_length), "m", "");
+    out.f64("twist_rate", &[unit], column(&|r| r.twist_rate), "rad/m", "");
+    out.f64("laid_twist", &[unit], column(&|r| r.laid_twist), "rad", "");
     out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
     if mesh_error_estimate {
@@ -544,6 +546,8 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
     let lift = per_rep("max_lift_after_landing")?;
     let final_lift = per_rep("final_lift_of_landed")?;
     let laid_length = per_rep("laid_length")?;
+    let twist_rate = per_rep("twist_rate")?;
+    let laid_twist = per_rep("laid_twist")?;
     let elements = per_rep("elements")?;
     let mut reasons = vec![];
     let mut errors = vec![];
@@ -611,6 +615,8 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
     out.f64("max_lift_after_landing", &["point", "replicate"], lift, "m", "highest rise after landing").describe("highest rise of a landed node above the belt at any time after its landing (bounce_check = transient)");
     out.f64("final_lift_of_landed", &["point", "replicate"], final_lift, "m", "highest landed node at the end").describe("highest landed node above the belt in the final profile (bounce_check = final)");
     out.f64("laid_length", &["point", "replicate"], laid_length, "m", "arc length of the laid fibre");
+    out.f64("twist_rate", &["point", "replicate"], twist_rate, "rad/m", "twist rate of the hanging fibre at the end").describe("effects.twist: twist rate Ω of the span between the clamped feed and the laid fibre at the end of the run (src/rod/twist.rs); 0 without twist");
+    out.f64("laid_twist", &["point", "replicate"], laid_twist, "rad", "twist laid with the fibre").describe("effects.twist: total twist Σ τ the landings laid down with the fibre (rad; 2π is one turn); 0 without twist");
     out.f64("elements", &["point", "replicate"], elements, "1", "rod elements used (after coil_resolution)");
     out.strings(
         "diagnostic",

@@ -342,6 +342,20 @@ fn hard_cases_stay_stable() {
             p.belt_permeability = 0.25;
             p.air_speed = 50.0;
         })),
+        // opt-in twist with the feed clamped, at the fastest feed, on a stationary belt
+        // (twist accumulates where the loops pile up) and on the thinnest fibre
+        ("twist, fibre_speed 50", Box::new(|p| {
+            p.effects.twist = true;
+            p.fibre_speed = 50.0;
+        })),
+        ("twist, belt 0", Box::new(|p| {
+            p.effects.twist = true;
+            p.belt_speed = 0.0;
+        })),
+        ("twist, d 5 um", Box::new(|p| {
+            p.effects.twist = true;
+            p.diameter = 5e-6;
+        })),
     ];
     for (name, set) in cases {
         let mut p = reduced();

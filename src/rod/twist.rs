@@ -233,6 +233,7 @@ impl Twist {
     /// the belt or is clamped.
     pub fn accumulate(&mut self, rod: &Rod, ws: &mut Workspace, top_held: bool, holds: impl Fn(usize) -> bool) {
         let ns = rod.rest.len();
+        assert_eq!(self.director.len(), ns, "twist state out of step with the rod (push_top/drop_front missed)");
         self.transport_directors(&ws.tangent);
         if !top_held || ns < 2 {
             self.held = None;

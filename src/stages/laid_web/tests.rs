@@ -131,6 +131,29 @@ fn web_is_identical_for_one_and_two_threads_and_turbulence_is_per_fibre() {
     assert!(coherent.fibres.windows(2).all(|w| w[0].phase == w[1].phase && w[0].frequency_scale == w[1].frequency_scale));
 }
 
+/// Twist in a laid web (opt-in, feed clamped): fed segments enter the twist state
+/// untwisted and frozen ones leave it (both exercised: the run freezes hundreds of
+/// nodes), the web stays finite, twist changes it, and it is the same on 1 and 2 threads.
+#[test]
+fn twist_follows_the_feed_and_freezing() {
+    let mut scene = small_scene();
+    scene.effects.twist = true;
+    let p = laid_web_for(&scene, 0.3, 2);
+    let run = |threads: usize, p: &LaidWebParams| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| lay_web(p, 4, 0, &indicatif::ProgressBar::hidden()))
+    };
+    let one = run(1, &p);
+    let two = run(2, &p);
+    let mut without = p.clone();
+    without.scene.effects.twist = false;
+    let plain = run(2, &without);
+    for ((a, b), c) in one.fibres.iter().zip(&two.fibres).zip(&plain.fibres) {
+        assert!(a.fed.frozen_nodes > 100, "{} frozen", a.fed.frozen_nodes);
+        assert!(a.fed.positions.iter().flatten().all(|x| x.is_finite()));
+        assert_eq!(a.fed.positions, b.fed.positions, "1 and 2 threads differ");
+        assert_ne!(a.fed.positions, c.fed.positions, "twist changed nothing");
+    }
+}
 
 /// The stage's rows are [`stage::LaidWebStageParams`]'s fields but for the scene fields a
 /// laid web sets itself ([`stage::NOT_FROM_LAYDOWN`]), which keep their defaults.

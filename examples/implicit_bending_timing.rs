@@ -9,7 +9,8 @@
 //! e.g. `... -- 4 trapezoidal_axial,implicit_bending,explicit`, or the 50 m/s scene
 //! `... -- 2 trapezoidal_axial,implicit_bending fibre_speed=50 air_speed=150 belt_speed=2 oscillation_frequency=100`.
 //! A scheme may carry its own setting after a colon: `implicit_bending:implicit_step_travel=0.5`,
-//! or switch on the opt-in twist (feed clamped): `trapezoidal_axial:twist=1`.
+//! switch on the opt-in twist (feed clamped), `trapezoidal_axial:twist=1`, or start
+//! the fibre as a continuous feed, `trapezoidal_axial:start=fed`.
 use laydown::stages::laydown::{replicate_rng, simulate, Integrator, LaydownParams, LaydownResult};
 
 fn main() {
@@ -37,6 +38,7 @@ fn main() {
                 let (k, v) = kv.split_once('=').expect("name=value");
                 match k {
                     "twist" => p.effects.twist = v != "0",
+                    "start" => p.start = laydown::rod::Start::from_name(v).expect("vertical or fed"),
                     _ => p.set(k, v.parse().unwrap()).unwrap(),
                 }
             }

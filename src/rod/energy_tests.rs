@@ -10,7 +10,8 @@ use super::forces::{Oscillation, Term};
 use super::metrics::ENERGY_COLUMNS;
 use super::params::LaydownParams;
 use super::params::Integrator;
-use super::scene::{build, prepared_simulator, replicate_rng, run, simulate, CustomStart};
+use super::replicate::simulate;
+use super::scene::{build, prepared_simulator, replicate_rng, run, CustomStart};
 use super::state::{Rod, Workspace};
 use super::integrator::{EnergySample, Work};
 

@@ -32,7 +32,9 @@
 
 use super::contact_world::ContactBody;
 use super::integrator::{Simulator, StepControl};
+use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
 use super::params::LaydownParams;
+use crate::geometry::arc_length;
 use super::scene::{build, CustomStart};
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -97,6 +99,10 @@ pub struct FedFibre {
     /// Most nodes active at once.
     pub max_active_nodes: usize,
     pub wall_seconds: f64,
+    /// Opt-in twist ([`super::twist`]) at the end time: the span's twist rate (rad/m)
+    /// and the twist laid down with the fibre (rad); 0 without twist.
+    pub twist_rate: f64,
+    pub laid_twist: f64,
     /// Set when the run could not be completed.
     pub error: Option<String>,
 }
@@ -105,6 +111,94 @@ impl FedFibre {
     /// Nodes that have landed (finite landing time).
     pub fn laid_nodes(&self) -> usize {
         self.landing_time.iter().filter(|t| t.is_finite()).count()
+    }
+
+    /// The laid nodes in fibre order, raw and with the belt motion removed (by
+    /// `p.belt_removal`), and their S and e (eqs 5-6): ((laid, removed), (S, e), (S, e) removed).
+    #[allow(clippy::type_complexity)]
+    pub fn shape(&self, p: &LaydownParams) -> ((Vec<[f64; 3]>, Vec<[f64; 3]>), (f64, f64), (f64, f64)) {
+        let laid = laid_polyline(&self.positions, &self.landing_time, None);
+        let motion = BeltMotion { belt_speed: p.belt_speed, fibre_speed: p.fibre_speed, end_time: self.end_time, element_length: self.element_length };
+        let removed = laid_polyline(&self.positions, &self.landing_time, Some((p.belt_removal, motion)));
+        let (raw, rm) = (shape_measures(&laid), shape_measures(&removed));
+        ((laid, removed), raw, rm)
+    }
+
+    /// Why the fibre is not valid (None: valid): the run's error, a landed node above
+    /// `bounce_tolerance` at the end (the paper's test), or fewer than two laid nodes.
+    pub fn invalid_reason(&self, p: &LaydownParams) -> Option<String> {
+        if let Some(err) = &self.error {
+            Some(err.clone())
+        } else if self.final_lift_of_landed > p.bounce_tolerance {
+            Some(format!(
+                "bounced: landed node {} is {:.3e} m above the belt at the end (bounce_tolerance {:.3e} m)",
+                self.final_lift_node, self.final_lift_of_landed, p.bounce_tolerance
+            ))
+        } else if self.laid_nodes() < 2 {
+            Some("fewer than two nodes landed".into())
+        } else {
+            None
+        }
+    }
+}
+
+/// Fed length per second that a laid node must stay put before it may freeze, and
+/// after which it freezes anyway (m): `start: fed` takes the settle time and age limit
+/// as the time these lengths take to feed, 20 ms and 0.2 s at Table 1's 5 m/s (the
+/// `laid_web` defaults), 2 ms and 20 ms at 50 m/s.
+const FED_SETTLE_LENGTH: f64 = 0.1;
+const FED_AGE_LENGTH: f64 = 1.0;
+
+/// One replicate of the laydown scene with `start: fed`: the paper's element length
+/// (after `coil_resolution`) and end time, the fibre fed into a short buffer above z0
+/// instead of hanging from z = L, settled laid nodes frozen. Never panics on bad
+/// input: errors are reported in [`LaydownResult::error`].
+pub fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> LaydownResult {
+    let elements = p.resolved_elements();
+    let element_length = p.length / elements as f64;
+    let t_end = p.end_time();
+    let mut scene = p.clone();
+    scene.length = p.fibre_speed * t_end;
+    scene.elements = (scene.length / element_length).round().max(1.0) as usize;
+    scene.coil_resolution = 0.0; // the element length is the resolved one already
+    scene.duration = 0.0;
+    let settings = FeedSettings { settle_time: FED_SETTLE_LENGTH / p.fibre_speed, age_limit: FED_AGE_LENGTH / p.fibre_speed, ..FeedSettings::default() };
+    let fed = feed_fibre(&scene, 0.0, t_end, &settings, rng);
+    let ((laid, removed), (s, e), (sr, er)) = fed.shape(p);
+    let invalid_reason = fed.invalid_reason(p);
+    let mut warnings = Vec::new();
+    if elements != p.elements {
+        warnings.push(format!("elements raised from {} to {} by coil_resolution", p.elements, elements));
+    }
+    LaydownResult {
+        landed_nodes: laid.len(),
+        laid_length: arc_length(&laid),
+        valid: invalid_reason.is_none(),
+        invalid_reason,
+        final_lift_of_landed: fed.final_lift_of_landed,
+        // lifts are not kept for frozen nodes (bounce_check transient needs start: vertical)
+        max_lift_after_landing: f64::NAN,
+        lift: Vec::new(),
+        lift_time: Vec::new(),
+        radius_of_gyration: s,
+        bending_energy: e,
+        laid_belt_removed: removed,
+        radius_of_gyration_belt_removed: sr,
+        bending_energy_belt_removed: er,
+        twist_rate: fed.twist_rate,
+        laid_twist: fed.laid_twist,
+        steps: fed.steps,
+        time_step: f64::NAN,
+        min_time_step: fed.min_time_step,
+        rejected_steps: fed.rejected_steps,
+        end_time: fed.end_time,
+        elements,
+        wall_seconds: fed.wall_seconds,
+        warnings,
+        positions: fed.positions,
+        landing_time: fed.landing_time,
+        error: fed.error,
+        ..LaydownResult::failed(String::new())
     }
 }
 
@@ -295,6 +389,8 @@ impl Feeder {
             node_steps: self.node_steps,
             max_active_nodes: self.max_active,
             wall_seconds: self.wall_seconds,
+            twist_rate: sim.twist.as_ref().map_or(0.0, |t| t.twist_rate),
+            laid_twist: sim.twist.as_ref().map_or(0.0, |t| t.laid_twist()),
             error: self.error,
         }
     }

@@ -401,9 +401,11 @@ impl Simulator {
         // energy carried out: the dropped nodes' K, the share of node `count`'s mass it
         // loses, the dropped segments' strain and the bending up to node `count`
         let kin = |i: usize| 0.5 * r.mass[i] * (r.v[i][0].powi(2) + r.v[i][1].powi(2) + r.v[i][2].powi(2));
+        let twist_out = self.twist.as_mut().map_or(0.0, |t| t.drop_front(r, count));
         let out = (0..count).map(|i| kin(i) + axial_energy_at(r, i) + bending_energy_at(r, i)).sum::<f64>()
             + (1.0 - share) * kin(count)
-            + bending_energy_at(r, count);
+            + bending_energy_at(r, count)
+            + twist_out;
         self.work.transport -= out;
         r.x.drain(..count);
         r.v.drain(..count);
@@ -419,9 +421,6 @@ impl Simulator {
         self.segment_force.drain(..count);
         if let Some(c) = &mut self.fibre_contact {
             c.dropped += count;
-        }
-        if let Some(twist) = &mut self.twist {
-            twist.drop_front(count);
         }
         let t = self.t;
         self.clamped = (0..clamp).collect();

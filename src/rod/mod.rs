@@ -6,7 +6,7 @@
 //! Layout: [`state`] (nodes, masses, workspace), [`forces`] (one opt-in [`forces::Term`]
 //! per effect: elasticity, gravity, drag, oscillation, damping), [`contact`] (belt
 //! plane, Coulomb friction), [`integrator`] (time steppers and their step control),
-//! [`params`] (the scene's parameter table), [`air`] (the opt-in air field near the belt), [`scene`] (the paper's single-fibre scene),
+//! [`params`] (the scene's parameter table), [`replicate`] (one replicate by either start, batches of them), [`air`] (the opt-in air field near the belt), [`scene`] (the paper's single-fibre scene),
 //! [`feed`] (continuous feed: a fibre of any length fed through the laydown zone, the
 //! stuck part frozen), [`twist`] (opt-in rod twist), [`fibre_contact`] and [`contact_world`] (opt-in contact between
 //! fibres: narrow and broad phase), [`metrics`] (S and e of the laid fibre).
@@ -44,6 +44,14 @@
 //!   impulses ([`contact`]);
 //! - Rayleigh mass damping α_R; initial x/y imperfections N(0, σ) drawn from the
 //!   caller's RNG.
+//!
+//! # Start ([`Start`])
+//! `vertical` (default) is the scene above. `fed` lays the same replicate as a
+//! continuous feed ([`feed::simulate_fed`]): the fibre enters a short buffer above z0 at
+//! v_f, and laid nodes that stayed put while 0.1 m was fed are frozen. The element
+//! length, end time and laid length are the same. S and e agree with the vertical
+//! start's within statistical error, at 0.55× its cost at the baseline and 0.26× at
+//! 50 m/s (`pipelines/studies/FIBRE_SPEED.md`, which also records where validity differs).
 //!
 //! # Integrators ([`Integrator`], formulas in [`integrator`])
 //! - `explicit` (reference): extensible rod, symplectic Euler, fixed
@@ -117,6 +125,7 @@ pub mod forces;
 pub mod integrator;
 pub mod metrics;
 pub mod params;
+pub mod replicate;
 pub mod scene;
 pub mod state;
 pub mod twist;
@@ -128,5 +137,6 @@ mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, BeltMotion, BeltRemoval, LaydownResult};
-pub use params::{parameter_table_markdown, AirField, BounceCheck, Effects, FeedEnd, Integrator, LaydownParams, ParamError, PARAMETERS};
-pub use scene::{prepared_simulator, replicate_rng, run_jobs, simulate, LaydownJob};
+pub use params::{parameter_table_markdown, AirField, BounceCheck, Effects, FeedEnd, Integrator, LaydownParams, ParamError, Start, PARAMETERS};
+pub use replicate::{run_jobs, simulate, LaydownJob};
+pub use scene::{prepared_simulator, replicate_rng};

@@ -71,6 +71,21 @@ crate::params::choice_enum! {
     }
 }
 
+crate::params::choice_enum! {
+    /// How the fibre enters the scene.
+    pub enum Start {
+        /// The paper's: a vertical fibre of length L, bottom node on the belt, every node
+        /// simulated until the top reaches z0.
+        #[default]
+        Vertical = "vertical",
+        /// Continuous feed ([`super::feed`], as `laid_web` lays each fibre): a short
+        /// buffer above z0 into which fibre is fed at v_f, settled laid nodes frozen; the
+        /// same element length, end time and laid length. Statistically the paper's
+        /// replicate (tested), at a fraction of its cost.
+        Fed = "fed",
+    }
+}
+
 /// Opt-in physical effects. A disabled effect is not built at all (no cost).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -204,6 +219,8 @@ pub struct LaydownParams {
     pub belt_removal: super::metrics::BeltRemoval,
     /// With `effects.twist`: whether the feed end is clamped against spinning.
     pub feed_end: FeedEnd,
+    /// How the fibre enters the scene: the paper's vertical fibre or a continuous feed.
+    pub start: Start,
     /// Physical effects switched on.
     pub effects: Effects,
 }
@@ -246,6 +263,7 @@ impl Default for LaydownParams {
             bounce_check: BounceCheck::default(),
             belt_removal: super::metrics::BeltRemoval::default(),
             feed_end: FeedEnd::default(),
+            start: Start::default(),
             effects: Effects::default(),
         }
     }
@@ -421,6 +439,11 @@ impl LaydownParams {
                 "laydown_height ({} m) must be below the fibre length ({} m)",
                 self.laydown_height, self.length
             )));
+        }
+        if self.start == Start::Fed && self.bounce_check == BounceCheck::Transient {
+            return Err(ParamError::Inconsistent(
+                "bounce_check transient needs start: vertical (a fed fibre keeps no lift history of its frozen nodes); use bounce_check: final".into(),
+            ));
         }
         if self.duration > self.length / self.fibre_speed {
             return Err(ParamError::Inconsistent(format!(

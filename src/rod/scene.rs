@@ -12,7 +12,6 @@ use crate::geometry::arc_length;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use rayon::prelude::*;
 use std::time::Instant;
 
 /// Initial configuration other than the paper's falling vertical fibre (used by the
@@ -171,10 +170,11 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
     }
 }
 
-/// Run one replicate of the laydown scene. Imperfections are drawn from `rng`
-/// (in practice a `ChaCha8Rng` per replicate, see [`replicate_rng`]).
+/// Run one replicate of the paper's scene (`start: vertical`; [`super::replicate::simulate`]
+/// chooses by the start). Imperfections are drawn from `rng` (in practice a
+/// `ChaCha8Rng` per replicate, see [`replicate_rng`]).
 /// Never panics on bad input: errors are reported in [`LaydownResult::error`].
-pub fn simulate<R: Rng + ?Sized>(params: &LaydownParams, rng: &mut R) -> LaydownResult {
+pub fn simulate_vertical<R: Rng + ?Sized>(params: &LaydownParams, rng: &mut R) -> LaydownResult {
     if let Err(e) = params.validate() {
         return LaydownResult::failed(e.to_string());
     }
@@ -349,18 +349,3 @@ pub fn replicate_rng(seed: u64, replicate: u64) -> ChaCha8Rng {
     crate::rng::stream_rng(seed, replicate, 0)
 }
 
-/// One (parameter point, replicate) job.
-#[derive(Clone, Debug)]
-pub struct LaydownJob {
-    pub params: LaydownParams,
-    pub seed: u64,
-    pub replicate: u64,
-}
-
-/// Run jobs in parallel on the current rayon pool; results come back in job order and
-/// are identical for any number of threads (each job owns its RNG).
-pub fn run_jobs(jobs: &[LaydownJob]) -> Vec<LaydownResult> {
-    jobs.par_iter()
-        .map(|j| simulate(&j.params, &mut replicate_rng(j.seed, j.replicate)))
-        .collect()
-}

@@ -62,6 +62,8 @@ pub struct Twist {
     held: Option<usize>,
     /// Twist rate Ω of the span at the last evaluation (rad/m).
     pub twist_rate: f64,
+    /// Twist laid down with nodes that have since left the rod (frozen; rad).
+    dropped_twist: f64,
     /// Σ V_i over the span at the last evaluation (m).
     span_length: f64,
 }
@@ -174,6 +176,7 @@ impl Twist {
             laid_twist: vec![0.0; ns + 1],
             held: None,
             twist_rate: 0.0,
+            dropped_twist: 0.0,
             span_length: 0.0,
         }
     }
@@ -196,9 +199,10 @@ impl Twist {
         span + laid
     }
 
-    /// Total twist laid down with the fibre, Σ τ_i over the laid nodes (rad).
+    /// Total twist laid down with the fibre, Σ τ_i over the laid nodes (rad), those
+    /// that have left the rod included.
     pub fn laid_twist(&self) -> f64 {
-        self.laid().map(|i| self.laid_twist[i]).sum()
+        self.dropped_twist + self.laid().map(|i| self.laid_twist[i]).sum::<f64>()
     }
 
     /// Transport the directors to `tangent` (unit tangents of the current positions).
@@ -313,8 +317,12 @@ impl Twist {
         self.laid_twist.push(0.0);
     }
 
-    /// Continuous feed: the first `count` nodes leave the rod.
-    pub fn drop_front(&mut self, count: usize) {
+    /// Continuous feed: the first `count` nodes (laid, below the span) leave the rod.
+    /// Returns the twist energy they carry out (J).
+    pub fn drop_front(&mut self, rod: &Rod, count: usize) -> f64 {
+        let gone = 0..count.min(self.laid().end);
+        self.dropped_twist += self.laid_twist[gone.clone()].iter().sum::<f64>();
+        let energy = gone.map(|i| 0.5 * self.twist_stiffness * self.laid_twist[i] * self.laid_twist[i] * rod.inv_voronoi[i]).sum();
         self.director.drain(..count);
         self.director_tangent.drain(..count);
         self.theta.drain(..count);
@@ -322,6 +330,7 @@ impl Twist {
         self.laid_twist.drain(..count);
         self.reference_twist[0] = 0.0;
         self.held = self.held.and_then(|b| b.checked_sub(count));
+        energy
     }
 
     /// The reference twist the transported directors give node i now (no unwrapping),

@@ -42,7 +42,7 @@ pub use stage::LaidWebStage;
 
 use crate::error::InvalidParam;
 use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings};
-use crate::rod::{laid_polyline, shape_measures, BeltMotion, LaydownParams};
+use crate::rod::LaydownParams;
 use crate::rng::stream_rng;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -268,23 +268,8 @@ fn draw_turbulence<R: Rng + ?Sized>(p: &LaidWebParams, rng: &mut R) -> (f64, f64
 }
 
 fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibre, turbulence: (f64, f64, f64)) -> LaidFibre {
-    let laid = laid_polyline(&fed.positions, &fed.landing_time, None);
-    let motion = BeltMotion { belt_speed: scene.belt_speed, fibre_speed: scene.fibre_speed, end_time: fed.end_time, element_length: fed.element_length };
-    let removed = laid_polyline(&fed.positions, &fed.landing_time, Some((scene.belt_removal, motion)));
-    let (s, e) = shape_measures(&laid);
-    let (sr, er) = shape_measures(&removed);
-    let invalid_reason = if let Some(err) = &fed.error {
-        Some(err.clone())
-    } else if fed.final_lift_of_landed > scene.bounce_tolerance {
-        Some(format!(
-            "bounced: landed node {} is {:.3e} m above the belt at the end (bounce_tolerance {:.3e} m)",
-            fed.final_lift_node, fed.final_lift_of_landed, scene.bounce_tolerance
-        ))
-    } else if laid.len() < 2 {
-        Some("fewer than two nodes landed".into())
-    } else {
-        None
-    };
+    let ((_, removed), (s, e), (sr, er)) = fed.shape(scene);
+    let invalid_reason = fed.invalid_reason(scene);
     LaidFibre {
         feed_cd: (j as f64 + 0.5) * p.fibre_spacing - 0.5 * p.cd_period(),
         phase: turbulence.0,

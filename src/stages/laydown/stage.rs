@@ -35,7 +35,7 @@
 //! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
 //! (one record per `diagnostic_stride` steps) are not counted.
 use crate::error::InvalidParam;
-use super::params::{AirField, BounceCheck, Effects, FeedEnd, Integrator, LaydownParams, PARAMETERS};
+use super::params::{AirField, BounceCheck, Effects, FeedEnd, Integrator, LaydownParams, Start, PARAMETERS};
 use super::metrics::ENERGY_COLUMNS;
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
@@ -182,6 +182,12 @@ impl Stage for LaydownStage {
             crate::rod::BeltRemoval::NAMES,
             crate::rod::BeltRemoval::default().name(),
             "belt-removed S and e (Figs 5-6 dashed): landing takes off the belt travel since each node landed, x − v_b(t_end − t_land) (the paper's reading; e grows with the mesh); feed since it was fed, x + (v_b/v_f)s (converges)",
+        ));
+        v.push(ParamSpec::choice(
+            "start",
+            Start::NAMES,
+            Start::default().name(),
+            "vertical: the paper's start, a vertical fibre of length L all simulated; fed: fibre fed continuously into a short buffer above laydown_height, settled laid nodes frozen (src/rod/feed.rs, as laid_web lays a fibre): the same element length, end time and laid length, statistically the same replicate, 2-4x faster",
         ));
         v.push(ParamSpec::choice(
             "feed_end",

@@ -1043,6 +1043,9 @@ fn project_run(
     let mut iterations = 0;
     for iter in 0..=PROJECTION_MAX_ITERS {
         residual = 0.0;
+        // a bound 4 ulp below the residual: |C_k| ≤ bound l0_k cannot make |C_k|/l0_k
+        // exceed it, so most segments skip the division
+        let mut bound = 0.0;
         for k in a..b {
             let (p, q) = (rod.x[k], rod.x[k + 1]);
             let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
@@ -1052,10 +1055,13 @@ fn project_run(
             ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
             let c = l - l0 + compliance * l0 * ws.lambda_acc[k] - old_weight * l0 * p_old[k];
             ws.cons[k] = -c;
-            let r = c.abs() / l0;
-            if r > residual {
-                residual = r;
-                worst = k;
+            if !(c.abs() <= bound * l0) {
+                let r = c.abs() / l0;
+                if r > residual {
+                    residual = r;
+                    worst = k;
+                    bound = residual * (1.0 - 4.0 * f64::EPSILON);
+                }
             }
         }
         if residual < PROJECTION_TOL || iter == PROJECTION_MAX_ITERS {

@@ -1043,8 +1043,8 @@ fn project_run(
     let mut iterations = 0;
     for iter in 0..=PROJECTION_MAX_ITERS {
         residual = 0.0;
-        // a bound 4 ulp below the residual: |C_k| ≤ bound l0_k cannot make |C_k|/l0_k
-        // exceed it, so most segments skip the division
+        // bound = (1 − 4ε) residual: |C_k| ≤ bound l0_k cannot make |C_k|/l0_k exceed
+        // the residual, so most segments skip the division
         let mut bound = 0.0;
         for k in a..b {
             let (p, q) = (rod.x[k], rod.x[k + 1]);

@@ -566,6 +566,10 @@ fn drag_lanes(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
             along[l] = vt.abs();
             across[l] = (wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]).sqrt();
         }
+        if !inside.contains(&true) {
+            // all above the zone (the hanging part of the fibre): no power laws to compute
+            continue;
+        }
         let tangential = pow_pos_lanes(&along, 1.0 - TANGENTIAL_RE_EXPONENT);
         let normal = pow_pos_lanes(&across, 1.0 - NORMAL_DRAG_B);
         for l in 0..DRAG_LANES.min(elements - first) {

@@ -966,22 +966,21 @@ impl Simulator {
         self.projection_residual = self.projection_residual.max(residual);
         // multiplier λ_k > 0 pushes the segment ends apart: compression P_k = λ_k/Δt²
         let idt2 = 1.0 / (self.dt * self.dt);
-        let mut pmax = 0.0f64;
         let ws = &self.ws;
         let trapezoid = self.axial_theta < 1.0 && self.compliance > 0.0;
+        if trapezoid {
+            // end-of-step spring forces, the P_old of the next step
+            spring_forces(&self.rod, self.compliance, &mut self.segment_force);
+        } else {
+            for k in 0..ns {
+                self.segment_force[k] = ws.lambda_acc[k] * idt2;
+            }
+        }
+        let mut pmax = 0.0f64;
         for k in 0..ns {
-            let p = if trapezoid {
-                // end-of-step spring force, the P_old of the next step
-                let (x0, x1) = (self.rod.x[k], self.rod.x[k + 1]);
-                let l = ((x1[0] - x0[0]).powi(2) + (x1[1] - x0[1]).powi(2) + (x1[2] - x0[2]).powi(2)).sqrt();
-                (self.rod.rest[k] - l) / (self.rod.rest[k] * self.compliance)
-            } else {
-                ws.lambda_acc[k] * idt2
-            };
-            self.segment_force[k] = p;
             // buckling needs a free span: segments touching the belt do not count
             if ws.contact[k] == NodeContact::Free && ws.contact[k + 1] == NodeContact::Free {
-                pmax = pmax.max(p);
+                pmax = pmax.max(self.segment_force[k]);
             }
         }
         self.max_compression = self.max_compression.max(pmax);
@@ -991,6 +990,50 @@ impl Simulator {
             return Err(StepFailure::Projection { t: self.t + self.dt, dt: self.dt, residual, segment: wk, from: c(wk), to: c(wk + 1) });
         }
         Ok(())
+    }
+}
+
+/// The spring force P_k = EA (l0_k − l_k)/l0_k of every segment at the current positions
+/// (`inv_ea` = 1/EA), [`SPRING_LANES`] segments at a time (their square roots and
+/// divisions vectorise).
+fn spring_forces(rod: &Rod, inv_ea: f64, p: &mut [f64]) {
+    crate::simd::widest_isa!(
+        generic: spring_forces_lanes(rod, inv_ea, p),
+        avx2: spring_forces_avx2(rod, inv_ea, p),
+        avx512: spring_forces_avx512(rod, inv_ea, p),
+    )
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn spring_forces_avx512(rod: &Rod, inv_ea: f64, p: &mut [f64]) {
+    spring_forces_lanes(rod, inv_ea, p)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn spring_forces_avx2(rod: &Rod, inv_ea: f64, p: &mut [f64]) {
+    spring_forces_lanes(rod, inv_ea, p)
+}
+
+const SPRING_LANES: usize = 8;
+
+#[inline(always)]
+fn spring_forces_lanes(rod: &Rod, inv_ea: f64, p: &mut [f64]) {
+    let ns = rod.rest.len();
+    for first in (0..ns).step_by(SPRING_LANES) {
+        let m = SPRING_LANES.min(ns - first);
+        let (mut l2, mut l0) = ([0.0; SPRING_LANES], [1.0; SPRING_LANES]);
+        for j in 0..m {
+            let (x0, x1) = (rod.x[first + j], rod.x[first + j + 1]);
+            l2[j] = (x1[0] - x0[0]).powi(2) + (x1[1] - x0[1]).powi(2) + (x1[2] - x0[2]).powi(2);
+            l0[j] = rod.rest[first + j];
+        }
+        let mut f = [0.0; SPRING_LANES];
+        for j in 0..SPRING_LANES {
+            f[j] = (l0[j] - l2[j].sqrt()) / (l0[j] * inv_ea);
+        }
+        p[first..first + m].copy_from_slice(&f[..m]);
     }
 }
 
@@ -1021,6 +1064,9 @@ fn project_run(
     let mut iterations = 0;
     for iter in 0..=PROJECTION_MAX_ITERS {
         residual = 0.0;
+        // bound = (1 − 4ε) residual: |C_k| ≤ bound l0_k cannot make |C_k|/l0_k exceed
+        // the residual, so most segments skip the division
+        let mut bound = 0.0;
         for k in a..b {
             let (p, q) = (rod.x[k], rod.x[k + 1]);
             let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
@@ -1030,10 +1076,13 @@ fn project_run(
             ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
             let c = l - l0 + compliance * l0 * ws.lambda_acc[k] - old_weight * l0 * p_old[k];
             ws.cons[k] = -c;
-            let r = c.abs() / l0;
-            if r > residual {
-                residual = r;
-                worst = k;
+            if !(c.abs() <= bound * l0) {
+                let r = c.abs() / l0;
+                if r > residual {
+                    residual = r;
+                    worst = k;
+                    bound = residual * (1.0 - 4.0 * f64::EPSILON);
+                }
             }
         }
         if residual < PROJECTION_TOL || iter == PROJECTION_MAX_ITERS {

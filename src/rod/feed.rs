@@ -93,6 +93,8 @@ pub struct FedFibre {
     pub element_length: f64,
     pub steps: u64,
     pub rejected_steps: u64,
+    /// Largest allowed step (s) and the smallest step taken (s).
+    pub time_step: f64,
     pub min_time_step: f64,
     /// Σ over steps of the active nodes: the work done, in node-steps.
     pub node_steps: u64,
@@ -188,7 +190,7 @@ pub fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> LaydownR
         twist_rate: fed.twist_rate,
         laid_twist: fed.laid_twist,
         steps: fed.steps,
-        time_step: f64::NAN,
+        time_step: fed.time_step,
         min_time_step: fed.min_time_step,
         rejected_steps: fed.rejected_steps,
         end_time: fed.end_time,
@@ -385,6 +387,7 @@ impl Feeder {
             element_length: self.element_length,
             steps: sim.steps,
             rejected_steps: self.control.rejected,
+            time_step: self.control.dt_max,
             min_time_step: self.control.min_dt,
             node_steps: self.node_steps,
             max_active_nodes: self.max_active,

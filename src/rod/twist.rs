@@ -29,8 +29,8 @@
 //!
 //! With θ in equilibrium the centreline force is F = −GJ Ω Σ_i ∂m_i/∂x (the θ terms
 //! vanish), with ∂m_i/∂x_{i−1} = −κb_i/(2 l_{i−1}), ∂m_i/∂x_{i+1} = κb_i/(2 l_i) and
-//! ∂m_i/∂x_i minus their sum (Bergou et al. 2010, eq 10; checked against finite
-//! differences of m in the tests), κb_i = 2 t_{i−1} × t_i/(1 + t_{i−1}·t_i) the
+//! ∂m_i/∂x_i minus their sum (the holonomy gradient of Bergou et al. 2008; checked
+//! against finite differences of m in the tests), κb_i = 2 t_{i−1} × t_i/(1 + t_{i−1}·t_i) the
 //! curvature binormal. For an isotropic rod twist enters bending only through this force.
 //!
 //! # Use

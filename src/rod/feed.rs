@@ -153,9 +153,9 @@ const FED_AGE_LENGTH: f64 = 1.0;
 
 /// One replicate of the laydown scene with `start: fed`: the paper's element length
 /// (after `coil_resolution`) and end time, the fibre fed into a short buffer above z0
-/// instead of hanging from z = L, settled laid nodes frozen. Never panics on bad
-/// input: errors are reported in [`LaydownResult::error`].
-pub fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> LaydownResult {
+/// instead of hanging from z = L, settled laid nodes frozen; validated parameters
+/// ([`super::replicate::simulate`] validates). Errors are reported in [`LaydownResult::error`].
+pub(crate) fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> LaydownResult {
     let elements = p.resolved_elements();
     let element_length = p.length / elements as f64;
     let t_end = p.end_time();
@@ -168,10 +168,6 @@ pub fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> LaydownR
     let fed = feed_fibre(&scene, 0.0, t_end, &settings, rng);
     let ((laid, removed), (s, e), (sr, er)) = fed.shape(p);
     let invalid_reason = fed.invalid_reason(p);
-    let mut warnings = Vec::new();
-    if elements != p.elements {
-        warnings.push(format!("elements raised from {} to {} by coil_resolution", p.elements, elements));
-    }
     LaydownResult {
         landed_nodes: laid.len(),
         laid_length: arc_length(&laid),
@@ -196,7 +192,7 @@ pub fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> LaydownR
         end_time: fed.end_time,
         elements,
         wall_seconds: fed.wall_seconds,
-        warnings,
+        warnings: p.resolution_warning(elements).into_iter().collect(),
         positions: fed.positions,
         landing_time: fed.landing_time,
         error: fed.error,

@@ -47,7 +47,7 @@
 //!
 //! # Start ([`Start`])
 //! `vertical` (default) is the scene above. `fed` lays the same replicate as a
-//! continuous feed ([`feed::simulate_fed`]): the fibre enters a short buffer above z0 at
+//! continuous feed (`feed::simulate_fed`): the fibre enters a short buffer above z0 at
 //! v_f, and laid nodes that stayed put while 0.1 m was fed are frozen. The element
 //! length, end time and laid length are the same. S and e agree with the vertical
 //! start's within statistical error, at 0.55× its cost at the baseline and 0.26× at

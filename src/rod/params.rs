@@ -467,6 +467,18 @@ impl LaydownParams {
     pub fn bending_stiffness(&self) -> f64 {
         self.youngs_modulus * PI * self.diameter.powi(4) / 64.0
     }
+    /// The warning a replicate carries when `coil_resolution` raised `elements` to
+    /// `resolved` ([`Self::resolved_elements`]); None when it did not.
+    pub fn resolution_warning(&self, resolved: usize) -> Option<String> {
+        (resolved != self.elements).then(|| {
+            format!(
+                "elements raised from {} to {} so that the element length is at most coil_scale/coil_resolution = {:.3e} m",
+                self.elements,
+                resolved,
+                self.coil_scale() / self.coil_resolution
+            )
+        })
+    }
     /// Torsional stiffness GJ = EI/(1 + ν) of a round section (N·m²): G = E/2(1 + ν), J = 2I.
     pub fn twist_stiffness(&self) -> f64 {
         self.bending_stiffness() / (1.0 + self.poisson_ratio)

@@ -170,26 +170,16 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
     }
 }
 
-/// Run one replicate of the paper's scene (`start: vertical`; [`super::replicate::simulate`]
-/// chooses by the start). Imperfections are drawn from `rng` (in practice a
-/// `ChaCha8Rng` per replicate, see [`replicate_rng`]).
-/// Never panics on bad input: errors are reported in [`LaydownResult::error`].
-pub fn simulate_vertical<R: Rng + ?Sized>(params: &LaydownParams, rng: &mut R) -> LaydownResult {
-    if let Err(e) = params.validate() {
-        return LaydownResult::failed(e.to_string());
-    }
+/// Run one replicate of the paper's scene (`start: vertical`) with validated
+/// parameters ([`super::replicate::simulate`] validates and chooses by the start).
+/// Imperfections are drawn from `rng` (in practice a `ChaCha8Rng` per replicate, see
+/// [`replicate_rng`]). Errors are reported in [`LaydownResult::error`].
+pub(crate) fn simulate_vertical<R: Rng + ?Sized>(params: &LaydownParams, rng: &mut R) -> LaydownResult {
     let elements = params.resolved_elements();
     let start = paper_start(params, elements, rng);
     let mut sim = build(params, start);
     let mut result = run(&mut sim, params, params.end_time());
-    if elements != params.elements {
-        result.warnings.push(format!(
-            "elements raised from {} to {} so that the element length is at most coil_scale/coil_resolution = {:.3e} m",
-            params.elements,
-            elements,
-            params.coil_scale() / params.coil_resolution
-        ));
-    }
+    result.warnings.extend(params.resolution_warning(elements));
     result
 }
 

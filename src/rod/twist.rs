@@ -380,6 +380,19 @@ mod tests {
         (rod, ws, twist)
     }
 
+    /// Central difference (f(x + h e) − f(x − h e))/2h of `f` over the rod with node
+    /// `node`'s component `c` moved, each side from a copy of `twist` and fresh geometry.
+    fn central_difference(rod: &Rod, twist: &Twist, node: usize, c: usize, h: f64, f: impl Fn(&Rod, &mut Workspace, &mut Twist) -> f64) -> f64 {
+        let side = |sign: f64| {
+            let mut r = rod.clone();
+            r.x[node][c] += sign * h;
+            let mut w = Workspace::new(r.nodes());
+            w.update_geometry(&r);
+            f(&r, &mut w, &mut twist.clone())
+        };
+        (side(1.0) - side(-1.0)) / (2.0 * h)
+    }
+
     #[test]
     fn small_angle_atan2_is_libms_within_two_ulp() {
         let mut worst = 0.0f64;
@@ -439,17 +452,10 @@ mod tests {
             let (la, lb) = (ws.seg_len[i - 1], ws.seg_len[i]);
             for node in [i - 1, i, i + 1] {
                 for c in 0..3 {
-                    let mut m = [0.0; 2];
-                    for (side, sign) in [(0, 1.0), (1, -1.0)] {
-                        let mut r = rod.clone();
-                        r.x[node][c] += sign * h;
-                        let mut w = Workspace::new(r.nodes());
-                        w.update_geometry(&r);
-                        let mut t = twist.clone();
+                    let fd = central_difference(&rod, &twist, node, c, h, |_, w, t| {
                         t.transport_directors(&w.tangent);
-                        m[side] = t.reference_twist_now(&w.tangent, i);
-                    }
-                    let fd = (m[0] - m[1]) / (2.0 * h);
+                        t.reference_twist_now(&w.tangent, i)
+                    });
                     let analytic = if node == i - 1 {
                         -kb[c] / (2.0 * la)
                     } else if node == i + 1 {
@@ -478,17 +484,10 @@ mod tests {
         let h = 1e-8;
         for node in 1..n {
             for c in 0..3 {
-                let mut e = [0.0; 2];
-                for (side, sign) in [(0, 1.0), (1, -1.0)] {
-                    let mut r = rod.clone();
-                    r.x[node][c] += sign * h;
-                    let mut w = Workspace::new(r.nodes());
-                    w.update_geometry(&r);
-                    let mut t = twist.clone();
-                    t.accumulate(&r, &mut w, true, |i| i < 2);
-                    e[side] = t.energy(&r);
-                }
-                let fd = -(e[0] - e[1]) / (2.0 * h);
+                let fd = -central_difference(&rod, &twist, node, c, h, |r, w, t| {
+                    t.accumulate(r, w, true, |i| i < 2);
+                    t.energy(r)
+                });
                 let f = ws.force[node][c];
                 let scale = ws.force.iter().flatten().fold(0.0f64, |a, b| a.max(b.abs()));
                 assert!((fd - f).abs() < 1e-5 * scale, "node {node}[{c}]: −∂E/∂x {fd:.6e}, force {f:.6e}");

@@ -8,7 +8,9 @@
 //! step is the smallest any rod asks for. Before each step every rod predicts the
 //! velocities v* it will reach without fibre contact (forces, the implicit update and
 //! the belt: [`Simulator::predict_velocities`]), and every rod's copies of the other
-//! rods' segments are refreshed with their positions and v* (Jacobi: within a step a
+//! rods' segments are refreshed with their positions and v* (a node resting on another
+//! fibre is seen at its current velocity instead: its v* would carry it into the fibre
+//! that holds it, and a fibre lying on it would sink by that much; Jacobi: within a step a
 //! rod sees the others move as they would without it, and judges a pair's approach as
 //! the other rod does; which of the two yields is in
 //! [`super::fibre_contact::yield_share`]). Seen at their start-of-step velocities, two
@@ -25,6 +27,10 @@
 //! candidates when their grown boxes overlap. The cross direction may be periodic
 //! (period P): cells wrap and an obstacle is the image of the segment nearest to the
 //! own segment.
+//!
+//! Segments above [`ContactWorld::contact_top`] take no part (set it to the laydown
+//! height z0: above it eq 7's oscillator prescribes where each fibre is, and two
+//! prescribed positions cannot give way to each other).
 //!
 //! A rod's simulated part does not collide with itself (its segments are adjacent or
 //! bend smoothly over a few elements); it does collide with its own frozen stretch,
@@ -75,6 +81,10 @@ pub struct ContactWorld {
     /// CD offset of each rod's own frame in the world (m): rod f's y is y_world − offset
     /// (each fibre of a web is simulated under its own feed point). Zero by default.
     pub cd_offsets: Vec<f64>,
+    /// Height above which segments take no part in contact (m): where eq 7's oscillator
+    /// prescribes each fibre's position (z > z0), two prescribed positions cannot give
+    /// way to each other. Infinite by default.
+    pub contact_top: f64,
     /// Grid cell side h (m).
     cell: f64,
     /// CD cells per period (when periodic) and their side.
@@ -194,6 +204,7 @@ impl ContactWorld {
             frozen_count: vec![0; fibres],
             last_frozen: vec![None; fibres],
             cd_offsets: vec![0.0; fibres],
+            contact_top: f64::INFINITY,
         }
     }
 
@@ -276,13 +287,20 @@ impl ContactWorld {
                                     _ => &sim.rod.v,
                                 };
                                 let shift = |p: [f64; 3]| [p[0], p[1] + o.cd_shift, p[2]];
+                                // a node held up by another fibre moves as it did in the last
+                                // step: its velocity before contact would carry it into that fibre
+                                let on_fibre = |i: usize| sim.fibre_contact.as_ref().is_some_and(|c| c.resting.get(i) == Some(&true));
+                                let velocity = |i: usize| if on_fibre(i) { sim.rod.v[i] } else { v[i] };
                                 ObstacleSegment {
                                     a: shift(x[k]),
                                     b: shift(x[k + 1]),
-                                    va: v[k],
-                                    vb: v[k + 1],
+                                    va: velocity(k),
+                                    vb: velocity(k + 1),
                                     t_ref: t,
-                                    landed: [sim.landing_time[k].is_finite(), sim.landing_time[k + 1].is_finite()],
+                                    landed: match &sim.fibre_contact {
+                                        Some(c) => [c.rests(k, &sim.landing_time), c.rests(k + 1, &sim.landing_time)],
+                                        None => [sim.landing_time[k].is_finite(), sim.landing_time[k + 1].is_finite()],
+                                    },
                                     ..*o
                                 }
                             }
@@ -328,7 +346,8 @@ impl ContactWorld {
             for k in 0..x.len() - 1 {
                 let held = !free.contains(&k) && !free.contains(&(k + 1));
                 let reach = reach(v[k], v[k + 1], w, interval);
-                let landed = [sim.landing_time[k].is_finite(), sim.landing_time[k + 1].is_finite()];
+                let rests = |i: usize| sim.fibre_contact.as_ref().map_or(sim.landing_time[i].is_finite(), |c| c.rests(i, &sim.landing_time));
+                let landed = [rests(k), rests(k + 1)];
                 active.push(Active { a: world(x[k]), b: world(x[k + 1]), va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, landed, reach });
             }
         }
@@ -336,6 +355,9 @@ impl ContactWorld {
         let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
         for (id, s) in active.iter().enumerate() {
             let (lo, hi) = bbox(s.a, s.b, add(s.reach, half_d));
+            if lo[2] > self.contact_top {
+                continue;
+            }
             for key in self.cells_3d(lo, hi) {
                 grid.entry(key).or_default().push(id as u32);
             }
@@ -363,6 +385,9 @@ impl ContactWorld {
                     let s = &active[k];
                     let (lo, hi) = bbox(s.a, s.b, add(s.reach, half_d));
                     seen.clear();
+                    if lo[2] > self.contact_top {
+                        continue;
+                    }
                     for key in self.cells_3d(lo, hi) {
                         if let Some(ids) = grid.get(&key) {
                             for &o in ids {

@@ -23,17 +23,21 @@
 //!   nodes through the step's inverse node matrices W_k (which hold a node stuck on the
 //!   belt fixed): q_k += β_k λ W_k u, β = (1 − s, s), u = Δ/|Δ|, λ = |Δ|/Σ β_k² uᵀW_k u.
 //!   The node nearer the contact then loses its freedom along n in the length
-//!   projection, and the belt leaves it alone in that step (its lagged axial force would
-//!   otherwise send it through the fibre onto the belt);
+//!   projection, with or without an impulse (a resting contact needs none, and the
+//!   projection would otherwise pull the node back into the other fibre), and the belt
+//!   leaves it alone in that step (its lagged axial force would otherwise send it
+//!   through the fibre onto the belt);
 //! - **position pass** (after the length projection, alternating with it and with the
 //!   belt's, like the belt): a pair closer than (1 − `SLOP`) d is pushed apart towards
-//!   d, by at most [`MAX_SEPARATION_SPEED`]·Δt per step.
+//!   d, by at most [`MAX_SEPARATION_SPEED`]·Δt per step; a node held along n by the
+//!   velocity pass moves here with that freedom restored (it is the node that must move).
 //!
 //! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
 //! correction. Of two simulated fibres, the upper one takes it all if the lower one has
-//! landed (the belt or the web holds it; with half each, a fibre pressed onto the belt
-//! cannot give way and the penetration left drives spurious velocities); otherwise, and
-//! side by side (heights within 0.1 d), each takes ½ (equal masses per length). A pair
+//! landed (the belt holds it) or rested on another fibre in the last step (the web holds
+//! it: [`FibreContact::resting`]); with half each, a fibre pressed onto the belt or the
+//! web cannot give way and the penetration left drives spurious velocities. Otherwise,
+//! and side by side (heights within 0.1 d), each takes ½ (equal masses per length). A pair
 //! closer than d/2 at the start of a step has crossed ([`CROSSED`]) and is left alone.
 //! Tunnelling needs a relative normal motion of more than d in one step while the pair
 //! is not yet a candidate; the candidate margins are twice the motion measured at the
@@ -102,6 +106,14 @@ pub struct FibreContact {
     /// Nodes held up by another fibre in the current step (the nearer node of each
     /// contact that got an impulse): the belt leaves them alone in this step.
     pub supported: Vec<bool>,
+    /// The inverse node matrix W of each supported node before the velocity pass took its
+    /// freedom along the contact normal: the position pass moves it with that freedom
+    /// (the projection after it then keeps the node where the pass put it).
+    unconstrained: Vec<[f64; 6]>,
+    /// Nodes resting on another fibre (held up from below in the current step), and in
+    /// the step before: such a node counts as landed in [`yield_share`], as one on the belt.
+    pub resting: Vec<bool>,
+    was_resting: Vec<bool>,
     /// Nodes dropped from the front of the rod since the rows were prepared: own
     /// segment k is row k + `dropped`. Segments added at the top have no row.
     pub dropped: usize,
@@ -139,6 +151,20 @@ impl FibreContact {
         self.dropped = 0;
     }
 
+    /// The first `count` nodes left the rod (frozen): the per-node flags follow.
+    pub fn drop_front(&mut self, count: usize) {
+        self.dropped += count;
+        for flags in [&mut self.resting, &mut self.was_resting, &mut self.supported] {
+            flags.drain(..count.min(flags.len()));
+        }
+    }
+
+    /// Whether node `k` rests on the belt's web: landed at `landing_time`, or held up from
+    /// below by another fibre in the last step.
+    pub fn rests(&self, k: usize, landing_time: &[f64]) -> bool {
+        landing_time[k].is_finite() || self.resting.get(k) == Some(&true)
+    }
+
     /// Candidate indices of own segment k (empty for a segment added since preparation).
     fn row(&self, k: usize) -> std::ops::Range<usize> {
         let row = k + self.dropped;
@@ -164,6 +190,10 @@ impl FibreContact {
         self.shares.resize(self.candidates.len(), 0.0);
         self.supported.clear();
         self.supported.resize(rod.nodes(), false);
+        std::mem::swap(&mut self.resting, &mut self.was_resting);
+        self.resting.clear();
+        self.resting.resize(rod.nodes(), false);
+        self.unconstrained.resize(rod.nodes(), [0.0; 6]);
         for k in 0..rod.rest.len() {
             let (i, j) = (k, k + 1);
             for c in self.row(k) {
@@ -174,7 +204,8 @@ impl FibreContact {
                 // a pair closer than d/2 has crossed (in a violent event, or before
                 // contact began): pushing it apart along a normal that flipped as they
                 // passed would drive them into each other; it is left until it parts
-                let own_landed = landing_time[if s < 0.5 { i } else { j }].is_finite();
+                let near = if s < 0.5 { i } else { j };
+                let own_landed = landing_time[near].is_finite() || self.was_resting.get(near) == Some(&true);
                 let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, own_landed) };
                 self.shares[c] = share;
                 if share == 0.0 && g < CROSSED * d {
@@ -191,11 +222,28 @@ impl FibreContact {
                 // pass's (which would otherwise add up, step after step, while an
                 // overlap persists)
                 let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
-                if vn >= target && !(g < d && vn > target) {
+                if g >= d && vn >= target {
+                    continue;
+                }
+                // in contact (or reaching it in this step): the node nearer the contact
+                // point is held along n in the projection, with or without an impulse (a
+                // resting contact needs none, and the projection would otherwise pull the
+                // node back into the other fibre)
+                if gap[2] > 0.0 {
+                    self.resting[near] = true;
+                }
+                if let Some(winv) = winv.as_deref_mut() {
+                    if !self.supported[near] {
+                        self.unconstrained[near] = winv[near];
+                    }
+                    winv[near] = without_direction(&winv[near], n);
+                }
+                self.supported[near] = true;
+                if vn == target {
                     continue;
                 }
                 let delta = target - vn;
-                let mobility = Mobility { winv: winv.as_deref(), mass: &rod.mass, free: &free };
+                let mobility = Mobility { winv: winv.as_deref(), restored: Some((&self.supported[..], &self.unconstrained[..])), mass: &rod.mass, free: &free };
                 if !mobility.shift(&mut rod.v, i, j, s, scale(n, share * delta)) {
                     continue;
                 }
@@ -206,11 +254,6 @@ impl FibreContact {
                         let removed = if wtn <= mu * delta { 1.0 } else { mu * delta / wtn };
                         mobility.shift(&mut rod.v, i, j, s, scale(wt, -share * removed));
                     }
-                }
-                let near = if s < 0.5 { i } else { j };
-                self.supported[near] = true;
-                if let Some(winv) = winv.as_deref_mut() {
-                    winv[near] = without_direction(&winv[near], n);
                 }
                 impulses += 1;
             }
@@ -243,7 +286,8 @@ impl FibreContact {
                     continue;
                 }
                 let dx = scale(gap, share * (d - g).min(max_push) / g);
-                let mobility = Mobility { winv, mass: &rod.mass, free: &free };
+                let restored = Some((&self.supported[..], &self.unconstrained[..]));
+                let mobility = Mobility { winv, restored, mass: &rod.mass, free: &free };
                 if mobility.shift(&mut rod.x, i, j, s, dx) {
                     count += 1;
                 }
@@ -303,6 +347,8 @@ fn without_direction(w: &[f64; 6], n: [f64; 3]) -> [f64; 6] {
 /// or 1/m for the free nodes.
 struct Mobility<'a> {
     winv: Option<&'a [[f64; 6]]>,
+    /// (supported, W before the velocity pass): supported nodes move with that W.
+    restored: Option<(&'a [bool], &'a [[f64; 6]])>,
     mass: &'a [f64],
     free: &'a FreeNodes,
 }
@@ -310,6 +356,7 @@ struct Mobility<'a> {
 impl Mobility<'_> {
     fn along(&self, k: usize, u: [f64; 3]) -> [f64; 3] {
         match self.winv {
+            Some(_) if self.restored.is_some_and(|(held, _)| held.get(k) == Some(&true)) => super::forces::sym_mul(&self.restored.unwrap().1[k], &u),
             Some(w) => super::forces::sym_mul(&w[k], &u),
             None if self.free.contains(&k) => scale(u, 1.0 / self.mass[k]),
             None => [0.0; 3],

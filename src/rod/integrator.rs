@@ -420,7 +420,7 @@ impl Simulator {
         self.lift_time.drain(..count);
         self.segment_force.drain(..count);
         if let Some(c) = &mut self.fibre_contact {
-            c.dropped += count;
+            c.drop_front(count);
         }
         let t = self.t;
         self.clamped = (0..clamp).collect();

@@ -1,0 +1,250 @@
+//! A small laid web fed with fibre-fibre contact (the rods of `src/rod/` in lock step under
+//! [`ContactWorld`]), beside the same web without it: how close the laid fibres come to
+//! one another, how many pairs have crossed, how high landed fibre ends above the belt,
+//! and the cost. A tool for finding where contact fails in denser webs; `laid_web` does
+//! not offer contact yet (`pipelines/studies/PHYSICAL_WEBS.md`, last section).
+//!
+//! `cargo run --release --example laid_web_contact -- [fibres spacing_mm travel_mm seed] [name=value ...]`
+//! with `name` a laydown scene parameter, or `interval=` (s, contact preparation interval),
+//! `ramp=` (s, oscillation soft start), `mu_ff=` (fibre friction), `contact=0|1`,
+//! `coherent=1` (every fibre the same oscillation phase), `check=1`
+//! (after every interval, the true least distance between fibres from their positions,
+//! instead of what each rod saw in its own steps).
+use laydown::rng::stream_rng;
+use laydown::rod::contact_world::{ContactBody, ContactStats, ContactWorld};
+use laydown::rod::feed::Feeder;
+use laydown::rod::fibre_contact::{closest_points, FibreContact};
+use laydown::rod::LaydownParams;
+use laydown::stages::laid_web::LaidWebParams;
+use rand::Rng;
+use std::time::Instant;
+
+/// A segment's end points and whether it is frozen.
+type Segment = ([f64; 3], [f64; 3], bool);
+
+/// Every segment of fibre `j` at time `t` in world coordinates: frozen ones carried with the
+/// belt, then the simulated ones.
+fn segments(f: &Feeder, y0: f64, vb: f64, t: f64) -> Vec<Segment> {
+    let mut x: Vec<([f64; 3], bool)> = f.frozen().iter().map(|(x, tf, _)| ([x[0] + vb * (t - tf), x[1] + y0, x[2]], true)).collect();
+    x.extend(f.simulator().rod.x.iter().map(|x| ([x[0], x[1] + y0, x[2]], false)));
+    x.windows(2).map(|w| (w[0].0, w[1].0, w[0].1 && w[1].1)).collect()
+}
+
+/// Centreline distance of two segments (nearest CD image of the second), if below d.
+fn gap_between(sa: ([f64; 3], [f64; 3]), sb: ([f64; 3], [f64; 3]), period: f64, d: f64) -> Option<f64> {
+    let dy = ((sa.0[1] - sb.0[1]) / period).round() * period;
+    let q0 = [sb.0[0], sb.0[1] + dy, sb.0[2]];
+    let q1 = [sb.1[0], sb.1[1] + dy, sb.1[2]];
+    let out = |p0: f64, p1: f64, r0: f64, r1: f64| p0.min(p1) > r0.max(r1) + d || r0.min(r1) > p0.max(p1) + d;
+    if out(sa.0[0], sa.1[0], q0[0], q1[0]) || out(sa.0[1], sa.1[1], q0[1], q1[1]) || out(sa.0[2], sa.1[2], q0[2], q1[2]) {
+        return None;
+    }
+    let g = closest_points(sa.0, sa.1, q0, q1).2;
+    Some((g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt())
+}
+
+/// Least centreline distance between segments of different fibres (nearest CD image),
+/// leaving out pairs of two frozen segments and segments above `top`; with the pair (fibre, segment) of each side.
+fn least_between(segs: &[Vec<Segment>], period: f64, d: f64, top: f64) -> (f64, (usize, usize), (usize, usize)) {
+    let mut best = (f64::INFINITY, (0, 0), (0, 0));
+    for a in 0..segs.len() {
+        for b in a + 1..segs.len() {
+            for (i, sa) in segs[a].iter().enumerate() {
+                for (k, sb) in segs[b].iter().enumerate() {
+                    if (sa.2 && sb.2) || sa.0[2].min(sa.1[2]) > top || sb.0[2].min(sb.1[2]) > top {
+                        continue;
+                    }
+                    let Some(g) = gap_between((sa.0, sa.1), (sb.0, sb.1), period, d) else { continue };
+                    if g < best.0 {
+                        best = (g, (a, i), (b, k));
+                    }
+                }
+            }
+        }
+    }
+    best
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let num: Vec<&String> = args.iter().filter(|a| !a.contains('=')).collect();
+    let fibres: usize = num.first().map_or(4, |s| s.parse().expect("fibres"));
+    let spacing: f64 = num.get(1).map_or(2.0, |s| s.parse().expect("spacing (mm)")) * 1e-3;
+    let travel: f64 = num.get(2).map_or(10.0, |s| s.parse().expect("travel (mm)")) * 1e-3;
+    let seed: u64 = num.get(3).map_or(7, |s| s.parse().expect("seed"));
+    let mut scene = LaydownParams::default();
+    let (mut interval, mut ramp, mut mu_ff, mut contact, mut check, mut coherent) = (2e-4, 0.01, 0.3, true, false, false);
+    for kv in args.iter().filter(|a| a.contains('=')) {
+        let (k, v) = kv.split_once('=').unwrap();
+        match k {
+            "interval" => interval = v.parse().unwrap(),
+            "ramp" => ramp = v.parse().unwrap(),
+            "mu_ff" => mu_ff = v.parse().unwrap(),
+            "contact" => contact = v != "0",
+            "check" => check = v != "0",
+            "coherent" => coherent = v != "0",
+            _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
+        }
+    }
+    let mut p = LaidWebParams { scene, fibres_across: fibres, fibre_spacing: spacing, belt_travel: travel, ..LaidWebParams::default() };
+    p.feed.oscillation_ramp = ramp;
+    p.validate().unwrap_or_else(|e| panic!("{e}"));
+    let t_end = p.feed_time();
+    let d = p.scene.diameter;
+    let clock = Instant::now();
+    let mut feeders: Vec<Feeder> = (0..fibres)
+        .map(|j| {
+            let mut rng = stream_rng(seed, 0, j as u64 + 1);
+            let mut phase = 2.0 * std::f64::consts::PI * rng.random::<f64>();
+            if coherent {
+                phase = 0.0;
+            }
+            let scene = p.fibre_scene(1.0, 1.0);
+            let mut f = Feeder::new(&scene, phase, &p.feed, &mut rng);
+            if contact {
+                f.defer_freezing = true;
+                f.simulator_mut().fibre_contact = Some(FibreContact::new(d, Some(mu_ff)));
+            }
+            f
+        })
+        .collect();
+    let mut stats = ContactStats::default();
+    let mut worst = vec![0.0f64; fibres];
+    if contact {
+        let mut world = ContactWorld::new(fibres, d, Some(mu_ff), p.scene.belt_speed, Some(p.cd_period()), p.resolved_element_length());
+        world.contact_top = p.scene.laydown_height;
+        for j in 0..fibres {
+            world.cd_offsets[j] = (j as f64 + 0.5) * spacing - 0.5 * p.cd_period();
+        }
+        let n = (t_end / interval).ceil() as usize;
+        let mut reported = 0;
+        let mut true_reports = 0;
+        for k in 0..n {
+            let (t0, t1) = (k as f64 * interval, ((k + 1) as f64 * interval).min(t_end));
+            world.run_interval(&mut feeders, t0, t1, &mut stats);
+            // the true least distance at the end of the interval, from both rods' positions
+            if check {
+                let segs: Vec<_> = feeders.iter().enumerate().map(|(j, f)| segments(f, world.cd_offsets[j], p.scene.belt_speed, t1)).collect();
+                let (g, (fa, sa), (fb, sb)) = least_between(&segs, p.cd_period(), d, world.contact_top);
+                if g < 0.9 * d && true_reports < 100000 {
+                    true_reports += 1;
+                    let z = |f: usize, s: usize| (segs[f][s].0[2] / d, segs[f][s].1[2] / d, segs[f][s].2);
+                    eprintln!("  TRUE t = {t1:.5} s: least {:.3} d between fibre {fa} segment {sa} {:?} and fibre {fb} segment {sb} {:?} (z/d, z/d, frozen)", g / d, z(fa, sa), z(fb, sb));
+                }
+            }
+            // intervals in which a pair came closer than 0.8 d (penetration reset each interval)
+            for (j, f) in feeders.iter_mut().enumerate() {
+                let frozen = f.frozen().len();
+                let sim = f.simulator_mut();
+                let landed = sim.landing_time.iter().filter(|t| t.is_finite()).count();
+                let nodes = sim.rod.nodes();
+                if let Some(c) = sim.fibre_contact.as_mut() {
+                    if c.max_penetration > 0.2 * d && reported < 40 && !check {
+                        reported += 1;
+                        eprintln!(
+                            "  t = {t1:.5} s fibre {j}: penetration {:.3} d, crossed pair-steps {}, impulses {}, corrections {}, nodes {nodes} (landed {landed}, frozen {frozen})",
+                            c.max_penetration / d, c.crossed, c.impulses, c.corrections
+                        );
+                    }
+                    if c.max_penetration > 0.2 * d && reported < 40 && !check {
+                        // the closest candidate pair now
+                        let mut best = (f64::INFINITY, 0usize, 0usize);
+                        for r in 0..c.rows.len().saturating_sub(1) {
+                            let k = r.wrapping_sub(c.dropped);
+                            if k + 1 >= nodes {
+                                continue;
+                            }
+                            for &q in &c.candidates[c.rows[r] as usize..c.rows[r + 1] as usize] {
+                                let o = &c.obstacles[q as usize];
+                                let tau = sim.t - o.t_ref;
+                                let a = [o.a[0] + o.va[0] * tau, o.a[1] + o.va[1] * tau, o.a[2] + o.va[2] * tau];
+                                let b = [o.b[0] + o.vb[0] * tau, o.b[1] + o.vb[1] * tau, o.b[2] + o.vb[2] * tau];
+                                let g = closest_points(sim.rod.x[k], sim.rod.x[k + 1], a, b).2;
+                                let g = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                                if g < best.0 {
+                                    best = (g, k, q as usize);
+                                }
+                            }
+                        }
+                        if best.0.is_finite() {
+                            let (g, k, q) = best;
+                            let o = &c.obstacles[q];
+                            let (x, v) = (sim.rod.x[k], sim.rod.v[k]);
+                            eprintln!(
+                                "    closest now {:.3} d: own segment {k} z {:.2}/{:.2} d v ({:.3} {:.3} {:.3}) landed {}; obstacle {:?} z {:.2}/{:.2} d landed {:?} simulated {} va ({:.3} {:.3} {:.3})",
+                                g / d, x[2] / d, sim.rod.x[k + 1][2] / d, v[0], v[1], v[2], sim.landing_time[k].is_finite(),
+                                o.source, o.a[2] / d, o.b[2] / d, o.landed, o.simulated, o.va[0], o.va[1], o.va[2]
+                            );
+                        }
+                    }
+                    worst[j] = worst[j].max(c.max_penetration);
+                    c.max_penetration = 0.0;
+                }
+            }
+            if k % 50 == 0 {
+                let pen = worst.iter().cloned().fold(0.0, f64::max);
+                let running = feeders.iter().filter(|f| f.running()).count();
+                eprintln!("t = {:.4} s: running {running}/{fibres}, max penetration so far {:.3} d, lock steps {}", t1, pen / d, stats.lock_steps);
+            }
+        }
+    } else {
+        for f in feeders.iter_mut() {
+            f.advance_to(t_end);
+        }
+    }
+    let wall = clock.elapsed().as_secs_f64();
+    let pen = worst;
+    let laid: Vec<_> = feeders.into_iter().map(|f| f.finish()).collect();
+    // least distance between laid segments (both ends landed) of different fibres (world
+    // coordinates, nearest CD image)
+    let period = p.cd_period();
+    let laid_segments: Vec<Vec<([f64; 3], [f64; 3])>> = laid
+        .iter()
+        .enumerate()
+        .map(|(j, f)| {
+            let y0 = (j as f64 + 0.5) * spacing - 0.5 * period;
+            let at = |i: usize| [f.positions[i][0], f.positions[i][1] + y0, f.positions[i][2]];
+            (0..f.positions.len().saturating_sub(1)).filter(|&i| f.landing_time[i].is_finite() && f.landing_time[i + 1].is_finite()).map(|i| (at(i), at(i + 1))).collect()
+        })
+        .collect();
+    let (mut least, mut crossed, mut close) = (f64::INFINITY, 0usize, 0usize);
+    for a in 0..laid_segments.len() {
+        for b in a + 1..laid_segments.len() {
+            for sa in &laid_segments[a] {
+                for sb in &laid_segments[b] {
+                    if let Some(g) = gap_between(*sa, *sb, period, d) {
+                        least = least.min(g);
+                        if g < 0.5 * d {
+                            crossed += 1;
+                        } else if g < 0.95 * d {
+                            close += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for (j, f) in laid.iter().enumerate() {
+        println!(
+            "fibre {j}: laid {} nodes, frozen {}, top lift {:.3} mm (node {} of {}, landed at {:.4} s; {} landed nodes above 1 mm), steps {}, max penetration {:.3} d, error {:?}",
+            f.laid_nodes(),
+            f.frozen_nodes,
+            f.final_lift_of_landed * 1e3,
+            f.final_lift_node,
+            f.positions.len(),
+            f.landing_time[f.final_lift_node],
+            f.positions.iter().zip(&f.landing_time).filter(|(x, t)| t.is_finite() && x[2] > 1e-3).count(),
+            f.steps,
+            pen[j] / d,
+            f.error
+        );
+    }
+    println!(
+        "contact {contact}: wall {wall:.1} s, lock steps {}, broad phase {:.1} s; laid pairs of segments of different fibres: least distance {:.3} d, {} crossed (< d/2), {} closer than 0.95 d",
+        stats.lock_steps,
+        stats.wall_seconds,
+        least / d,
+        crossed,
+        close
+    );
+}

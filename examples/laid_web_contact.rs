@@ -119,6 +119,8 @@ fn main() {
         let n = (t_end / interval).ceil() as usize;
         let mut reported = 0;
         let mut true_reports = 0;
+        let mut lift_reports = 0;
+        let mut was_lifted = vec![std::collections::HashSet::new(); fibres];
         for k in 0..n {
             let (t0, t1) = (k as f64 * interval, ((k + 1) as f64 * interval).min(t_end));
             world.run_interval(&mut feeders, t0, t1, &mut stats);
@@ -130,6 +132,43 @@ fn main() {
                     true_reports += 1;
                     let z = |f: usize, s: usize| (segs[f][s].0[2] / d, segs[f][s].1[2] / d, segs[f][s].2);
                     eprintln!("  TRUE t = {t1:.5} s: least {:.3} d between fibre {fa} segment {sa} {:?} and fibre {fb} segment {sb} {:?} (z/d, z/d, frozen)", g / d, z(fa, sa), z(fb, sb));
+                }
+            }
+            // landed nodes that rise above 0.5 mm: where, how fast, and what is nearest
+            if check && lift_reports < 40 {
+                let segs: Vec<_> = feeders.iter().enumerate().map(|(j, f)| segments(f, world.cd_offsets[j], p.scene.belt_speed, t1)).collect();
+                for (j, f) in feeders.iter().enumerate() {
+                    let sim = f.simulator();
+                    let base = f.frozen().len();
+                    for (i, x) in sim.rod.x.iter().enumerate() {
+                        let lifted = sim.landing_time[i].is_finite() && x[2] > 5e-4;
+                        if lifted && !was_lifted[j].contains(&(base + i)) && lift_reports < 40 {
+                            lift_reports += 1;
+                            let v = sim.rod.v[i];
+                            let world_x = [x[0], x[1] + world.cd_offsets[j], x[2]];
+                            // nearest segment of another fibre
+                            let mut best = (f64::INFINITY, 0, 0);
+                            for (k, other) in segs.iter().enumerate().filter(|(k, _)| *k != j) {
+                                for (l, sg) in other.iter().enumerate() {
+                                    let g = closest_points(world_x, world_x, sg.0, sg.1).2;
+                                    let g = (g[0] * g[0] + g[1] * g[1]).sqrt().hypot(g[2]);
+                                    if g < best.0 {
+                                        best = (g, k, l);
+                                    }
+                                }
+                            }
+                            let (g, k, l) = best;
+                            let o = &segs[k][l];
+                            let hanging = feeders[k].simulator().landing_time.get(l.wrapping_sub(feeders[k].frozen().len())).is_none_or(|t| !t.is_finite());
+                            eprintln!(
+                                "  LIFT t = {t1:.4} s fibre {j} node {} (landed {:.4} s): z {:.2} mm, v ({:.2} {:.2} {:.2}) m/s; nearest other fibre {k} segment {l} at {:.2} d, z {:.3}/{:.3} mm, hanging {hanging}",
+                                base + i, sim.landing_time[i], x[2] * 1e3, v[0], v[1], v[2], g / d, o.0[2] * 1e3, o.1[2] * 1e3
+                            );
+                        }
+                        if lifted {
+                            was_lifted[j].insert(base + i);
+                        }
+                    }
                 }
             }
             // intervals in which a pair came closer than 0.8 d (penetration reset each interval)

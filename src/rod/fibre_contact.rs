@@ -31,6 +31,9 @@
 //!   belt's, like the belt): a pair closer than (1 − `SLOP`) d is pushed apart towards
 //!   d, by at most [`MAX_SEPARATION_SPEED`]·Δt per step; a node held along n by the
 //!   velocity pass moves here with that freedom restored (it is the node that must move).
+//!   The correction is not velocity ([`FibreContact::shift`], post-stabilisation): the
+//!   step's velocity update leaves it out, so an overlap is undone without throwing the
+//!   fibres apart.
 //!
 //! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
 //! correction. Of two simulated fibres, the upper one takes it all if the lower one has
@@ -114,6 +117,9 @@ pub struct FibreContact {
     /// the step before: such a node counts as landed in [`yield_share`], as one on the belt.
     pub resting: Vec<bool>,
     was_resting: Vec<bool>,
+    /// Displacement the position pass gave each node in the current step: it corrects
+    /// the position only and does not become velocity (post-stabilisation).
+    pub shift: Vec<[f64; 3]>,
     /// Nodes dropped from the front of the rod since the rows were prepared: own
     /// segment k is row k + `dropped`. Segments added at the top have no row.
     pub dropped: usize,
@@ -193,6 +199,8 @@ impl FibreContact {
         std::mem::swap(&mut self.resting, &mut self.was_resting);
         self.resting.clear();
         self.resting.resize(rod.nodes(), false);
+        self.shift.clear();
+        self.shift.resize(rod.nodes(), [0.0; 3]);
         self.unconstrained.resize(rod.nodes(), [0.0; 6]);
         for k in 0..rod.rest.len() {
             let (i, j) = (k, k + 1);
@@ -288,8 +296,13 @@ impl FibreContact {
                 let dx = scale(gap, share * (d - g).min(max_push) / g);
                 let restored = Some((&self.supported[..], &self.unconstrained[..]));
                 let mobility = Mobility { winv, restored, mass: &rod.mass, free: &free };
+                let (xi, xj) = (rod.x[i], rod.x[j]);
                 if mobility.shift(&mut rod.x, i, j, s, dx) {
                     count += 1;
+                    if let (Some(si), Some(sj)) = (self.shift.get(i).copied(), self.shift.get(j).copied()) {
+                        self.shift[i] = add_scaled(si, sub(rod.x[i], xi), 1.0);
+                        self.shift[j] = add_scaled(sj, sub(rod.x[j], xj), 1.0);
+                    }
                 }
             }
         }

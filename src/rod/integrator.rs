@@ -579,6 +579,14 @@ impl Simulator {
                     }
                 }
                 let idt = 1.0 / dt;
+                if let Some(c) = &self.fibre_contact {
+                    // the position pass's corrections are not velocity
+                    for (xo, s) in self.ws.x_old.iter_mut().zip(&c.shift) {
+                        xo[0] += s[0];
+                        xo[1] += s[1];
+                        xo[2] += s[2];
+                    }
+                }
                 for i in 0..n {
                     let (x, xo) = (self.rod.x[i], self.ws.x_old[i]);
                     let v = &mut self.rod.v[i];

@@ -9,7 +9,9 @@
 //! `ramp=` (s, oscillation soft start), `mu_ff=` (fibre friction), `contact=0|1`,
 //! `coherent=1` (every fibre the same oscillation phase), `check=1`
 //! (after every interval, the true least distance between fibres from their positions,
-//! instead of what each rod saw in its own steps).
+//! instead of what each rod saw in its own steps, and each landed node that rises above
+//! 0.5 mm; with the environment variable `LIFT_PROFILE` set, the heights of the fibre
+//! around it, L landed, S held by a contact, R resting on a fibre).
 use laydown::rng::stream_rng;
 use laydown::rod::contact_world::{ContactBody, ContactStats, ContactWorld};
 use laydown::rod::feed::Feeder;
@@ -164,6 +166,23 @@ fn main() {
                                 "  LIFT t = {t1:.4} s fibre {j} node {} (landed {:.4} s): z {:.2} mm, v ({:.2} {:.2} {:.2}) m/s; nearest other fibre {k} segment {l} at {:.2} d, z {:.3}/{:.3} mm, hanging {hanging}",
                                 base + i, sim.landing_time[i], x[2] * 1e3, v[0], v[1], v[2], g / d, o.0[2] * 1e3, o.1[2] * 1e3
                             );
+                            if std::env::var("LIFT_PROFILE").is_ok() {
+                                // the fibre from 5 nodes before to 40 after: z (mm), landed, supported/resting in the last step
+                                let c = sim.fibre_contact.as_ref();
+                                let line: Vec<String> = (i.saturating_sub(5)..(i + 40).min(sim.rod.nodes()))
+                                    .map(|m| {
+                                        let flag = |v: Option<&Vec<bool>>| v.and_then(|v| v.get(m).copied()).unwrap_or(false);
+                                        format!(
+                                            "{m}:{:.2}{}{}{}",
+                                            sim.rod.x[m][2] * 1e3,
+                                            if sim.landing_time[m].is_finite() { "L" } else { "" },
+                                            if flag(c.map(|c| &c.supported)) { "S" } else { "" },
+                                            if flag(c.map(|c| &c.resting)) { "R" } else { "" }
+                                        )
+                                    })
+                                    .collect();
+                                eprintln!("    profile {}", line.join(" "));
+                            }
                         }
                         if lifted {
                             was_lifted[j].insert(base + i);

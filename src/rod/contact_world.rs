@@ -291,16 +291,14 @@ impl ContactWorld {
                                 // step: its velocity before contact would carry it into that fibre
                                 let on_fibre = |i: usize| sim.fibre_contact.as_ref().is_some_and(|c| c.resting.get(i) == Some(&true));
                                 let velocity = |i: usize| if on_fibre(i) { sim.rod.v[i] } else { v[i] };
+                                let rests = |i: usize| rests_on_web(sim, i);
                                 ObstacleSegment {
                                     a: shift(x[k]),
                                     b: shift(x[k + 1]),
                                     va: velocity(k),
                                     vb: velocity(k + 1),
                                     t_ref: t,
-                                    landed: match &sim.fibre_contact {
-                                        Some(c) => [c.rests(k, &sim.landing_time), c.rests(k + 1, &sim.landing_time)],
-                                        None => [sim.landing_time[k].is_finite(), sim.landing_time[k + 1].is_finite()],
-                                    },
+                                    landed: [rests(k), rests(k + 1)],
                                     ..*o
                                 }
                             }
@@ -346,8 +344,7 @@ impl ContactWorld {
             for k in 0..x.len() - 1 {
                 let held = !free.contains(&k) && !free.contains(&(k + 1));
                 let reach = reach(v[k], v[k + 1], w, interval);
-                let rests = |i: usize| sim.fibre_contact.as_ref().map_or(sim.landing_time[i].is_finite(), |c| c.rests(i, &sim.landing_time));
-                let landed = [rests(k), rests(k + 1)];
+                let landed = [rests_on_web(sim, k), rests_on_web(sim, k + 1)];
                 active.push(Active { a: world(x[k]), b: world(x[k + 1]), va: v[k], vb: v[k + 1], fibre: f as u32, segment: k as u32, held, landed, reach });
             }
         }
@@ -558,4 +555,9 @@ fn reach(va: [f64; 3], vb: [f64; 3], w: [f64; 3], interval: f64) -> [f64; 3] {
 
 fn add(a: [f64; 3], s: f64) -> [f64; 3] {
     [a[0] + s, a[1] + s, a[2] + s]
+}
+
+/// Whether node `i` of `sim` lies on the belt or on the web (see [`FibreContact::rests`]).
+fn rests_on_web(sim: &Simulator, i: usize) -> bool {
+    sim.fibre_contact.as_ref().map_or(sim.landing_time[i].is_finite(), |c| c.rests(i, &sim.landing_time))
 }

@@ -251,7 +251,7 @@ impl FibreContact {
                     continue;
                 }
                 let delta = target - vn;
-                let mobility = Mobility { winv: winv.as_deref(), restored: Some((&self.supported[..], &self.unconstrained[..])), mass: &rod.mass, free: &free };
+                let mobility = Mobility { winv: winv.as_deref(), supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
                 if !mobility.shift(&mut rod.v, i, j, s, scale(n, share * delta)) {
                     continue;
                 }
@@ -294,8 +294,7 @@ impl FibreContact {
                     continue;
                 }
                 let dx = scale(gap, share * (d - g).min(max_push) / g);
-                let restored = Some((&self.supported[..], &self.unconstrained[..]));
-                let mobility = Mobility { winv, restored, mass: &rod.mass, free: &free };
+                let mobility = Mobility { winv, supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
                 let (xi, xj) = (rod.x[i], rod.x[j]);
                 if mobility.shift(&mut rod.x, i, j, s, dx) {
                     count += 1;
@@ -360,8 +359,9 @@ fn without_direction(w: &[f64; 6], n: [f64; 3]) -> [f64; 6] {
 /// or 1/m for the free nodes.
 struct Mobility<'a> {
     winv: Option<&'a [[f64; 6]]>,
-    /// (supported, W before the velocity pass): supported nodes move with that W.
-    restored: Option<(&'a [bool], &'a [[f64; 6]])>,
+    /// Supported nodes move with their W from before the velocity pass (`unconstrained`).
+    supported: &'a [bool],
+    unconstrained: &'a [[f64; 6]],
     mass: &'a [f64],
     free: &'a FreeNodes,
 }
@@ -369,7 +369,7 @@ struct Mobility<'a> {
 impl Mobility<'_> {
     fn along(&self, k: usize, u: [f64; 3]) -> [f64; 3] {
         match self.winv {
-            Some(_) if self.restored.is_some_and(|(held, _)| held.get(k) == Some(&true)) => super::forces::sym_mul(&self.restored.unwrap().1[k], &u),
+            Some(_) if self.supported.get(k) == Some(&true) => super::forces::sym_mul(&self.unconstrained[k], &u),
             Some(w) => super::forces::sym_mul(&w[k], &u),
             None if self.free.contains(&k) => scale(u, 1.0 / self.mass[k]),
             None => [0.0; 3],

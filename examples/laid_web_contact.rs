@@ -105,7 +105,9 @@ fn main() {
             let mut f = Feeder::new(&scene, phase, &p.feed, &mut rng);
             if contact {
                 f.defer_freezing = true;
-                f.simulator_mut().fibre_contact = Some(FibreContact::new(d, Some(mu_ff)));
+                let mut c = FibreContact::new(d, Some(mu_ff));
+                c.web_top = scene.bounce_tolerance;
+                f.simulator_mut().fibre_contact = Some(c);
             }
             f
         })

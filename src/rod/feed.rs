@@ -10,7 +10,7 @@
 //! feed point at v_f for as long as the run lasts.
 //!
 //! **Freezing.** A landed node that has settled (no more than `lift_tolerance` above
-//! the belt and crept less than `creep_tolerance`·Δs relative to it for `settle_time`;
+//! the belt, or resting on laid fibre with fibre contact, and crept less than `creep_tolerance`·Δs relative to it for `settle_time`;
 //! the laid fibre slips in short bursts of ~10⁻⁴ m/s as tension waves from the hanging
 //! part pass, so the friction state alone flickers), or that has been on the belt for
 //! `age_limit`, is frozen once a run of at least `freeze_batch` such nodes has formed
@@ -79,7 +79,8 @@ pub struct FedFibre {
     /// a laid node has been carried along +x by the belt). Never NaN: after a failure,
     /// the last good state.
     pub positions: Vec<[f64; 3]>,
-    /// Time each node first touched the belt (s); NaN: still hanging.
+    /// Time each node was laid (s): first touched the belt, or with fibre contact first
+    /// came to rest on laid fibre ([`Simulator::laid_time`]); NaN: still hanging.
     pub landing_time: Vec<f64>,
     /// Nodes frozen during the run (a prefix of `positions`).
     pub frozen_nodes: usize,
@@ -325,12 +326,14 @@ impl Feeder {
             if sim.steps % 256 == 0 {
                 self.last_good.clone_from(&sim.rod.x);
             }
-            // settling bookkeeping: a node on the belt is settled once it has crept less
-            // than creep_tolerance relative to the belt for settle_time
+            // settling bookkeeping: a node on the belt (or at rest on laid fibre) is
+            // settled once it has crept less than creep_tolerance relative to the belt
+            // for settle_time
             let t = sim.t;
+            let on_web = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.on_web[..]);
             for (i, (since, anchor)) in self.stuck_since.iter_mut().zip(self.anchors.iter_mut()).enumerate() {
                 let x = sim.rod.x[i];
-                let on_belt = sim.landing_time[i].is_finite() && x[2] <= self.settings.lift_tolerance;
+                let on_belt = sim.laid_time(i).is_finite() && (x[2] <= self.settings.lift_tolerance || on_web.get(i) == Some(&true));
                 let here = [x[0] - self.belt_speed * t, x[1]];
                 if !on_belt {
                     *since = f64::NAN;
@@ -368,7 +371,7 @@ impl Feeder {
         let mut positions: Vec<[f64; 3]> = self.frozen.iter().map(|(x, tf, _)| [x[0] + vb * (t_end - tf), x[1], x[2]]).collect();
         let mut landing_time: Vec<f64> = self.frozen.iter().map(|f| f.2).collect();
         positions.extend_from_slice(&sim.rod.x);
-        landing_time.extend_from_slice(&sim.landing_time);
+        landing_time.extend((0..sim.rod.nodes()).map(|i| sim.laid_time(i)));
         let (final_lift_node, final_lift_of_landed) = (frozen_nodes..positions.len())
             .filter(|&i| landing_time[i].is_finite())
             .map(|i| (i, positions[i][2]))
@@ -437,7 +440,7 @@ fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Ve
     let settled = (clamped..stuck_since.len())
         .take_while(|&i| {
             let since = stuck_since[i];
-            (since.is_finite() && t - since >= s.settle_time) || t - sim.landing_time[i] >= s.age_limit
+            (since.is_finite() && t - since >= s.settle_time) || t - sim.laid_time(i) >= s.age_limit
         })
         .count();
     // nodes clamped now are settled by construction
@@ -447,7 +450,7 @@ fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Ve
     }
     let count = run - CLAMPED;
     for i in 0..count {
-        frozen.push((sim.rod.x[i], t, sim.landing_time[i]));
+        frozen.push((sim.rod.x[i], t, sim.laid_time(i)));
     }
     sim.drop_front(count, CLAMPED, belt);
     stuck_since.drain(..count);

@@ -117,6 +117,18 @@ pub struct FibreContact {
     /// the step before: such a node counts as landed in [`yield_share`], as one on the belt.
     pub resting: Vec<bool>,
     was_resting: Vec<bool>,
+    /// Nodes of own segments resting in the current step on laid fibre (an obstacle end
+    /// that lies on the belt or the web, or a frozen segment, touched no higher than
+    /// `web_top`): such a node is laid, on the web instead of the belt.
+    pub on_web: Vec<bool>,
+    /// Time each node first rested on laid fibre (s; NaN: never), kept as nodes are fed
+    /// and frozen ([`super::Simulator::laid_time`]).
+    pub web_landing_time: Vec<f64>,
+    /// Highest a contact point on laid fibre may be for a node resting there to land
+    /// (m): the laid web's top, the scene's `bounce_tolerance` (above it a landed node
+    /// counts as bounced). Without this bound a node lifted from the web would lay
+    /// whatever rests on it, and so on up the hanging fibre.
+    pub web_top: f64,
     /// Displacement the position pass gave each node in the current step: it corrects
     /// the position only and does not become velocity (post-stabilisation).
     pub shift: Vec<[f64; 3]>,
@@ -144,7 +156,7 @@ pub type FreeNodes = std::ops::Range<usize>;
 impl FibreContact {
     /// No obstacles, for `diameter` and `friction`.
     pub fn new(diameter: f64, friction: Option<f64>) -> Self {
-        FibreContact { diameter, friction, rows: vec![0], ..FibreContact::default() }
+        FibreContact { diameter, friction, rows: vec![0], web_top: f64::INFINITY, ..FibreContact::default() }
     }
 
     /// Forget obstacles and candidates (before new ones are prepared for the rod's
@@ -160,9 +172,10 @@ impl FibreContact {
     /// The first `count` nodes left the rod (frozen): the per-node flags follow.
     pub fn drop_front(&mut self, count: usize) {
         self.dropped += count;
-        for flags in [&mut self.resting, &mut self.was_resting, &mut self.supported] {
+        for flags in [&mut self.resting, &mut self.was_resting, &mut self.supported, &mut self.on_web] {
             flags.drain(..count.min(flags.len()));
         }
+        self.web_landing_time.drain(..count.min(self.web_landing_time.len()));
     }
 
     /// Whether node `k` rests on the belt's web: landed at `landing_time`, or held up from
@@ -199,6 +212,10 @@ impl FibreContact {
         std::mem::swap(&mut self.resting, &mut self.was_resting);
         self.resting.clear();
         self.resting.resize(rod.nodes(), false);
+        self.on_web.clear();
+        self.on_web.resize(rod.nodes(), false);
+        // nodes fed since the last step are appended at the top
+        self.web_landing_time.resize(rod.nodes(), f64::NAN);
         self.shift.clear();
         self.shift.resize(rod.nodes(), [0.0; 3]);
         self.unconstrained.resize(rod.nodes(), [0.0; 6]);
@@ -239,6 +256,15 @@ impl FibreContact {
                 // node back into the other fibre)
                 if gap[2] > 0.0 {
                     self.resting[near] = true;
+                    // the segment lies on laid fibre: both its nodes are part of the web
+                    if ob.landed[usize::from(u >= 0.5)] && q0[2] + u * (q1[2] - q0[2]) <= self.web_top {
+                        for k in [i, j] {
+                            self.on_web[k] = true;
+                            if self.web_landing_time[k].is_nan() {
+                                self.web_landing_time[k] = t;
+                            }
+                        }
+                    }
                 }
                 if let Some(winv) = winv.as_deref_mut() {
                     if !self.supported[near] {

@@ -194,8 +194,9 @@ fn fibres_colliding_in_the_air_stay_one_diameter_apart() {
 
 /// Three simulated fibres: A lying on the belt along x, B dropped across it along y,
 /// C dropped over both along the diagonal; returns the least distance of each pair
-/// (A-B, A-C, B-C) over the last half of the run, and at the end.
-fn stack_of_three(speed: f64) -> ([f64; 3], [f64; 3]) {
+/// (A-B, A-C, B-C) over the last half of the run, and at the end, and C's nodes more
+/// than 1.5 d above the belt at the end: how many, and how many of them have landed.
+fn stack_of_three(speed: f64) -> ([f64; 3], [f64; 3], [usize; 2]) {
     let p = scene();
     let d = p.diameter;
     let mpl = p.mass_per_length();
@@ -221,17 +222,23 @@ fn stack_of_three(speed: f64) -> ([f64; 3], [f64; 3]) {
         }
     }
     let end = pairs.map(|(i, j)| least_distance(&rods[i].sim, &rods[j].sim));
-    (least.map(|g| g / d), end.map(|g| g / d))
+    let c = &rods[2].sim;
+    let raised: Vec<usize> = (0..c.rod.nodes()).filter(|&i| c.rod.x[i][2] > 1.5 * d).collect();
+    let landed = raised.iter().filter(|&&i| c.laid_time(i).is_finite()).count();
+    (least.map(|g| g / d), end.map(|g| g / d), [raised.len(), landed])
 }
 
 /// A fibre resting on a fibre that rests on a third: the middle one is held from below,
 /// so the top one must take every correction, and the top one must see the middle one
 /// where it is held, not where it would fall without contact. Before both rules C sank
-/// through B onto A (B-C 0.002 d); with the first only, B-C sat at 0.96 d.
+/// through B onto A (B-C 0.002 d); with the first only, B-C sat at 0.96 d. C's nodes
+/// lying on B have landed (on the web): a laid web counts them as laid.
 #[test]
 fn three_fibres_stacked_stay_one_diameter_apart() {
     for speed in [1.0, 4.0] {
-        let (least, end) = stack_of_three(speed);
+        let (least, end, [raised, landed]) = stack_of_three(speed);
+        println!("stack of three at {speed} m/s: C's nodes above 1.5 d: {raised}, landed {landed}");
+        assert!(raised > 0 && landed == raised, "C's nodes resting on B: {raised}, of them landed {landed}");
         println!("stack of three at {speed} m/s: least distance over the last 20 ms (A-B, A-C, B-C) {least:.4?} d, at the end {end:.4?} d");
         for (pair, g) in ["A-B", "A-C", "B-C"].iter().zip(least) {
             assert!(g >= 0.98, "{pair} came within {g:.3} d");

@@ -339,6 +339,15 @@ impl Simulator {
         }
     }
 
+    /// When node `i` was laid (s): it first touched the belt ([`Simulator::landing_time`]),
+    /// or, with fibre contact, first came to rest on laid fibre
+    /// ([`FibreContact::web_landing_time`]); NaN: not laid. The laid fibre's bookkeeping
+    /// (its polyline, freezing) uses this; the contact physics uses the belt landing.
+    pub fn laid_time(&self, i: usize) -> f64 {
+        let web = self.fibre_contact.as_ref().and_then(|c| c.web_landing_time.get(i)).copied().unwrap_or(f64::NAN);
+        self.landing_time[i].min(web)
+    }
+
     /// Nodes free to move: all but the clamped leading ones and a driven top.
     pub fn free_nodes(&self) -> std::ops::Range<usize> {
         let n = self.rod.nodes();

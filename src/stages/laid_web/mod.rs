@@ -17,10 +17,15 @@
 //!   [k·σ, v_b (T − t_s) − k·σ], σ the RMS belt-removed radius of gyration of the
 //!   valid fibres, k = `edge_margin_spreads`, t_s = 2 z_f/v_f + 1/f the start-up time
 //!   (the initial hanging column laid twice over, then one oscillation period).
-//! - **Fibre-fibre contact** is not modelled: fibres pass through one another.
+//! - **Fibre-fibre contact** (opt-in, [`FibreContactSettings`]): without it fibres pass
+//!   through one another and each fibre is simulated alone; with it every fibre of the
+//!   web is advanced in lock step under a [`ContactWorld`] (centrelines at least d apart,
+//!   Coulomb friction μ_ff, spatial hashing; [`crate::rod::fibre_contact`]), and a node
+//!   that comes to rest on laid fibre has landed (on the web instead of the belt).
 //! - **Random streams.** Fibre j of replicate r draws from stream (seed, r, j + 1)
 //!   (phase, jitter, then imperfections); the coherent turbulence draws from (seed, r, 0).
-//!   Fibres are independent, computed in parallel, identical for any thread count.
+//!   Without contact the fibres are independent and computed in parallel; with contact
+//!   the rods of one lock step are; identical for any thread count either way.
 //!
 //! Outputs are in belt coordinates at the end of the run, see [`stage`].
 //!
@@ -41,7 +46,9 @@ pub mod stage;
 pub use stage::LaidWebStage;
 
 use crate::error::InvalidParam;
-use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings};
+use crate::rod::contact_world::{ContactStats, ContactWorld};
+use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings, Feeder};
+use crate::rod::fibre_contact::FibreContact;
 use crate::rod::LaydownParams;
 use crate::rng::stream_rng;
 use rand::Rng;
@@ -82,6 +89,25 @@ pub struct LaidWebParams {
     /// k of the interior MD range, in belt-removed spreads.
     pub edge_margin_spreads: f64,
     pub feed: FeedSettings,
+    /// Fibre-fibre contact; None: fibres pass through one another (no cost).
+    pub fibre_contact: Option<FibreContactSettings>,
+}
+
+/// Fibre-fibre contact in a laid web.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FibreContactSettings {
+    /// μ_ff, Coulomb friction coefficient between fibres (0: frictionless).
+    pub friction: f64,
+    /// Δt_c, time between two broad-phase searches (s): the candidate pairs of an
+    /// interval are those whose swept boxes (twice the motion their velocities predict)
+    /// overlap at its start.
+    pub interval: f64,
+}
+
+impl Default for FibreContactSettings {
+    fn default() -> Self {
+        FibreContactSettings { friction: 0.3, interval: 2e-4 }
+    }
 }
 
 impl Default for LaidWebParams {
@@ -97,6 +123,7 @@ impl Default for LaidWebParams {
             amplitude_jitter: 0.0,
             edge_margin_spreads: 3.0,
             feed: FeedSettings::default(),
+            fibre_contact: None,
         }
     }
 }
@@ -113,6 +140,10 @@ impl LaidWebParams {
     /// CD period n_wΔw (m).
     pub fn cd_period(&self) -> f64 {
         self.fibres_across as f64 * self.fibre_spacing
+    }
+    /// y_j = (j + ½)Δw − n_wΔw/2, the feed point of fibre j (m).
+    pub fn feed_cd(&self, j: usize) -> f64 {
+        (j as f64 + 0.5) * self.fibre_spacing - 0.5 * self.cd_period()
     }
     /// c = v_b/v_f.
     pub fn belt_speed_ratio(&self) -> f64 {
@@ -187,6 +218,17 @@ impl LaidWebParams {
                 self.resolved_element_length()
             )));
         }
+        if let Some(c) = &self.fibre_contact {
+            if !(c.interval > 0.0 && c.interval <= self.feed_time()) {
+                return Err(InvalidParam::new("contact_interval".into(), format!("contact_interval {} s must be positive and at most the feed time {:.4} s", c.interval, self.feed_time())));
+            }
+            if !(c.friction >= 0.0 && c.friction.is_finite()) {
+                return Err(InvalidParam::new("fibre_friction".into(), format!("fibre_friction {} must be finite and ≥ 0", c.friction)));
+            }
+            if !(self.feed.oscillation_ramp > 0.0) {
+                return Err(InvalidParam::new("oscillation_ramp".into(), "fibre_contact needs oscillation_ramp > 0 (e.g. 0.01 s): starting at full amplitude, eq 7's spring throws the top of each fibre sideways at ~10 m/s in the first 0.1 ms, through its neighbours".into()));
+            }
+        }
         if !(self.frequency_jitter < 1.0 / 3.0) || !(self.amplitude_jitter < 1.0) {
             return Err(InvalidParam::new("frequency_jitter".into(), "frequency_jitter must be below 1/3 (a fibre's frequency stays positive within ±3σ) and amplitude_jitter below 1".into()));
         }
@@ -215,6 +257,11 @@ pub struct LaidFibre {
     /// Completed, and no landed node above `bounce_tolerance` at the end (the paper's rule).
     pub valid: bool,
     pub invalid_reason: Option<String>,
+    /// With fibre contact: velocity impulses and position corrections against other
+    /// fibres, and pair-steps found crossed (closer than d/2) and left alone; 0 without.
+    pub contact_impulses: u64,
+    pub contact_corrections: u64,
+    pub crossed_pair_steps: u64,
 }
 
 /// One laid web.
@@ -226,28 +273,98 @@ pub struct LaidWeb {
     pub interior_md: [f64; 2],
     /// σ: RMS belt-removed S of the valid fibres (m).
     pub spread: f64,
+    /// Cost of the fibre contact (None: off).
+    pub contact: Option<ContactStats>,
+    /// Wall time of the whole web (s).
+    pub wall_seconds: f64,
 }
 
 /// Lay replicate `replicate` of the web (fibres in parallel on the current rayon pool;
 /// identical for any thread count). `bar` counts fibres done.
 pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::ProgressBar) -> LaidWeb {
+    let clock = std::time::Instant::now();
     let t_end = p.feed_time();
     let shared = draw_turbulence(p, &mut stream_rng(seed, replicate as u64, 0));
-    let fibres: Vec<LaidFibre> = crate::progress::par_map(bar, 0..p.fibres_across, |j| {
+    // fibre j's stream, its turbulence (φ and jitter) and scene
+    let setup = |j: usize| {
         let mut rng = stream_rng(seed, replicate as u64, j as u64 + 1);
-        let (phase, fs, fa) = match p.turbulence {
+        let turbulence = match p.turbulence {
             Turbulence::Independent => draw_turbulence(p, &mut rng),
             Turbulence::Coherent => shared,
         };
-        let scene = p.fibre_scene(fs, fa);
-        let fed = feed_fibre(&scene, phase, t_end, &p.feed, &mut rng);
-        finish_fibre(p, &scene, j, fed, (phase, fs, fa))
-    });
+        let scene = p.fibre_scene(turbulence.1, turbulence.2);
+        (rng, turbulence, scene)
+    };
+    let (fibres, contact) = match &p.fibre_contact {
+        None => {
+            let fibres = crate::progress::par_map(bar, 0..p.fibres_across, |j| {
+                let (mut rng, turbulence, scene) = setup(j);
+                let fed = feed_fibre(&scene, turbulence.0, t_end, &p.feed, &mut rng);
+                finish_fibre(p, &scene, j, fed, turbulence, [0; 3])
+            });
+            (fibres, None)
+        }
+        Some(c) => {
+            let (fibres, stats) = lay_with_contact(p, c, &setup, bar);
+            (fibres, Some(stats))
+        }
+    };
     let valid: Vec<f64> = fibres.iter().filter(|f| f.valid).map(|f| f.radius_of_gyration_belt_removed).collect();
     let spread = if valid.is_empty() { f64::NAN } else { (valid.iter().map(|s| s * s).sum::<f64>() / valid.len() as f64).sqrt() };
     let margin = p.edge_margin_spreads * spread;
     let interior_md = [margin, p.scene.belt_speed * (t_end - p.startup_time()) - margin];
-    LaidWeb { fibres, interior_md, spread }
+    LaidWeb { fibres, interior_md, spread, contact, wall_seconds: clock.elapsed().as_secs_f64() }
+}
+
+/// Every fibre of the web fed in lock step under a [`ContactWorld`], one broad-phase
+/// search per contact interval; `setup(j)` gives fibre j's stream, turbulence and scene.
+/// The bar's message shows the simulated time; it counts the fibres at the end.
+fn lay_with_contact<S>(p: &LaidWebParams, c: &FibreContactSettings, setup: &S, bar: &indicatif::ProgressBar) -> (Vec<LaidFibre>, ContactStats)
+where
+    S: Fn(usize) -> (rand_chacha::ChaCha8Rng, (f64, f64, f64), LaydownParams),
+{
+    let t_end = p.feed_time();
+    let d = p.scene.diameter;
+    let friction = (c.friction > 0.0).then_some(c.friction);
+    let mut scenes = Vec::with_capacity(p.fibres_across);
+    let mut feeders: Vec<Feeder> = (0..p.fibres_across)
+        .map(|j| {
+            let (mut rng, turbulence, scene) = setup(j);
+            let mut feeder = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
+            feeder.defer_freezing = true;
+            let mut contact = FibreContact::new(d, friction);
+            contact.web_top = scene.bounce_tolerance;
+            feeder.simulator_mut().fibre_contact = Some(contact);
+            scenes.push((scene, turbulence));
+            feeder
+        })
+        .collect();
+    let mut world = ContactWorld::new(p.fibres_across, d, friction, p.scene.belt_speed, Some(p.cd_period()), p.resolved_element_length());
+    world.contact_top = p.scene.laydown_height;
+    for (j, offset) in world.cd_offsets.iter_mut().enumerate() {
+        *offset = p.feed_cd(j);
+    }
+    let mut stats = ContactStats::default();
+    let label = bar.message();
+    let intervals = (t_end / c.interval).ceil() as usize;
+    for k in 0..intervals {
+        let (t0, t1) = (k as f64 * c.interval, ((k + 1) as f64 * c.interval).min(t_end));
+        world.run_interval(&mut feeders, t0, t1, &mut stats);
+        bar.set_message(format!("{label} t {:.0} %", 100.0 * t1 / t_end));
+    }
+    bar.set_message(label);
+    let fibres = feeders
+        .into_iter()
+        .zip(scenes)
+        .enumerate()
+        .map(|(j, (feeder, (scene, turbulence)))| {
+            let counts = feeder.simulator().fibre_contact.as_ref().map_or([0; 3], |c| [c.impulses, c.corrections, c.crossed]);
+            let fibre = finish_fibre(p, &scene, j, feeder.finish(), turbulence, counts);
+            bar.inc(1);
+            fibre
+        })
+        .collect();
+    (fibres, stats)
 }
 
 /// Phase φ ~ U[0, 2π), then the frequency and amplitude scales 1 + σ ξ (ξ standard
@@ -267,11 +384,13 @@ fn draw_turbulence<R: Rng + ?Sized>(p: &LaidWebParams, rng: &mut R) -> (f64, f64
     (phase, fs, fa)
 }
 
-fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibre, turbulence: (f64, f64, f64)) -> LaidFibre {
+/// The laid fibre from its fed state; `contact` the fibre's contact impulses,
+/// corrections and crossed pair-steps.
+fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibre, turbulence: (f64, f64, f64), contact: [u64; 3]) -> LaidFibre {
     let ((_, removed), (s, e), (sr, er)) = fed.shape(scene);
     let invalid_reason = fed.invalid_reason(scene);
     LaidFibre {
-        feed_cd: (j as f64 + 0.5) * p.fibre_spacing - 0.5 * p.cd_period(),
+        feed_cd: p.feed_cd(j),
         phase: turbulence.0,
         frequency_scale: turbulence.1,
         amplitude_scale: turbulence.2,
@@ -282,6 +401,9 @@ fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibr
         x_belt_removed: removed.iter().map(|q| q[0]).collect(),
         valid: invalid_reason.is_none(),
         invalid_reason,
+        contact_impulses: contact[0],
+        contact_corrections: contact[1],
+        crossed_pair_steps: contact[2],
         fed,
     }
 }

@@ -12,7 +12,7 @@
 //!   touchdown), `cd_period`, `spread`; per point: `expected_interior_density`,
 //!   `element_length`, `mass_per_length`, `feed_time`.
 use crate::error::InvalidParam;
-use super::{lay_web, LaidWeb, LaidWebParams, Turbulence};
+use super::{lay_web, FibreContactSettings, LaidWeb, LaidWebParams, Turbulence};
 use crate::archive::data::Output;
 use crate::params::{ParamSet, ParamSpec};
 use crate::rod::feed::FeedSettings;
@@ -35,6 +35,11 @@ pub(crate) const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration",
 /// buffer, and the belt-removed x (8 B).
 const KEPT_BYTES_PER_NODE: f64 = 136.0;
 
+/// Bytes per simulated node of a rod's fibre contact state: its per-node flags, saved
+/// inverse masses, shifts and predicted velocities (about 110 B), and its candidates and
+/// obstacle copies (136 B each, a few per node), with the broad phase's grid entries.
+const CONTACT_BYTES_PER_NODE: f64 = 1024.0;
+
 /// A laid-web point's parameters as the pipeline gives them ([`ParamSet::to_typed`] of
 /// the stage's table): the laydown's scene but for `NOT_FROM_LAYDOWN` (their fields
 /// keep their defaults until [`LaidWebParams`] sets them) and the laid web's own rows.
@@ -52,6 +57,10 @@ pub struct LaidWebStageParams {
     pub edge_margin_spreads: f64,
     pub freeze: bool,
     pub settle_time: f64,
+    pub oscillation_ramp: f64,
+    pub fibre_contact: bool,
+    pub fibre_friction: f64,
+    pub contact_interval: f64,
 }
 
 /// The typed parameters of one sweep point (its rows were checked against the table).
@@ -67,7 +76,8 @@ pub fn laid_web_params(p: &ParamSet) -> LaidWebParams {
         frequency_jitter: p.frequency_jitter,
         amplitude_jitter: p.amplitude_jitter,
         edge_margin_spreads: p.edge_margin_spreads,
-        feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, ..FeedSettings::default() },
+        feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, oscillation_ramp: p.oscillation_ramp, ..FeedSettings::default() },
+        fibre_contact: p.fibre_contact.then_some(FibreContactSettings { friction: p.fibre_friction, interval: p.contact_interval }),
     }
 }
 
@@ -109,6 +119,11 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::float("edge_margin_spreads", "1", 3.0, 0.0, 100.0, "interior MD range: this many belt-removed spreads from the touchdown and from the start-up"));
         v.push(ParamSpec::flag("freeze", true, "freeze settled laid nodes (crept < 1 % of an element relative to the belt for settle_time, or on the belt for 0.2 s): carried with the belt at no cost"));
         v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a laid node must stay put on the belt (creep below 1 % of an element) before it may freeze"));
+        v.push(ParamSpec::float("oscillation_ramp", "s", 0.0, 0.0, 1.0, "soft start: the oscillation amplitude grows smoothly from 0 to u0 over this time (needed with fibre_contact)"));
+        let contact = FibreContactSettings::default();
+        v.push(ParamSpec::flag("fibre_contact", false, "fibre-fibre contact: centrelines stay a diameter apart, with friction fibre_friction; all fibres of a web advance in lock step (off: fibres pass through one another, at no cost)"));
+        v.push(ParamSpec::float("fibre_friction", "1", contact.friction, 0.0, 10.0, "μ_ff, Coulomb friction coefficient between fibres (with fibre_contact)"));
+        v.push(ParamSpec::float("contact_interval", "s", contact.interval, 1e-7, 1.0, "Δt_c, time between two broad-phase searches for fibre contact candidates"));
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
@@ -116,14 +131,24 @@ impl Stage for LaidWebStage {
     }
     /// Every web of the run is held until the output is written
     /// (`KEPT_BYTES_PER_NODE`), and each thread simulates one fibre
-    /// ([`SIM_BYTES_PER_NODE`], all its nodes active at worst).
+    /// ([`SIM_BYTES_PER_NODE`], all its nodes active at worst); with fibre contact every
+    /// fibre of a web is simulated at once, with its contact state
+    /// (`CONTACT_BYTES_PER_NODE`).
     fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {
         let fibres = declared_fibres(stage);
         let nodes: f64 = fibres.iter().map(|f| f.count * f.nodes).sum();
         let longest = fibres.iter().map(|f| f.nodes).fold(0.0, f64::max);
         let count: f64 = fibres.iter().map(|f| f.count).sum();
-        let bytes = nodes * KEPT_BYTES_PER_NODE + concurrent(count) * longest * SIM_BYTES_PER_NODE;
-        let what = format!("{count} fibres of up to {longest:.3e} nodes, {nodes:.3e} laid nodes in all kept until written, {KEPT_BYTES_PER_NODE} B each");
+        let params: Vec<LaidWebParams> = stage.points.iter().map(laid_web_params).collect();
+        let simulated = params
+            .iter()
+            .map(|p| match p.fibre_contact {
+                Some(_) => p.nodes_per_web() * (SIM_BYTES_PER_NODE + CONTACT_BYTES_PER_NODE),
+                None => 0.0,
+            })
+            .fold(concurrent(count) * longest * SIM_BYTES_PER_NODE, f64::max);
+        let bytes = nodes * KEPT_BYTES_PER_NODE + simulated;
+        let what = format!("{count} fibres of up to {longest:.3e} nodes, {nodes:.3e} laid nodes in all kept until written, {KEPT_BYTES_PER_NODE} B each, and the fibres simulated at once");
         Some(Estimate::new(bytes, what, &stage.name, &["fibres_across", "belt_travel"]).falling_with(&stage.name, &["element_length"]))
     }
     fn run(&self, ctx: &RunContext) -> Result<Output> {
@@ -172,7 +197,10 @@ const FIBRE_COLUMNS: &[FibreColumn] = &[
     ("steps", "1", "time steps", "time steps", |f| f.fed.steps as f64),
     ("node_steps", "1", "node steps", "sum over steps of the active nodes (the work done)", |f| f.fed.node_steps as f64),
     ("max_active_nodes", "1", "most active nodes", "most nodes integrated at once", |f| f.fed.max_active_nodes as f64),
-    ("wall_seconds", "s", "wall time of the fibre", "wall time of the fibre", |f| f.fed.wall_seconds),
+    ("wall_seconds", "s", "wall time of the fibre", "wall time of the fibre's own steps (with fibre contact: its narrow phase included)", |f| f.fed.wall_seconds),
+    ("contact_impulses", "1", "fibre contact impulses", "velocity impulses against other fibres (0 without fibre_contact)", |f| f.contact_impulses as f64),
+    ("contact_corrections", "1", "fibre contact corrections", "position corrections against other fibres (0 without fibre_contact)", |f| f.contact_corrections as f64),
+    ("crossed_pair_steps", "1", "crossed pair-steps", "pair-steps in which a pair was found closer than d/2 (crossed) and left alone (0 without fibre_contact)", |f| f.crossed_pair_steps as f64),
 ];
 
 /// The per-web rows of `webs` ((point, replicate, web) in any order): the laid-node axis
@@ -231,6 +259,10 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     out.f64("interior_md_min", &[UNIT_DIM], web_col(&|w| w.interior_md[0]), "m", "");
     out.f64("interior_md_max", &[UNIT_DIM], web_col(&|w| w.interior_md[1]), "m", "");
     out.f64("spread", &[UNIT_DIM], web_col(&|w| w.spread), "m", "");
+    out.f64("web_wall_seconds", &[UNIT_DIM], web_col(&|w| w.wall_seconds), "s", "");
+    out.f64("contact_seconds", &[UNIT_DIM], web_col(&|w| w.contact.map_or(0.0, |c| c.wall_seconds)), "s", "");
+    out.f64("contact_lock_steps", &[UNIT_DIM], web_col(&|w| w.contact.map_or(0.0, |c| c.lock_steps as f64)), "1", "");
+    out.f64("contact_candidate_pairs", &[UNIT_DIM], web_col(&|w| w.contact.map_or(0.0, |c| c.candidate_pairs as f64 / (c.preparations.max(1) as f64))), "1", "");
     Ok(out)
 }
 
@@ -287,6 +319,10 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
     out.f64("interior_md_min", &["point", "replicate"], f("interior_md_min")?, "m", "interior MD range, lower end").describe("lower end of the interior MD range: edge_margin_spreads × spread from the touchdown (x = 0)");
     out.f64("interior_md_max", &["point", "replicate"], f("interior_md_max")?, "m", "interior MD range, upper end").describe("upper end of the interior MD range: v_b (T − t_s) − edge_margin_spreads × spread, t_s the start-up time");
     out.f64("spread", &["point", "replicate"], f("spread")?, "m", "RMS belt-removed S of valid fibres").describe("RMS belt-removed radius of gyration of the valid fibres");
+    out.f64("web_wall_seconds", &["point", "replicate"], f("web_wall_seconds")?, "s", "wall time of the web").describe("wall time of the whole web (all its fibres, contact included), not of the output");
+    out.f64("contact_seconds", &["point", "replicate"], f("contact_seconds")?, "s", "wall time of the contact broad phase").describe("wall time of the fibre contact's broad phase and refreshes, outside the fibres' own steps (0 without fibre_contact)");
+    out.f64("contact_lock_steps", &["point", "replicate"], f("contact_lock_steps")?, "1", "lock steps").describe("steps in which every fibre of the web advanced together (0 without fibre_contact)");
+    out.f64("contact_candidate_pairs", &["point", "replicate"], f("contact_candidate_pairs")?, "1", "candidate pairs per search").describe("mean over the broad-phase searches of the candidate (own segment, obstacle) pairs (0 without fibre_contact)");
     let per_point = |g: &dyn Fn(&LaidWebParams) -> f64| Array1::from_iter(params.iter().map(g));
     out.f64("cd_period", &["point"], per_point(&|p| p.cd_period()), "m", "CD period n_w·Δw of the web");
     out.f64("element_length", &["point"], per_point(&|p| p.resolved_element_length()), "m", "Δs, element length used (after coil_resolution)");

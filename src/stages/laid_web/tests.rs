@@ -119,6 +119,7 @@ fn web_is_identical_for_one_and_two_threads_and_turbulence_is_per_fibre() {
     let bits = |w: &LaidWeb| {
         let mut w = w.clone();
         w.fibres.iter_mut().for_each(|f| f.fed.wall_seconds = 0.0);
+        w.wall_seconds = 0.0;
         format!("{w:?}")
     };
     let one = run(1, &p);
@@ -174,6 +175,10 @@ fn stage_table_is_its_typed_parameters() {
         edge_margin_spreads: d.edge_margin_spreads,
         freeze: d.feed.freeze,
         settle_time: d.feed.settle_time,
+        oscillation_ramp: d.feed.oscillation_ramp,
+        fibre_contact: d.fibre_contact.is_some(),
+        fibre_friction: FibreContactSettings::default().friction,
+        contact_interval: FibreContactSettings::default().interval,
     };
     let defaults = ParamSet::defaults(&table);
     assert_eq!(defaults.to_typed::<stage::LaidWebStageParams>().unwrap(), expected);
@@ -181,4 +186,84 @@ fn stage_table_is_its_typed_parameters() {
     rows.0.retain(|name, _| !stage::NOT_FROM_LAYDOWN.contains(&name.as_str()));
     assert_eq!(rows, defaults);
     assert_eq!(stage::laid_web_params(&defaults), LaidWebParams { scene: LaydownParams::default(), ..d });
+}
+
+/// Least centreline distance between laid segments (both ends landed) of different
+/// fibres (nearest CD image), and the pairs closer than d/2 (crossed).
+fn laid_pairs(web: &LaidWeb, p: &LaidWebParams) -> (f64, usize) {
+    use crate::rod::fibre_contact::closest_points;
+    let (d, period) = (p.scene.diameter, p.cd_period());
+    let segments: Vec<Vec<([f64; 3], [f64; 3])>> = web
+        .fibres
+        .iter()
+        .map(|f| {
+            let at = |i: usize| [f.fed.positions[i][0], f.fed.positions[i][1] + f.feed_cd, f.fed.positions[i][2]];
+            let laid = |i: usize| f.fed.landing_time[i].is_finite();
+            (0..f.fed.positions.len() - 1).filter(|&i| laid(i) && laid(i + 1)).map(|i| (at(i), at(i + 1))).collect()
+        })
+        .collect();
+    let (mut least, mut crossed) = (f64::INFINITY, 0);
+    for a in 0..segments.len() {
+        for b in a + 1..segments.len() {
+            for sa in &segments[a] {
+                for sb in &segments[b] {
+                    let dy = ((sa.0[1] - sb.0[1]) / period).round() * period;
+                    let g = closest_points(sa.0, sa.1, [sb.0[0], sb.0[1] + dy, sb.0[2]], [sb.1[0], sb.1[1] + dy, sb.1[2]]).2;
+                    let g = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                    least = least.min(g);
+                    crossed += usize::from(g < 0.5 * d);
+                }
+            }
+        }
+    }
+    (least / d, crossed)
+}
+
+/// A sparse web (Table 1 scene, 4 fibres 25 mm apart, 20 mm of belt) with fibre
+/// contact: the fibres touch (impulses), no laid pair of different fibres ends closer
+/// than 0.95 d or crossed, which without contact they do, and 1 and 2 threads give the
+/// same web, bit for bit.
+#[test]
+fn contact_web_keeps_laid_fibres_apart_on_any_thread_count() {
+    let scene = small_scene();
+    let mut p = laid_web_for(&scene, 0.0, 4);
+    p.belt_travel = 0.02;
+    p.fibre_spacing = 0.025;
+    p.feed.oscillation_ramp = 0.01;
+    let run = |threads: usize, p: &LaidWebParams| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| lay_web(p, 7, 0, &indicatif::ProgressBar::hidden()))
+    };
+    let without = run(2, &p);
+    p.fibre_contact = Some(FibreContactSettings::default());
+    let one = run(1, &p);
+    let bits = |w: &LaidWeb| {
+        let mut w = w.clone();
+        w.fibres.iter_mut().for_each(|f| f.fed.wall_seconds = 0.0);
+        w.wall_seconds = 0.0;
+        w.contact.iter_mut().for_each(|c| c.wall_seconds = 0.0);
+        format!("{w:?}")
+    };
+    assert!(bits(&one) == bits(&run(2, &p)), "1 and 2 threads differ");
+    let impulses: u64 = one.fibres.iter().map(|f| f.contact_impulses).sum();
+    let (least, crossed) = laid_pairs(&one, &p);
+    let (least_without, crossed_without) = laid_pairs(&without, &p);
+    println!("contact: {impulses} impulses, least laid distance {least:.3} d, {crossed} crossed; without: {least_without:.3} d, {crossed_without} crossed");
+    assert!(impulses > 0, "no contact happened");
+    assert!(least >= 0.95 && crossed == 0, "least {least:.3} d, {crossed} crossed pairs");
+    assert!(crossed_without > 0, "without contact no pair crossed: the test shows nothing");
+    for f in &one.fibres {
+        assert!(f.fed.error.is_none() && f.fed.positions.iter().flatten().all(|x| x.is_finite()), "{:?}", f.fed.error);
+    }
+}
+
+/// Fibre contact needs the soft start of the oscillation, and a contact interval
+/// within the run: both refused with the parameter named.
+#[test]
+fn contact_web_parameters_are_checked() {
+    let mut p = LaidWebParams { fibre_contact: Some(FibreContactSettings::default()), ..LaidWebParams::default() };
+    assert_eq!(p.validate().unwrap_err().key, "oscillation_ramp");
+    p.feed.oscillation_ramp = 0.01;
+    p.validate().unwrap();
+    p.fibre_contact = Some(FibreContactSettings { interval: 10.0, ..FibreContactSettings::default() });
+    assert_eq!(p.validate().unwrap_err().key, "contact_interval");
 }

@@ -559,5 +559,5 @@ fn add(a: [f64; 3], s: f64) -> [f64; 3] {
 
 /// Whether node `i` of `sim` lies on the belt or on the web (see [`FibreContact::rests`]).
 fn rests_on_web(sim: &Simulator, i: usize) -> bool {
-    sim.fibre_contact.as_ref().map_or(sim.landing_time[i].is_finite(), |c| c.rests(i, &sim.landing_time))
+    sim.fibre_contact.as_ref().map_or(sim.landing_time[i].is_finite(), |c| c.rests(i, &sim.landing_time, &sim.rod.x, c.before_contact(&sim.rod, sim.t)))
 }

@@ -36,10 +36,15 @@
 //!   fibres apart.
 //!
 //! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
-//! correction. Of two simulated fibres, the upper one takes it all if the lower one has
-//! landed (the belt holds it) or rested on another fibre in the last step (the web holds
-//! it: [`FibreContact::resting`]); with half each, a fibre pressed onto the belt or the
-//! web cannot give way and the penetration left drives spurious velocities. Otherwise,
+//! correction. Of two simulated fibres, the upper one takes it all if the lower one lies
+//! on the belt (landed, and on the plane or not rising off it: [`on_belt`]) or rested in
+//! the last step on fibre that takes none of the correction (the web holds it:
+//! [`FibreContact::resting`]); with half each, a fibre pressed onto the belt or the
+//! web cannot give way and the penetration left drives spurious velocities. A landed node
+//! lifted off the belt, or a node lying on a fibre that gives way with it, is not held:
+//! counted as held, the fibre above it took the whole correction and was carried up with
+//! it, and the other fibre saw it at its current velocity instead of the one it uses
+//! itself, so the pair's approach was judged two ways and never removed. Otherwise,
 //! and side by side (heights within 0.1 d), each takes ½ (equal masses per length). A pair
 //! closer than d/2 at the start of a step has crossed ([`CROSSED`]) and is left alone.
 //! Tunnelling needs a relative normal motion of more than d in one step while the pair
@@ -76,7 +81,8 @@ pub struct ObstacleSegment {
     /// Whether it belongs to another simulated fibre, which responds to contact too
     /// (see [`yield_share`]); false: frozen or held, this rod takes every correction.
     pub simulated: bool,
-    /// Whether each end node has landed (lies on the belt or the web, which hold it).
+    /// Whether each end node is held: lies on the belt or rests on the web
+    /// ([`FibreContact::rests`]).
     pub landed: [bool; 2],
     /// The simulated segment it copies, (rod, segment), refreshed before every step;
     /// None: frozen (moves with the belt, never refreshed).
@@ -178,10 +184,21 @@ impl FibreContact {
         self.web_landing_time.drain(..count.min(self.web_landing_time.len()));
     }
 
-    /// Whether node `k` rests on the belt's web: landed at `landing_time`, or held up from
-    /// below by another fibre in the last step.
-    pub fn rests(&self, k: usize, landing_time: &[f64]) -> bool {
-        landing_time[k].is_finite() || self.resting.get(k) == Some(&true)
+    /// Whether node `k` rests on the belt's web: held by the belt ([`on_belt`], with `v`
+    /// the velocities the rod reaches in the step before fibre contact), or held up from
+    /// below by fibre the web holds in the last step.
+    pub fn rests(&self, k: usize, landing_time: &[f64], x: &[[f64; 3]], v: &[[f64; 3]]) -> bool {
+        on_belt(k, landing_time, x, v, self.diameter) || self.resting.get(k) == Some(&true)
+    }
+
+    /// The velocities the rod reaches in the step from time `t` before fibre contact
+    /// (v*, the ones the other rods see), else its current ones.
+    pub fn before_contact<'a>(&'a self, rod: &'a Rod, t: f64) -> &'a [[f64; 3]] {
+        if self.predicted_at == Some(t) && self.predicted.len() == rod.nodes() {
+            &self.predicted
+        } else {
+            &rod.v
+        }
     }
 
     /// Candidate indices of own segment k (empty for a segment added since preparation).
@@ -230,7 +247,7 @@ impl FibreContact {
                 // contact began): pushing it apart along a normal that flipped as they
                 // passed would drive them into each other; it is left until it parts
                 let near = if s < 0.5 { i } else { j };
-                let own_landed = landing_time[near].is_finite() || self.was_resting.get(near) == Some(&true);
+                let own_landed = on_belt(near, landing_time, &rod.x, self.before_contact(rod, t), d) || self.was_resting.get(near) == Some(&true);
                 let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, own_landed) };
                 self.shares[c] = share;
                 if share == 0.0 && g < CROSSED * d {
@@ -254,7 +271,10 @@ impl FibreContact {
                 // point is held along n in the projection, with or without an impulse (a
                 // resting contact needs none, and the projection would otherwise pull the
                 // node back into the other fibre)
-                if gap[2] > 0.0 {
+                // resting on the web: held up from below by fibre that takes none of
+                // the correction (frozen, held, or itself on the belt or the web); a
+                // node lying on a fibre that gives way with it is not resting
+                if gap[2] > 0.0 && share == 1.0 {
                     self.resting[near] = true;
                     // the segment lies on laid fibre: both its nodes are part of the web
                     if ob.landed[usize::from(u >= 0.5)] && q0[2] + u * (q1[2] - q0[2]) <= self.web_top {
@@ -336,15 +356,24 @@ impl FibreContact {
     }
 }
 
+/// Whether the belt holds node `k`: it has landed and lies on the belt (within the
+/// contact tolerance [`SLOP`] d of the plane) or is not rising off it (`v` its velocity
+/// before fibre contact in the step). A landed node that fibre tension or a fibre below it
+/// lifts off the belt is not held: a fibre lying on it must not take the whole
+/// correction, or it is carried up with it.
+pub fn on_belt(k: usize, landing_time: &[f64], x: &[[f64; 3]], v: &[[f64; 3]], d: f64) -> bool {
+    landing_time[k].is_finite() && (x[k][2] <= SLOP * d || v[k][2] <= 0.0)
+}
+
 /// Height difference, in diameters, below which two simulated fibres in contact are
 /// side by side and share the correction.
 pub const SIDE_BY_SIDE: f64 = 0.1;
 
 /// The share of a contact's correction this rod takes, `dz` = z_P − z_Q the height of
 /// its contact point above the obstacle's: all of it against a frozen or held segment.
-/// Against another simulated fibre: if the lower of the two has landed at the contact
-/// (the segment end nearer the contact point, at `u` along the obstacle; the belt or
-/// the web holds it), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
+/// Against another simulated fibre: if the lower of the two is held at the contact
+/// (the segment end nearer the contact point, at `u` along the obstacle, lies on the belt
+/// or rests on the web: [`FibreContact::rests`]), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
 /// each takes ½ (equal masses per length: momentum is exchanged, not made). Both rods
 /// evaluate the same rule on the same data, so a contact is corrected once.
 pub fn yield_share(ob: &ObstacleSegment, u: f64, dz: f64, d: f64, own_landed: bool) -> f64 {

@@ -105,6 +105,10 @@ stages:
     input: laid
     params: {cell_size: 0.001, window_side: 0.01, edge_margin_spreads: 0.0}
     replicates: 2
+  - name: laidcontact
+    kind: laid_web
+    params: {fibres_across: 2, fibre_spacing: 0.025, belt_travel: 0.02, fibre_contact: true, oscillation_ramp: 0.01}
+    replicates: 2
 ";
 
 fn datasets(file: &Path, group: &str) -> Vec<(String, hdf5::Dataset)> {
@@ -244,13 +248,14 @@ fn job_array_matches_local_and_rerun_submits_only_the_failed_tasks() {
     assert!(so.contains("web: a web stage cannot be split over Slurm tasks; running it here"), "{so}");
     assert!(so.contains("laid: submitting 4 of 4 Slurm array tasks (4 units: 2 points × 2 replicates, 1 per task)"), "{so}");
     assert!(so.contains("laidgrid: submitting 4 of 4 Slurm array tasks (4 units: 2 points × 2 replicates, 1 per task)"), "{so}");
+    assert!(so.contains("laidcontact: submitting 2 of 2 Slurm array tasks (2 units: 1 point × 2 replicates, 1 per task)"), "{so}");
 
     // Bit-identical to the local executor, except the measured wall times: the datasets
     // of every stage, the per-point statistics over replicates (reduced at gather time)
     // among them.
     let mut compared = 0;
     for group in [
-        "/fibre/v1", "/single/v1", "/rounds/v1", "/web/v1", "/grid/v1", "/web1/v1", "/grid1/v1", "/segweb/v1", "/seggrid/v1", "/sdeweb/v1", "/sdegrid/v1", "/laid/v1", "/laidgrid/v1",
+        "/fibre/v1", "/single/v1", "/rounds/v1", "/web/v1", "/grid/v1", "/web1/v1", "/grid1/v1", "/segweb/v1", "/seggrid/v1", "/sdeweb/v1", "/sdegrid/v1", "/laid/v1", "/laidgrid/v1", "/laidcontact/v1",
     ] {
         let (a, b) = (datasets(&work.join("local.h5"), group), datasets(&work.join("slurm.h5"), group));
         let names = |v: &[(String, hdf5::Dataset)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
@@ -273,7 +278,7 @@ fn job_array_matches_local_and_rerun_submits_only_the_failed_tasks() {
         }
     }
     assert!(compared >= 150, "compared {compared} datasets");
-    for (group, tasks) in [("/fibre/v1", 8), ("/single/v1", 6), ("/rounds/v1", 4), ("/grid/v1", 8), ("/grid1/v1", 4), ("/seggrid/v1", 2), ("/sdegrid/v1", 2), ("/laid/v1", 4), ("/laidgrid/v1", 4)] {
+    for (group, tasks) in [("/fibre/v1", 8), ("/single/v1", 6), ("/rounds/v1", 4), ("/grid/v1", 8), ("/grid1/v1", 4), ("/seggrid/v1", 2), ("/sdegrid/v1", 2), ("/laid/v1", 4), ("/laidgrid/v1", 4), ("/laidcontact/v1", 2)] {
         assert_eq!(attr_of(&work.join("slurm.h5"), group, "executor"), "slurm", "{group}");
         let t: serde_json::Value = serde_json::from_str(&attr_of(&work.join("slurm.h5"), group, "slurm_tasks")).unwrap();
         let t = t.as_array().unwrap();

@@ -1,8 +1,8 @@
 //! A small laid web fed with fibre-fibre contact (the rods of `src/rod/` in lock step under
 //! [`ContactWorld`]), beside the same web without it: how close the laid fibres come to
 //! one another, how many pairs have crossed, how high landed fibre ends above the belt,
-//! and the cost. A tool for finding where contact fails in denser webs; `laid_web` does
-//! not offer contact yet (`pipelines/studies/PHYSICAL_WEBS.md`, last section).
+//! and the cost. A tool for finding where contact fails in denser webs (`laid_web` offers
+//! contact as `fibre_contact: true`; `pipelines/studies/PHYSICAL_WEBS.md`, last section).
 //!
 //! `cargo run --release --example laid_web_contact -- [fibres spacing_mm travel_mm seed] [name=value ...]`
 //! with `name` a laydown scene parameter, or `interval=` (s, contact preparation interval),

@@ -26,7 +26,8 @@
 //! 2-D grid in belt coordinates (x − v_b t, y), where they never move. Two segments are
 //! candidates when their grown boxes overlap. The cross direction may be periodic
 //! (period P): cells wrap and an obstacle is the image of the segment nearest to the
-//! own segment.
+//! own segment, per candidate pair (a rod spanning more than a period can meet one
+//! segment in two images: each image used is an obstacle of its own).
 //!
 //! Segments above [`ContactWorld::contact_top`] take no part (set it to the laydown
 //! height z0: above it eq 7's oscillator prescribes where each fibre is, and two
@@ -416,15 +417,11 @@ impl ContactWorld {
                     seen.dedup();
                     found.extend(seen.iter().map(|&o| (row, o)));
                 }
-                // local obstacles: the distinct keys, in key order
-                let mut keys: Vec<u32> = found.iter().map(|p| p.1).collect();
-                keys.sort_unstable();
-                keys.dedup();
                 // obstacles in the rod's own frame; cd_shift carries a simulated
-                // source's frame into it (its offset, then the periodic image below)
+                // source's frame into it (its offset, then the periodic image)
                 let own = self.cd_offsets[f];
-                for &key in &keys {
-                    let o = if (key as usize) < active.len() {
+                let obstacle = |key: u32| {
+                    if (key as usize) < active.len() {
                         let o = &active[key as usize];
                         let source = (o.segment != u32::MAX).then_some((o.fibre, o.segment));
                         let local = |p: [f64; 3]| [p[0], p[1] - own, p[2]];
@@ -434,7 +431,33 @@ impl ContactWorld {
                         let z = &self.frozen[key as usize - active.len()];
                         let lab = |p: [f64; 3]| [p[0] + vb * t, p[1] - own, p[2]];
                         ObstacleSegment { a: lab(z.a), b: lab(z.b), va: belt, vb: belt, t_ref: t, simulated: false, landed: [true; 2], source: None, cd_shift: 0.0 }
-                    };
+                    }
+                };
+                // periodic CD: each candidate pair uses the image of the obstacle nearest
+                // its own segment, and each image used is an obstacle of its own (a rod
+                // that spans more than a period meets one segment in two images; with one
+                // image per segment, the rows nearest the other saw it a period away and
+                // let it through)
+                let image = |row: u32, key: u32| -> i64 {
+                    let Some(p) = self.cd_period else { return 0 };
+                    let r = row as usize;
+                    let y = 0.5 * (sim.rod.x[r][1] + sim.rod.x[r + 1][1]);
+                    let o = obstacle(key);
+                    ((y - 0.5 * (o.a[1] + o.b[1])) / p).round() as i64
+                };
+                let found: Vec<(u32, (u32, i64))> = found.iter().map(|&(row, key)| (row, (key, image(row, key)))).collect();
+                // local obstacles: the distinct (key, image) pairs, in order
+                let mut keys: Vec<(u32, i64)> = found.iter().map(|p| p.1).collect();
+                keys.sort_unstable();
+                keys.dedup();
+                for &(key, m) in &keys {
+                    let mut o = obstacle(key);
+                    if let Some(p) = self.cd_period {
+                        let shift = p * m as f64;
+                        o.a[1] += shift;
+                        o.b[1] += shift;
+                        o.cd_shift += shift;
+                    }
                     contact.obstacles.push(o);
                 }
                 let rows = first[f + 1] - first[f] - own_link;
@@ -449,25 +472,6 @@ impl ContactWorld {
                         row_of.next();
                     }
                     contact.rows.push(contact.candidates.len() as u32);
-                }
-                // periodic CD: each obstacle is the image nearest its first user
-                if let Some(p) = self.cd_period {
-                    let mut shifted = vec![false; contact.obstacles.len()];
-                    for r in 0..rows {
-                        let (from, to) = (contact.rows[r] as usize, contact.rows[r + 1] as usize);
-                        let y = 0.5 * (sim.rod.x[r][1] + sim.rod.x[r + 1][1]);
-                        for c in from..to {
-                            let o = contact.candidates[c] as usize;
-                            if !shifted[o] {
-                                shifted[o] = true;
-                                let ob = &mut contact.obstacles[o];
-                                let shift = p * ((y - 0.5 * (ob.a[1] + ob.b[1])) / p).round();
-                                ob.a[1] += shift;
-                                ob.b[1] += shift;
-                                ob.cd_shift += shift;
-                            }
-                        }
-                    }
                 }
                 let n = contact.candidates.len();
                 sim.fibre_contact = Some(contact);

@@ -254,6 +254,8 @@ fn main() {
     }
     let wall = clock.elapsed().as_secs_f64();
     let pen = worst;
+    let (tests, skipped) = feeders.iter().filter_map(|f| f.simulator().fibre_contact.as_ref()).fold((0, 0), |(a, b), c| (a + c.pair_tests, b + c.pairs_skipped));
+    eprintln!("narrow phase: {tests} pair tests, {skipped} skipped by the gap bound");
     let laid: Vec<_> = feeders.into_iter().map(|f| f.finish()).collect();
     // least distance between laid segments (both ends landed) of different fibres (world
     // coordinates, nearest CD image)
@@ -303,9 +305,10 @@ fn main() {
         );
     }
     println!(
-        "contact {contact}: wall {wall:.1} s, lock steps {}, broad phase {:.1} s; laid pairs of segments of different fibres: least distance {:.3} d, {} crossed (< d/2), {} closer than 0.95 d",
+        "contact {contact}: wall {wall:.1} s, lock steps {}, broad phase {:.1} s, candidates per simulated segment {:.1}; laid pairs of segments of different fibres: least distance {:.3} d, {} crossed (< d/2), {} closer than 0.95 d",
         stats.lock_steps,
         stats.wall_seconds,
+        stats.candidate_pairs as f64 / stats.active_segments.max(1) as f64,
         least / d,
         crossed,
         close

@@ -35,6 +35,19 @@
 //!   step's velocity update leaves it out, so an overlap is undone without throwing the
 //!   fibres apart.
 //!
+//! **Pruning** (exact: the same corrections as testing every candidate in every pass).
+//! Most candidates of an interval are far apart in any one step. Each rod keeps the
+//! path length every own node and every obstacle end has travelled (t_k, t_q) and, per
+//! candidate, the gap it last measured plus the travel at that moment; the gap now is
+//! at least that gap minus the travel since (the closest-point distance of two segments
+//! moves no more than their ends). A pair whose lower bound exceeds d by more than the
+//! step can close at the current speeds is skipped in the velocity pass, and one whose
+//! bound is at least d in the position pass; a pair first tested in the position pass
+//! takes the share its start-of-step state gives, as it would have in the velocity pass.
+//! The pairs within a margin of contact are kept in a near list (a Verlet list), and the
+//! passes visit only these until the travel since the list was made uses up the margin.
+//! `pruning: false` tests every candidate (`pruning_skips_pair_tests_and_changes_nothing`).
+//!
 //! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
 //! correction. Of two simulated fibres, the upper one takes it all if the lower one lies
 //! on the belt (landed, and on the plane or not rising off it: [`on_belt`]) or rested in
@@ -148,6 +161,36 @@ pub struct FibreContact {
     pub corrections: u64,
     /// Pair-steps found crossed (closer than [`CROSSED`] d at the start of a step) and left alone.
     pub crossed: u64,
+    /// Pruning ([module docs](self)): path length travelled by each own node and the
+    /// position it was last seen at; the same for each obstacle (its farther-moving end)
+    /// and the time it was last seen at; per candidate, the gap last measured plus the
+    /// travel of its row and obstacle at that moment (−∞: never measured).
+    travel: Vec<f64>,
+    last_x: Vec<[f64; 3]>,
+    obstacle_travel: Vec<f64>,
+    obstacle_last: Vec<([f64; 3], [f64; 3])>,
+    obstacle_seen_at: f64,
+    /// Fastest end of each obstacle (m/s).
+    obstacle_speed: Vec<f64>,
+    gap_bound: Vec<f64>,
+    /// Start of the current step: positions, time, and whether each node was held
+    /// (on the belt or resting on fibre), for shares settled in the position pass.
+    x_start: Vec<[f64; 3]>,
+    t_start: f64,
+    held_start: Vec<bool>,
+    /// Pairs near contact (own segment, candidate), whether the list holds, and how far
+    /// a pair may still close before it must be made afresh (m): a Verlet list, see
+    /// [`FibreContact::pairs_to_test`].
+    near: Vec<(u32, u32)>,
+    near_valid: bool,
+    near_slack: f64,
+    /// Skip the pairs the gap bound shows cannot be in contact (on by default); off,
+    /// every candidate is tested in every pass: the reference the pruning is checked
+    /// against (it must give the same corrections to the bit).
+    pub pruning: bool,
+    /// Pair tests made (closest points computed) and skipped by the bound.
+    pub pair_tests: u64,
+    pub pairs_skipped: u64,
     /// The rod's velocities v* before contact in the step about to be taken from time
     /// `predicted_at` ([`super::Simulator::predict_velocities`]): the other rods see this
     /// rod's segments move at v* in that step, as the rod itself does, so both sides of
@@ -162,7 +205,7 @@ pub type FreeNodes = std::ops::Range<usize>;
 impl FibreContact {
     /// No obstacles, for `diameter` and `friction`.
     pub fn new(diameter: f64, friction: Option<f64>) -> Self {
-        FibreContact { diameter, friction, rows: vec![0], web_top: f64::INFINITY, ..FibreContact::default() }
+        FibreContact { diameter, friction, rows: vec![0], web_top: f64::INFINITY, pruning: true, ..FibreContact::default() }
     }
 
     /// Forget obstacles and candidates (before new ones are prepared for the rod's
@@ -173,6 +216,13 @@ impl FibreContact {
         self.rows.push(0);
         self.candidates.clear();
         self.dropped = 0;
+        self.gap_bound.clear();
+        self.travel.clear();
+        self.last_x.clear();
+        self.obstacle_travel.clear();
+        self.obstacle_last.clear();
+        self.obstacle_seen_at = f64::NAN;
+        self.near_valid = false;
     }
 
     /// The first `count` nodes left the rod (frozen): the per-node flags follow.
@@ -182,6 +232,86 @@ impl FibreContact {
             flags.drain(..count.min(flags.len()));
         }
         self.web_landing_time.drain(..count.min(self.web_landing_time.len()));
+        self.travel.drain(..count.min(self.travel.len()));
+        self.last_x.drain(..count.min(self.last_x.len()));
+    }
+
+    /// Add the motion since the last call to the travel of every own node and (when `t`
+    /// is a new time, or the obstacles may have been refreshed since) of every obstacle;
+    /// a node or obstacle seen for the first time starts at 0. Returns by how much the
+    /// travel of any one pair grew at most.
+    fn update_travel(&mut self, x: &[[f64; 3]], t: f64, obstacles_refreshed: bool) -> f64 {
+        let n = x.len();
+        let seen = self.last_x.len().min(n);
+        let mut largest = 0.0f64;
+        for k in 0..seen {
+            let step = norm(sub(x[k], self.last_x[k]));
+            self.travel[k] += step;
+            self.last_x[k] = x[k];
+            largest = largest.max(step);
+        }
+        // (a node new since the last call has no candidates: rows are made at preparation)
+        self.travel.truncate(n);
+        self.last_x.truncate(n);
+        self.travel.resize(n, 0.0);
+        self.last_x.extend_from_slice(&x[seen..]);
+        // a pair's travel counts both its own nodes
+        let own = 2.0 * largest;
+        if !obstacles_refreshed && self.obstacle_seen_at == t && self.obstacle_last.len() == self.obstacles.len() {
+            return own;
+        }
+        self.obstacle_seen_at = t;
+        self.obstacle_speed.clear();
+        let mut farthest = 0.0f64;
+        for (q, ob) in self.obstacles.iter().enumerate() {
+            let (a, b) = ob.at(t);
+            self.obstacle_speed.push(norm(ob.va).max(norm(ob.vb)));
+            if let Some(&(la, lb)) = self.obstacle_last.get(q) {
+                let step = norm(sub(a, la)).max(norm(sub(b, lb)));
+                self.obstacle_travel[q] += step;
+                self.obstacle_last[q] = (a, b);
+                farthest = farthest.max(step);
+            } else {
+                // an obstacle new since the last call: its candidates were never measured
+                self.obstacle_travel.push(0.0);
+                self.obstacle_last.push((a, b));
+            }
+        }
+        own + farthest
+    }
+
+    /// Travel of own segment k's nodes plus that of obstacle q: how far the pair's gap
+    /// can have shrunk since the travels were this much smaller.
+    fn pair_travel(&self, k: usize, q: usize) -> f64 {
+        self.travel[k] + self.travel[k + 1] + self.obstacle_travel[q]
+    }
+
+    /// The (own segment, candidate) pairs a pass must test, in row order, after
+    /// everything moved by at most `moved` since the last pass. The near list serves
+    /// while its slack exceeds `need`; otherwise every candidate is listed, and the pairs
+    /// whose gap bound is within `margin` of contact form the next near list, valid until
+    /// the motion uses up the margin.
+    fn pairs_to_test(&mut self, segments: usize, moved: f64, need: f64, margin: f64) -> Vec<(u32, u32)> {
+        self.near_slack -= moved;
+        let mut pairs = std::mem::take(&mut self.near);
+        if self.pruning && self.near_valid && self.near_slack > need {
+            return pairs;
+        }
+        let d = self.diameter;
+        pairs.clear();
+        for k in 0..segments {
+            for c in self.row(k) {
+                let q = self.candidates[c] as usize;
+                let bound = self.gap_bound.get(c).map_or(f64::NEG_INFINITY, |b| b - self.pair_travel(k, q));
+                if !self.pruning || bound < d + margin {
+                    pairs.push((k as u32, c as u32));
+                }
+            }
+        }
+        self.pairs_skipped += (self.candidates.len() - pairs.len()) as u64;
+        self.near_valid = true;
+        self.near_slack = margin;
+        pairs
     }
 
     /// Whether node `k` rests on the belt's web: held by the belt ([`on_belt`], with `v`
@@ -222,8 +352,9 @@ impl FibreContact {
     pub fn apply_impulses(&mut self, rod: &mut Rod, landing_time: &[f64], mut winv: Option<&mut [[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) {
         let d = self.diameter;
         let mut impulses = 0;
+        // NaN: not settled in this pass (see `share_at_start`)
         self.shares.clear();
-        self.shares.resize(self.candidates.len(), 0.0);
+        self.shares.resize(self.candidates.len(), f64::NAN);
         self.supported.clear();
         self.supported.resize(rod.nodes(), false);
         std::mem::swap(&mut self.resting, &mut self.was_resting);
@@ -236,19 +367,49 @@ impl FibreContact {
         self.shift.clear();
         self.shift.resize(rod.nodes(), [0.0; 3]);
         self.unconstrained.resize(rod.nodes(), [0.0; 6]);
-        for k in 0..rod.rest.len() {
+        self.gap_bound.resize(self.candidates.len(), f64::NEG_INFINITY);
+        // the obstacles were refreshed before this step
+        let moved = self.update_travel(&rod.x, t, true);
+        self.x_start.clone_from(&rod.x);
+        self.t_start = t;
+        let mut held = std::mem::take(&mut self.held_start);
+        held.clear();
+        let v = self.before_contact(rod, t);
+        held.extend((0..rod.nodes()).map(|k| on_belt(k, landing_time, &rod.x, v, d) || self.was_resting.get(k) == Some(&true)));
+        self.held_start = held;
+        let speed = |v: [f64; 3]| norm(v);
+        // what any pair can close in this step at the current speeds
+        let fastest = rod.v.iter().map(|&v| speed(v)).fold(0.0, f64::max) + self.obstacle_speed.iter().copied().fold(0.0, f64::max);
+        let closing = dt * fastest;
+        let pairs = self.pairs_to_test(rod.rest.len(), moved, closing, NEAR_MARGIN * d + 4.0 * closing);
+        let (mut tests, mut skipped) = (0, 0);
+        let mut row = (usize::MAX, 0.0);
+        for &(k, c) in &pairs {
+            let (k, c) = (k as usize, c as usize);
             let (i, j) = (k, k + 1);
-            for c in self.row(k) {
-                let ob = &self.obstacles[self.candidates[c] as usize];
+            if row.0 != k {
+                row = (k, speed(rod.v[i]).max(speed(rod.v[j])));
+            }
+            {
+                let row_speed = row.1;
+                let q = self.candidates[c] as usize;
+                // nothing happens to a pair that cannot reach contact in this step
+                let travel = self.pair_travel(k, q);
+                if self.pruning && self.gap_bound[c] - travel - d > dt * (row_speed + self.obstacle_speed[q]) {
+                    skipped += 1;
+                    continue;
+                }
+                tests += 1;
+                let ob = &self.obstacles[q];
                 let (q0, q1) = ob.at(t);
                 let (s, u, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
                 let g = norm(gap);
+                self.gap_bound[c] = g + travel;
                 // a pair closer than d/2 has crossed (in a violent event, or before
                 // contact began): pushing it apart along a normal that flipped as they
                 // passed would drive them into each other; it is left until it parts
                 let near = if s < 0.5 { i } else { j };
-                let own_landed = on_belt(near, landing_time, &rod.x, self.before_contact(rod, t), d) || self.was_resting.get(near) == Some(&true);
-                let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, own_landed) };
+                let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, self.held_start[near]) };
                 self.shares[c] = share;
                 if share == 0.0 && g < CROSSED * d {
                     self.crossed += 1;
@@ -309,10 +470,25 @@ impl FibreContact {
                         mobility.shift(&mut rod.v, i, j, s, scale(wt, -share * removed));
                     }
                 }
+                row.1 = speed(rod.v[i]).max(speed(rod.v[j]));
                 impulses += 1;
             }
         }
+        self.near = pairs;
         self.impulses += impulses;
+        self.pair_tests += tests;
+        self.pairs_skipped += skipped;
+    }
+
+    /// The share of candidate c (own segment k, obstacle q) the velocity pass skipped,
+    /// from the start-of-step state, as that pass would have settled it.
+    fn share_at_start(&self, k: usize, q: usize) -> f64 {
+        let ob = &self.obstacles[q];
+        let (q0, q1) = ob.at(self.t_start);
+        let (s, u, gap) = closest_points(self.x_start[k], self.x_start[k + 1], q0, q1);
+        let near = if s < 0.5 { k } else { k + 1 };
+        // skipped only when farther apart than d, so never crossed
+        yield_share(ob, u, gap[2], self.diameter, self.held_start[near])
     }
 
     /// Position pass at the end of a step (time `t`, step `dt`): pushes pairs closer
@@ -324,37 +500,69 @@ impl FibreContact {
         let max_push = MAX_SEPARATION_SPEED * dt / POSITION_ROUNDS as f64;
         let mut count = 0;
         let mut deepest = 0.0f64;
-        for k in 0..rod.rest.len() {
+        let moved = self.update_travel(&rod.x, t, false);
+        let margin = NEAR_MARGIN * d;
+        let pairs = self.pairs_to_test(rod.rest.len(), moved, 0.0, margin);
+        let (mut tests, mut skipped) = (0, 0);
+        for &(k, c) in &pairs {
+            let (k, c) = (k as usize, c as usize);
             let (i, j) = (k, k + 1);
-            for c in self.row(k) {
-                let ob = &self.obstacles[self.candidates[c] as usize];
-                let (q0, q1) = ob.at(t);
-                let (s, _, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
-                let g = norm(gap);
-                if !(g < d) {
-                    continue;
+            let q = self.candidates[c] as usize;
+            let travel = self.pair_travel(k, q);
+            let bound = self.gap_bound.get(c).map_or(f64::NEG_INFINITY, |b| b - travel);
+            if self.pruning && bound >= d {
+                skipped += 1;
+                continue;
+            }
+            tests += 1;
+            let ob = &self.obstacles[q];
+            let (q0, q1) = ob.at(t);
+            let (s, _, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
+            let g = norm(gap);
+            if let Some(b) = self.gap_bound.get_mut(c) {
+                *b = g + travel;
+            }
+            if !(g < d) {
+                continue;
+            }
+            deepest = deepest.max(d - g);
+            let mut share = self.shares.get(c).copied().unwrap_or(1.0);
+            if share.is_nan() {
+                share = self.share_at_start(k, q);
+                self.shares[c] = share;
+            }
+            if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 {
+                continue;
+            }
+            let dx = scale(gap, share * (d - g).min(max_push) / g);
+            let mobility = Mobility { winv, supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
+            let (xi, xj) = (rod.x[i], rod.x[j]);
+            if mobility.shift(&mut rod.x, i, j, s, dx) {
+                count += 1;
+                if let (Some(si), Some(sj)) = (self.shift.get(i).copied(), self.shift.get(j).copied()) {
+                    self.shift[i] = add_scaled(si, sub(rod.x[i], xi), 1.0);
+                    self.shift[j] = add_scaled(sj, sub(rod.x[j], xj), 1.0);
                 }
-                deepest = deepest.max(d - g);
-                let share = self.shares.get(c).copied().unwrap_or(1.0);
-                if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 {
-                    continue;
-                }
-                let dx = scale(gap, share * (d - g).min(max_push) / g);
-                let mobility = Mobility { winv, supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
-                let (xi, xj) = (rod.x[i], rod.x[j]);
-                if mobility.shift(&mut rod.x, i, j, s, dx) {
-                    count += 1;
-                    if let (Some(si), Some(sj)) = (self.shift.get(i).copied(), self.shift.get(j).copied()) {
-                        self.shift[i] = add_scaled(si, sub(rod.x[i], xi), 1.0);
-                        self.shift[j] = add_scaled(sj, sub(rod.x[j], xj), 1.0);
-                    }
+                // the later pairs of this pass, and of the later rounds, see the move
+                for m in [i, j] {
+                    let step = norm(sub(rod.x[m], self.last_x[m]));
+                    self.travel[m] += step;
+                    self.last_x[m] = rod.x[m];
+                    self.near_slack -= step;
                 }
             }
         }
+        self.near = pairs;
         self.corrections += count as u64;
+        self.pair_tests += tests;
+        self.pairs_skipped += skipped;
         (count, deepest)
     }
 }
+
+/// Margin, in diameters, by which a pair may be away from contact and still be kept in
+/// the near list ([`FibreContact::pairs_to_test`]).
+const NEAR_MARGIN: f64 = 0.25;
 
 /// Whether the belt holds node `k`: it has landed and lies on the belt (within the
 /// contact tolerance [`SLOP`] d of the plane) or is not rising off it (`v` its velocity
@@ -523,3 +731,4 @@ pub(super) fn lerp(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
 #[cfg(test)]
 #[path = "fibre_contact_tests.rs"]
 mod tests;
+

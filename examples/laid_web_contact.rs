@@ -12,13 +12,11 @@
 //! instead of what each rod saw in its own steps, and each landed node that rises above
 //! 0.5 mm; with the environment variable `LIFT_PROFILE` set, the heights of the fibre
 //! around it, L landed, S held by a contact, R resting on a fibre).
-use laydown::rng::stream_rng;
-use laydown::rod::contact_world::{ContactBody, ContactStats, ContactWorld};
+use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
-use laydown::rod::fibre_contact::{closest_points, FibreContact};
+use laydown::rod::fibre_contact::closest_points;
 use laydown::rod::LaydownParams;
-use laydown::stages::laid_web::LaidWebParams;
-use rand::Rng;
+use laydown::stages::laid_web::{fibre_setup, ContactWeb, FibreContactSettings, LaidWebParams, Turbulence};
 use std::time::Instant;
 
 /// A segment's end points and whether it is frozen.
@@ -88,46 +86,28 @@ fn main() {
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
         }
     }
-    let mut p = LaidWebParams { scene, fibres_across: fibres, fibre_spacing: spacing, belt_travel: travel, ..LaidWebParams::default() };
+    let settings = FibreContactSettings { friction: mu_ff, interval };
+    let turbulence = if coherent { Turbulence::Coherent } else { Turbulence::Independent };
+    let mut p = LaidWebParams { scene, fibres_across: fibres, fibre_spacing: spacing, belt_travel: travel, turbulence, fibre_contact: contact.then(|| settings.clone()), ..LaidWebParams::default() };
     p.feed.oscillation_ramp = ramp;
     p.validate().unwrap_or_else(|e| panic!("{e}"));
     let t_end = p.feed_time();
     let d = p.scene.diameter;
     let clock = Instant::now();
-    let mut feeders: Vec<Feeder> = (0..fibres)
-        .map(|j| {
-            let mut rng = stream_rng(seed, 0, j as u64 + 1);
-            let mut phase = 2.0 * std::f64::consts::PI * rng.random::<f64>();
-            if coherent {
-                phase = 0.0;
-            }
-            let scene = p.fibre_scene(1.0, 1.0);
-            let mut f = Feeder::new(&scene, phase, &p.feed, &mut rng);
-            if contact {
-                f.defer_freezing = true;
-                let mut c = FibreContact::new(d, Some(mu_ff));
-                c.web_top = scene.bounce_tolerance;
-                f.simulator_mut().fibre_contact = Some(c);
-            }
-            f
-        })
-        .collect();
     let mut stats = ContactStats::default();
     let mut worst = vec![0.0f64; fibres];
+    let feeders: Vec<Feeder>;
     if contact {
-        let mut world = ContactWorld::new(fibres, d, Some(mu_ff), p.scene.belt_speed, Some(p.cd_period()), p.resolved_element_length());
-        world.contact_top = p.scene.laydown_height;
-        for j in 0..fibres {
-            world.cd_offsets[j] = (j as f64 + 0.5) * spacing - 0.5 * p.cd_period();
-        }
-        let n = (t_end / interval).ceil() as usize;
+        // the stage's own web: feeders, contact world, intervals
+        let mut web = ContactWeb::new(&p, &settings, seed, 0);
+        let n = web.intervals();
         let mut reported = 0;
         let mut true_reports = 0;
         let mut lift_reports = 0;
         let mut was_lifted = vec![std::collections::HashSet::new(); fibres];
         for k in 0..n {
-            let (t0, t1) = (k as f64 * interval, ((k + 1) as f64 * interval).min(t_end));
-            world.run_interval(&mut feeders, t0, t1, &mut stats);
+            let (_, t1) = web.run_interval(k);
+            let (feeders, world, stats) = (&mut web.feeders, &web.world, &web.stats);
             // the true least distance at the end of the interval, from both rods' positions
             if check {
                 let segs: Vec<_> = feeders.iter().enumerate().map(|(j, f)| segments(f, world.cd_offsets[j], p.scene.belt_speed, t1)).collect();
@@ -247,10 +227,17 @@ fn main() {
                 eprintln!("t = {:.4} s: running {running}/{fibres}, max penetration so far {:.3} d, lock steps {}", t1, pen / d, stats.lock_steps);
             }
         }
+        stats = web.stats;
+        feeders = web.into_fibres().into_iter().map(|(f, _, _)| f).collect();
     } else {
-        for f in feeders.iter_mut() {
-            f.advance_to(t_end);
-        }
+        feeders = (0..fibres)
+            .map(|j| {
+                let (mut rng, turbulence, scene) = fibre_setup(&p, seed, 0, j);
+                let mut f = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
+                f.advance_to(t_end);
+                f
+            })
+            .collect();
     }
     let wall = clock.elapsed().as_secs_f64();
     let pen = worst;
@@ -305,7 +292,8 @@ fn main() {
         );
     }
     println!(
-        "contact {contact}: wall {wall:.1} s, lock steps {}, broad phase {:.1} s, candidates per simulated segment {:.1}; laid pairs of segments of different fibres: least distance {:.3} d, {} crossed (< d/2), {} closer than 0.95 d",
+        "contact {contact}: wall {wall:.1} s, clusters per interval {:.2}, lock steps {}, broad phase {:.1} s, candidates per simulated segment {:.1}; laid pairs of segments of different fibres: least distance {:.3} d, {} crossed (< d/2), {} closer than 0.95 d",
+        stats.clusters as f64 / stats.preparations.max(1) as f64,
         stats.lock_steps,
         stats.wall_seconds,
         stats.candidate_pairs as f64 / stats.active_segments.max(1) as f64,

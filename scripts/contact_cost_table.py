@@ -6,7 +6,7 @@ highest laid node, and the laid segment pairs of different fibres closer than d/
 or 0.95 d, measured from the stored polylines.
 
 Usage (from the repository root, after `laydown run pipelines/studies/contact_cost.yaml`):
-    .venv/bin/python scripts/contact_cost_table.py
+    .venv/bin/python scripts/contact_cost_table.py [archive]   (default results/contact_cost.h5)
 Needs h5py, numpy and pyyaml (tests/python/requirements.txt).
 """
 import sys
@@ -78,7 +78,7 @@ def laid_pairs(g, point, d, period):
 
 
 def main():
-    f = h5py.File(ARCHIVE, "r")
+    f = h5py.File(sys.argv[1] if len(sys.argv) > 1 else ARCHIVE, "r")
     print("| web | Δw | contact | wall | of it broad phase | laid nodes | highest laid node | valid fibres | laid pairs crossed / closer than 0.95 d | least distance |")
     print("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for base in ["table1", "table4"]:

@@ -4,8 +4,11 @@
 //! Every `interval` Δt_c, [`ContactWorld::run_interval`] lets each body freeze what has
 //! settled, then gives each rod its [`FibreContact`] obstacles (the segments of the other
 //! rods, and every frozen laid segment, its own included) with each own segment's
-//! candidates, and advances all rods in lock step to the end of the interval: every
-//! step is the smallest any rod asks for. Before each step every rod predicts the
+//! candidates. Rods that can touch in the interval (a segment of one is a candidate of
+//! the other, or through a chain of such rods) form a cluster; each cluster advances in
+//! lock step to the end of the interval, every step the smallest any of its rods asks
+//! for, and the clusters advance side by side, each rod of a lone cluster at its own
+//! step. Before each step every rod predicts the
 //! velocities v* it will reach without fibre contact (forces, the implicit update and
 //! the belt: [`Simulator::predict_velocities`]), and every rod's copies of the other
 //! rods' segments are refreshed with their positions and v* (a node resting on another
@@ -15,9 +18,9 @@
 //! the other rod does; which of the two yields is in
 //! [`super::fibre_contact::yield_share`]). Seen at their start-of-step velocities, two
 //! fibres accelerated by the drag passed through each other
-//! (`fibres_colliding_in_the_air_stay_one_diameter_apart`). The rods step in parallel
-//! and only read what was refreshed, so the result does not depend on the thread
-//! count; the step reuses the forces of its prediction.
+//! (`fibres_colliding_in_the_air_stay_one_diameter_apart`). The clusters, and the rods of
+//! a large cluster, step in parallel and only read what was refreshed, so the result
+//! does not depend on the thread count; the step reuses the forces of its prediction.
 //!
 //! Spatial hashing keeps the cost proportional to the local neighbour count: the
 //! simulated segments go into a 3-D grid rebuilt at each preparation, each spread over
@@ -170,13 +173,17 @@ impl ContactBody for FreeRod {
 /// Cost counters of the contact work.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactStats {
-    /// Preparations (intervals) and lock steps.
+    /// Preparations (intervals); Σ over them of the clusters of rods that can touch
+    /// (rods of different clusters step on their own); Σ over the clusters of the steps
+    /// they took in lock step.
     pub preparations: u64,
+    pub clusters: u64,
     pub lock_steps: u64,
     /// Σ over preparations of the simulated segments and of the candidate pairs.
     pub active_segments: u64,
     pub candidate_pairs: u64,
-    /// Wall time in the broad phase and the refreshes (s), not in the rods' steps.
+    /// Wall time in freezing, the broad phase and the clustering (s), not in the rods'
+    /// steps and refreshes.
     pub wall_seconds: f64,
 }
 
@@ -232,7 +239,8 @@ impl ContactWorld {
         }
     }
 
-    /// One interval [t, t_next] of lock-step stepping with contact (see the module docs).
+    /// One interval [t, t_next] of stepping with contact (see the module docs): freeze,
+    /// search, then each cluster of rods in lock step, the clusters side by side.
     pub fn run_interval<B: ContactBody>(&mut self, bodies: &mut [B], t: f64, t_next: f64, stats: &mut ContactStats) {
         let clock = std::time::Instant::now();
         let mut frozen = Vec::new();
@@ -245,75 +253,19 @@ impl ContactWorld {
         stats.preparations += 1;
         stats.active_segments += segments as u64;
         stats.candidate_pairs += pairs as u64;
-        let mut in_bodies = 0.0;
-        let mut now = t;
-        while now < t_next - t_next.abs() * 1e-12 {
-            let dt = bodies.iter().filter(|b| b.running()).map(|b| b.next_step()).fold(f64::INFINITY, f64::min);
-            if !dt.is_finite() {
-                break;
-            }
-            let until = if now + dt >= t_next - t_next.abs() * 1e-12 { t_next } else { now + dt };
-            let stepping = std::time::Instant::now();
-            bodies.par_iter_mut().filter(|b| b.running()).for_each(|b| b.predict(until));
-            in_bodies += stepping.elapsed().as_secs_f64();
-            self.refresh(bodies, now);
-            let stepping = std::time::Instant::now();
-            bodies.par_iter_mut().for_each(|b| b.advance_to(until));
-            in_bodies += stepping.elapsed().as_secs_f64();
-            now = until;
-            stats.lock_steps += 1;
+        let cluster_of = clusters(bodies);
+        let count = cluster_of.iter().max().map_or(0, |&c| c + 1);
+        stats.clusters += count as u64;
+        stats.wall_seconds += clock.elapsed().as_secs_f64();
+        // each rod's place in its cluster; a cluster's rods in fibre order
+        let mut local = vec![0usize; bodies.len()];
+        let mut groups: Vec<Vec<&mut B>> = (0..count).map(|_| Vec::new()).collect();
+        for (f, body) in bodies.iter_mut().enumerate() {
+            local[f] = groups[cluster_of[f]].len();
+            groups[cluster_of[f]].push(body);
         }
-        stats.wall_seconds += clock.elapsed().as_secs_f64() - in_bodies;
-    }
-
-    /// Copy each rod's simulated obstacles afresh from the other rods' state at `t`.
-    pub fn refresh<B: ContactBody>(&self, bodies: &mut [B], t: f64) {
-        let fresh: Vec<Option<Vec<ObstacleSegment>>> = bodies
-            .par_iter()
-            .map(|body| {
-                let contact = body.simulator().fibre_contact.as_ref()?;
-                Some(
-                    contact
-                        .obstacles
-                        .iter()
-                        .map(|o| match o.source {
-                            // a rod that failed mid-interval keeps its last copy
-                            Some((g, k)) if k as usize + 1 < bodies[g as usize].simulator().rod.nodes() => {
-                                let sim = bodies[g as usize].simulator();
-                                let k = k as usize;
-                                let x = &sim.rod.x;
-                                // the velocities it reaches before contact in this step, if known
-                                let v = match &sim.fibre_contact {
-                                    Some(c) if c.predicted_at == Some(sim.t) && c.predicted.len() == x.len() => &c.predicted,
-                                    _ => &sim.rod.v,
-                                };
-                                let shift = |p: [f64; 3]| [p[0], p[1] + o.cd_shift, p[2]];
-                                // a node held up by another fibre moves as it did in the last
-                                // step: its velocity before contact would carry it into that fibre
-                                let on_fibre = |i: usize| sim.fibre_contact.as_ref().is_some_and(|c| c.resting.get(i) == Some(&true));
-                                let velocity = |i: usize| if on_fibre(i) { sim.rod.v[i] } else { v[i] };
-                                let rests = |i: usize| rests_on_web(sim, i);
-                                ObstacleSegment {
-                                    a: shift(x[k]),
-                                    b: shift(x[k + 1]),
-                                    va: velocity(k),
-                                    vb: velocity(k + 1),
-                                    t_ref: t,
-                                    landed: [rests(k), rests(k + 1)],
-                                    ..*o
-                                }
-                            }
-                            _ => *o,
-                        })
-                        .collect(),
-                )
-            })
-            .collect();
-        bodies.par_iter_mut().zip(fresh).for_each(|(body, fresh)| {
-            if let (Some(c), Some(fresh)) = (body.simulator_mut().fibre_contact.as_mut(), fresh) {
-                c.obstacles = fresh;
-            }
-        });
+        let steps: u64 = groups.par_iter_mut().map(|group| lock_step(group, &local, t, t_next)).sum();
+        stats.lock_steps += steps;
     }
 
     /// Give every running rod its obstacles and candidates for the interval
@@ -539,6 +491,122 @@ impl ContactWorld {
             }
         }
         true
+    }
+}
+
+/// Rods that can touch within the interval, as cluster indices per rod (in order of each
+/// cluster's first rod): two rods are in one cluster when a segment of one is a
+/// candidate obstacle of the other, or through a chain of such rods.
+fn clusters<B: ContactBody>(bodies: &[B]) -> Vec<usize> {
+    fn root(parent: &mut [usize], mut f: usize) -> usize {
+        while parent[f] != f {
+            parent[f] = parent[parent[f]];
+            f = parent[f];
+        }
+        f
+    }
+    let mut parent: Vec<usize> = (0..bodies.len()).collect();
+    for (f, body) in bodies.iter().enumerate() {
+        let Some(contact) = body.simulator().fibre_contact.as_ref() else { continue };
+        for o in &contact.obstacles {
+            if let Some((g, _)) = o.source {
+                let (a, b) = (root(&mut parent, f), root(&mut parent, g as usize));
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut index = vec![usize::MAX; bodies.len()];
+    let mut next = 0;
+    (0..bodies.len())
+        .map(|f| {
+            let r = root(&mut parent, f);
+            if index[r] == usize::MAX {
+                index[r] = next;
+                next += 1;
+            }
+            index[r]
+        })
+        .collect()
+}
+
+/// Rods in a cluster from which its rods' steps are taken in parallel (smaller
+/// clusters step one rod after the other, side by side with the other clusters).
+const PARALLEL_CLUSTER: usize = 3;
+
+/// Advance one cluster from t to t_next in lock step: every step is the smallest any of
+/// its rods asks for, each rod predicts its velocities before contact, and every rod's
+/// copies of the others' segments are refreshed ([`refresh`]). `local[g]` is rod g's
+/// place in its cluster. Returns the steps taken.
+fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_next: f64) -> u64 {
+    let parallel = group.len() >= PARALLEL_CLUSTER;
+    let each = |group: &mut [&mut B], work: &(dyn Fn(&mut B) + Sync)| {
+        if parallel {
+            group.par_iter_mut().for_each(|b| work(b));
+        } else {
+            group.iter_mut().for_each(|b| work(b));
+        }
+    };
+    let mut steps = 0;
+    let mut now = t;
+    while now < t_next - t_next.abs() * 1e-12 {
+        let dt = group.iter().filter(|b| b.running()).map(|b| b.next_step()).fold(f64::INFINITY, f64::min);
+        if !dt.is_finite() {
+            break;
+        }
+        let until = if now + dt >= t_next - t_next.abs() * 1e-12 { t_next } else { now + dt };
+        each(group, &|b: &mut B| {
+            if b.running() {
+                b.predict(until)
+            }
+        });
+        if group.len() > 1 {
+            refresh(group, local, now, parallel);
+        }
+        each(group, &|b: &mut B| b.advance_to(until));
+        now = until;
+        steps += 1;
+    }
+    steps
+}
+
+/// Copy each rod's simulated obstacles afresh from the other rods' state at `t` (rods of
+/// one cluster; `local[g]` is rod g's place in it).
+fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parallel: bool) {
+    let copy = |body: &&mut B| -> Option<Vec<ObstacleSegment>> {
+        let contact = body.simulator().fibre_contact.as_ref()?;
+        Some(
+            contact
+                .obstacles
+                .iter()
+                .map(|o| match o.source {
+                    // a rod that failed mid-interval keeps its last copy
+                    Some((g, k)) if k as usize + 1 < group[local[g as usize]].simulator().rod.nodes() => {
+                        let sim = group[local[g as usize]].simulator();
+                        let k = k as usize;
+                        let x = &sim.rod.x;
+                        // the velocities it reaches before contact in this step, if known
+                        let v = match &sim.fibre_contact {
+                            Some(c) if c.predicted_at == Some(sim.t) && c.predicted.len() == x.len() => &c.predicted,
+                            _ => &sim.rod.v,
+                        };
+                        let shift = |p: [f64; 3]| [p[0], p[1] + o.cd_shift, p[2]];
+                        // a node held up by another fibre moves as it did in the last
+                        // step: its velocity before contact would carry it into that fibre
+                        let on_fibre = |i: usize| sim.fibre_contact.as_ref().is_some_and(|c| c.resting.get(i) == Some(&true));
+                        let velocity = |i: usize| if on_fibre(i) { sim.rod.v[i] } else { v[i] };
+                        let rests = |i: usize| rests_on_web(sim, i);
+                        ObstacleSegment { a: shift(x[k]), b: shift(x[k + 1]), va: velocity(k), vb: velocity(k + 1), t_ref: t, landed: [rests(k), rests(k + 1)], ..*o }
+                    }
+                    _ => *o,
+                })
+                .collect(),
+        )
+    };
+    let fresh: Vec<Option<Vec<ObstacleSegment>>> = if parallel { group.par_iter().map(copy).collect() } else { group.iter().map(copy).collect() };
+    for (body, fresh) in group.iter_mut().zip(fresh) {
+        if let (Some(c), Some(fresh)) = (body.simulator_mut().fibre_contact.as_mut(), fresh) {
+            c.obstacles = fresh;
+        }
     }
 }
 

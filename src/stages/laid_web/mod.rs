@@ -279,33 +279,55 @@ pub struct LaidWeb {
     pub wall_seconds: f64,
 }
 
+/// Fibre j's oscillation of one web: phase φ (rad), frequency and amplitude scales.
+pub type FibreTurbulence = (f64, f64, f64);
+
+/// Fibre j of replicate `replicate`: its random stream (after the turbulence draws, for
+/// the imperfections), its turbulence and its scene (see the module docs, random streams).
+pub fn fibre_setup(p: &LaidWebParams, seed: u64, replicate: usize, j: usize) -> (rand_chacha::ChaCha8Rng, FibreTurbulence, LaydownParams) {
+    let mut rng = stream_rng(seed, replicate as u64, j as u64 + 1);
+    let turbulence = match p.turbulence {
+        Turbulence::Independent => draw_turbulence(p, &mut rng),
+        Turbulence::Coherent => draw_turbulence(p, &mut stream_rng(seed, replicate as u64, 0)),
+    };
+    let scene = p.fibre_scene(turbulence.1, turbulence.2);
+    (rng, turbulence, scene)
+}
+
 /// Lay replicate `replicate` of the web (fibres in parallel on the current rayon pool;
 /// identical for any thread count). `bar` counts fibres done.
 pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::ProgressBar) -> LaidWeb {
     let clock = std::time::Instant::now();
     let t_end = p.feed_time();
-    let shared = draw_turbulence(p, &mut stream_rng(seed, replicate as u64, 0));
-    // fibre j's stream, its turbulence (φ and jitter) and scene
-    let setup = |j: usize| {
-        let mut rng = stream_rng(seed, replicate as u64, j as u64 + 1);
-        let turbulence = match p.turbulence {
-            Turbulence::Independent => draw_turbulence(p, &mut rng),
-            Turbulence::Coherent => shared,
-        };
-        let scene = p.fibre_scene(turbulence.1, turbulence.2);
-        (rng, turbulence, scene)
-    };
     let (fibres, contact) = match &p.fibre_contact {
         None => {
             let fibres = crate::progress::par_map(bar, 0..p.fibres_across, |j| {
-                let (mut rng, turbulence, scene) = setup(j);
+                let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
                 let fed = feed_fibre(&scene, turbulence.0, t_end, &p.feed, &mut rng);
                 finish_fibre(p, &scene, j, fed, turbulence, [0; 3])
             });
             (fibres, None)
         }
         Some(c) => {
-            let (fibres, stats) = lay_with_contact(p, c, &setup, bar);
+            let mut web = ContactWeb::new(p, c, seed, replicate);
+            let label = bar.message();
+            for k in 0..web.intervals() {
+                let (_, t1) = web.run_interval(k);
+                bar.set_message(format!("{label} t {:.0} %", 100.0 * t1 / t_end));
+            }
+            bar.set_message(label);
+            let stats = web.stats;
+            let fibres = web
+                .into_fibres()
+                .into_iter()
+                .enumerate()
+                .map(|(j, (feeder, scene, turbulence))| {
+                    let counts = feeder.simulator().fibre_contact.as_ref().map_or([0; 3], |c| [c.impulses, c.corrections, c.crossed]);
+                    let fibre = finish_fibre(p, &scene, j, feeder.finish(), turbulence, counts);
+                    bar.inc(1);
+                    fibre
+                })
+                .collect();
             (fibres, Some(stats))
         }
     };
@@ -316,60 +338,79 @@ pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::
     LaidWeb { fibres, interior_md, spread, contact, wall_seconds: clock.elapsed().as_secs_f64() }
 }
 
-/// Every fibre of the web fed in lock step under a [`ContactWorld`], one broad-phase
-/// search per contact interval; `setup(j)` gives fibre j's stream, turbulence and scene.
-/// The bar's message shows the simulated time; it counts the fibres at the end.
-fn lay_with_contact<S>(p: &LaidWebParams, c: &FibreContactSettings, setup: &S, bar: &indicatif::ProgressBar) -> (Vec<LaidFibre>, ContactStats)
-where
-    S: Fn(usize) -> (rand_chacha::ChaCha8Rng, (f64, f64, f64), LaydownParams),
-{
-    let t_end = p.feed_time();
-    let d = p.scene.diameter;
-    let friction = (c.friction > 0.0).then_some(c.friction);
-    let mut scenes = Vec::with_capacity(p.fibres_across);
-    let mut feeders: Vec<Feeder> = (0..p.fibres_across)
-        .map(|j| {
-            let (mut rng, turbulence, scene) = setup(j);
-            let mut feeder = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
-            feeder.defer_freezing = true;
-            let mut contact = FibreContact::new(d, friction);
-            contact.web_top = scene.bounce_tolerance;
-            feeder.simulator_mut().fibre_contact = Some(contact);
-            scenes.push((scene, turbulence));
-            feeder
-        })
-        .collect();
-    let mut world = ContactWorld::new(p.fibres_across, d, friction, p.scene.belt_speed, Some(p.cd_period()), p.resolved_element_length());
-    world.contact_top = p.scene.laydown_height;
-    for (j, offset) in world.cd_offsets.iter_mut().enumerate() {
-        *offset = p.feed_cd(j);
+/// A web being laid with fibre contact: the feeder of every fibre and the
+/// [`ContactWorld`] they share, advanced one broad-phase interval at a time (the stage
+/// runs them all; a tool can look at the fibres in between).
+///
+/// ```no_run
+/// use laydown::stages::laid_web::{ContactWeb, FibreContactSettings, LaidWebParams};
+/// let p = LaidWebParams { fibres_across: 4, belt_travel: 0.01, fibre_contact: Some(FibreContactSettings::default()), ..LaidWebParams::default() };
+/// let mut web = ContactWeb::new(&p, p.fibre_contact.as_ref().unwrap(), 7, 0);
+/// for k in 0..web.intervals() {
+///     let (_, t1) = web.run_interval(k);
+///     let lowest_top = web.feeders.iter().map(|f| f.simulator().rod.x.last().unwrap()[2]).fold(f64::INFINITY, f64::min);
+///     println!("t = {t1:.4} s: lowest fed top node {lowest_top:.4} m");
+/// }
+/// println!("{} lock steps", web.stats.lock_steps);
+/// ```
+pub struct ContactWeb {
+    /// Fibre j's feeder, in its own frame (CD offset `world.cd_offsets[j]`).
+    pub feeders: Vec<Feeder>,
+    pub world: ContactWorld,
+    pub stats: ContactStats,
+    /// Fibre j's scene and turbulence.
+    pub scenes: Vec<(LaydownParams, FibreTurbulence)>,
+    interval: f64,
+    feed_time: f64,
+}
+
+impl ContactWeb {
+    /// Replicate `replicate` of web `p` with contact settings `c`, at t = 0.
+    pub fn new(p: &LaidWebParams, c: &FibreContactSettings, seed: u64, replicate: usize) -> Self {
+        let d = p.scene.diameter;
+        let friction = (c.friction > 0.0).then_some(c.friction);
+        let mut scenes = Vec::with_capacity(p.fibres_across);
+        let feeders: Vec<Feeder> = (0..p.fibres_across)
+            .map(|j| {
+                let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
+                let mut feeder = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
+                feeder.defer_freezing = true;
+                let mut contact = FibreContact::new(d, friction);
+                contact.web_top = scene.bounce_tolerance;
+                feeder.simulator_mut().fibre_contact = Some(contact);
+                scenes.push((scene, turbulence));
+                feeder
+            })
+            .collect();
+        let mut world = ContactWorld::new(p.fibres_across, d, friction, p.scene.belt_speed, Some(p.cd_period()), p.resolved_element_length());
+        world.contact_top = p.scene.laydown_height;
+        for (j, offset) in world.cd_offsets.iter_mut().enumerate() {
+            *offset = p.feed_cd(j);
+        }
+        ContactWeb { feeders, world, stats: ContactStats::default(), scenes, interval: c.interval, feed_time: p.feed_time() }
     }
-    let mut stats = ContactStats::default();
-    let label = bar.message();
-    let intervals = (t_end / c.interval).ceil() as usize;
-    for k in 0..intervals {
-        let (t0, t1) = (k as f64 * c.interval, ((k + 1) as f64 * c.interval).min(t_end));
-        world.run_interval(&mut feeders, t0, t1, &mut stats);
-        bar.set_message(format!("{label} t {:.0} %", 100.0 * t1 / t_end));
+
+    /// Broad-phase intervals in the feed time.
+    pub fn intervals(&self) -> usize {
+        (self.feed_time / self.interval).ceil() as usize
     }
-    bar.set_message(label);
-    let fibres = feeders
-        .into_iter()
-        .zip(scenes)
-        .enumerate()
-        .map(|(j, (feeder, (scene, turbulence)))| {
-            let counts = feeder.simulator().fibre_contact.as_ref().map_or([0; 3], |c| [c.impulses, c.corrections, c.crossed]);
-            let fibre = finish_fibre(p, &scene, j, feeder.finish(), turbulence, counts);
-            bar.inc(1);
-            fibre
-        })
-        .collect();
-    (fibres, stats)
+
+    /// Run interval k (in order, from 0); returns its start and end time (s).
+    pub fn run_interval(&mut self, k: usize) -> (f64, f64) {
+        let (t0, t1) = (k as f64 * self.interval, ((k + 1) as f64 * self.interval).min(self.feed_time));
+        self.world.run_interval(&mut self.feeders, t0, t1, &mut self.stats);
+        (t0, t1)
+    }
+
+    /// Each fibre's feeder, scene and turbulence.
+    pub fn into_fibres(self) -> Vec<(Feeder, LaydownParams, FibreTurbulence)> {
+        self.feeders.into_iter().zip(self.scenes).map(|(f, (s, t))| (f, s, t)).collect()
+    }
 }
 
 /// Phase φ ~ U[0, 2π), then the frequency and amplitude scales 1 + σ ξ (ξ standard
 /// normal clipped at ±3).
-fn draw_turbulence<R: Rng + ?Sized>(p: &LaidWebParams, rng: &mut R) -> (f64, f64, f64) {
+fn draw_turbulence<R: Rng + ?Sized>(p: &LaidWebParams, rng: &mut R) -> FibreTurbulence {
     let phase = 2.0 * PI * rng.random::<f64>();
     let mut scale = |sigma: f64| {
         if sigma > 0.0 {
@@ -386,7 +427,7 @@ fn draw_turbulence<R: Rng + ?Sized>(p: &LaidWebParams, rng: &mut R) -> (f64, f64
 
 /// The laid fibre from its fed state; `contact` the fibre's contact impulses,
 /// corrections and crossed pair-steps.
-fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibre, turbulence: (f64, f64, f64), contact: [u64; 3]) -> LaidFibre {
+fn finish_fibre(p: &LaidWebParams, scene: &LaydownParams, j: usize, fed: FedFibre, turbulence: FibreTurbulence, contact: [u64; 3]) -> LaidFibre {
     let ((_, removed), (s, e), (sr, er)) = fed.shape(scene);
     let invalid_reason = fed.invalid_reason(scene);
     LaidFibre {

@@ -263,6 +263,7 @@ fn unit_rows(webs: &[(usize, usize, LaidWeb)], nf: usize) -> Result<Output> {
     out.f64("wall_seconds_contact", &[UNIT_DIM], web_col(&|w| w.contact.map_or(0.0, |c| c.wall_seconds)), "s", "");
     out.f64("contact_lock_steps", &[UNIT_DIM], web_col(&|w| w.contact.map_or(0.0, |c| c.lock_steps as f64)), "1", "");
     out.f64("contact_candidate_pairs", &[UNIT_DIM], web_col(&|w| w.contact.map_or(0.0, |c| c.candidate_pairs as f64 / (c.preparations.max(1) as f64))), "1", "");
+    out.f64("contact_clusters", &[UNIT_DIM], web_col(&|w| w.contact.map_or(0.0, |c| c.clusters as f64 / (c.preparations.max(1) as f64))), "1", "");
     Ok(out)
 }
 
@@ -320,8 +321,9 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
     out.f64("interior_md_max", &["point", "replicate"], f("interior_md_max")?, "m", "interior MD range, upper end").describe("upper end of the interior MD range: v_b (T − t_s) − edge_margin_spreads × spread, t_s the start-up time");
     out.f64("spread", &["point", "replicate"], f("spread")?, "m", "RMS belt-removed S of valid fibres").describe("RMS belt-removed radius of gyration of the valid fibres");
     out.f64("wall_seconds_web", &["point", "replicate"], f("wall_seconds_web")?, "s", "wall time of the web").describe("wall time of the whole web (all its fibres, contact included), not of the output");
-    out.f64("wall_seconds_contact", &["point", "replicate"], f("wall_seconds_contact")?, "s", "wall time of the contact broad phase").describe("wall time of the fibre contact's broad phase and refreshes, outside the fibres' own steps (0 without fibre_contact)");
-    out.f64("contact_lock_steps", &["point", "replicate"], f("contact_lock_steps")?, "1", "lock steps").describe("steps in which every fibre of the web advanced together (0 without fibre_contact)");
+    out.f64("wall_seconds_contact", &["point", "replicate"], f("wall_seconds_contact")?, "s", "wall time of the contact broad phase").describe("wall time of the fibre contact's freezing, broad phase and clustering, outside the fibres' own steps and refreshes (0 without fibre_contact)");
+    out.f64("contact_lock_steps", &["point", "replicate"], f("contact_lock_steps")?, "1", "lock steps").describe("sum over the clusters of fibres that can touch of the steps each took in lock step (0 without fibre_contact)");
+    out.f64("contact_clusters", &["point", "replicate"], f("contact_clusters")?, "1", "clusters per search").describe("mean over the broad-phase searches of the clusters of fibres that can touch, each stepped on its own (0 without fibre_contact)");
     out.f64("contact_candidate_pairs", &["point", "replicate"], f("contact_candidate_pairs")?, "1", "candidate pairs per search").describe("mean over the broad-phase searches of the candidate (own segment, obstacle) pairs (0 without fibre_contact)");
     let per_point = |g: &dyn Fn(&LaidWebParams) -> f64| Array1::from_iter(params.iter().map(g));
     out.f64("cd_period", &["point"], per_point(&|p| p.cd_period()), "m", "CD period n_w·Δw of the web");

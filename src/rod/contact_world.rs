@@ -394,8 +394,15 @@ impl ContactWorld {
                     let Some(p) = self.cd_period else { return 0 };
                     let r = row as usize;
                     let y = 0.5 * (sim.rod.x[r][1] + sim.rod.x[r + 1][1]);
-                    let o = obstacle(key);
-                    ((y - 0.5 * (o.a[1] + o.b[1])) / p).round() as i64
+                    // the obstacle's end points' y in the rod's own frame
+                    let (ya, yb) = match active.get(key as usize) {
+                        Some(o) => (o.a[1], o.b[1]),
+                        None => {
+                            let z = &self.frozen[key as usize - active.len()];
+                            (z.a[1], z.b[1])
+                        }
+                    };
+                    ((y - 0.5 * ((ya - own) + (yb - own))) / p).round() as i64
                 };
                 let found: Vec<(u32, (u32, i64))> = found.iter().map(|&(row, key)| (row, (key, image(row, key)))).collect();
                 // local obstacles: the distinct (key, image) pairs, in order

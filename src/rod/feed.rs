@@ -331,9 +331,12 @@ impl Feeder {
             // for settle_time
             let t = sim.t;
             let on_web = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.on_web[..]);
+            // laid: landed on the belt, or (with fibre contact) on the web ([`Simulator::laid_time`])
+            let web_landing = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.web_landing_time[..]);
             for (i, (since, anchor)) in self.stuck_since.iter_mut().zip(self.anchors.iter_mut()).enumerate() {
                 let x = sim.rod.x[i];
-                let on_belt = sim.laid_time(i).is_finite() && (x[2] <= self.settings.lift_tolerance || on_web.get(i) == Some(&true));
+                let laid = sim.landing_time[i].is_finite() || web_landing.get(i).is_some_and(|t| t.is_finite());
+                let on_belt = laid && (x[2] <= self.settings.lift_tolerance || on_web.get(i) == Some(&true));
                 let here = [x[0] - self.belt_speed * t, x[1]];
                 if !on_belt {
                     *since = f64::NAN;

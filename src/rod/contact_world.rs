@@ -96,6 +96,8 @@ pub struct ContactWorld {
     cd_cell: f64,
     frozen: Vec<Frozen>,
     frozen_grid: FxHashMap<(i64, i64), Vec<u32>>,
+    /// Grid of the simulated segments, rebuilt at each preparation.
+    active_grid: FxHashMap<(i64, i64, i64), Vec<u32>>,
     /// Highest frozen node above the belt (m).
     frozen_top: f64,
     /// Per fibre: frozen nodes so far and the last one (belt coordinates).
@@ -208,6 +210,7 @@ impl ContactWorld {
             cd_cell,
             frozen: Vec::new(),
             frozen_grid: FxHashMap::default(),
+            active_grid: FxHashMap::default(),
             frozen_top: f64::NEG_INFINITY,
             frozen_count: vec![0; fibres],
             last_frozen: vec![None; fibres],
@@ -270,7 +273,7 @@ impl ContactWorld {
 
     /// Give every running rod its obstacles and candidates for the interval
     /// [t, t + interval]. Returns (simulated segments, candidate pairs).
-    pub fn prepare<B: ContactBody>(&self, t: f64, interval: f64, bodies: &mut [B]) -> (usize, usize) {
+    pub fn prepare<B: ContactBody>(&mut self, t: f64, interval: f64, bodies: &mut [B]) -> (usize, usize) {
         let vb = self.belt_speed;
         let belt = [vb, 0.0, 0.0];
         let half_d = 0.5 * self.diameter;
@@ -302,7 +305,9 @@ impl ContactWorld {
             }
         }
         first.push(active.len());
-        let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
+        // the cells keep their lists from the last preparation (cleared, not freed): the
+        // hanging fibres fill the same cells interval after interval
+        let mut grid = std::mem::take(&mut self.active_grid);
         for (id, s) in active.iter().enumerate() {
             let (lo, hi) = bbox(s.a, s.b, add(s.reach, half_d));
             if lo[2] > self.contact_top {
@@ -312,6 +317,7 @@ impl ContactWorld {
                 grid.entry(key).or_default().push(id as u32);
             }
         }
+        let in_cell = |key: (i64, i64, i64)| grid.get(&key).into_iter().flatten().copied();
         let frozen_top = self.frozen_top + self.diameter;
         let pairs: usize = bodies
             .par_iter_mut()
@@ -339,12 +345,10 @@ impl ContactWorld {
                         continue;
                     }
                     for key in self.cells_3d(lo, hi) {
-                        if let Some(ids) = grid.get(&key) {
-                            for &o in ids {
-                                let other = &active[o as usize];
-                                if other.fibre as usize != f && self.overlap(lo, hi, other.a, other.b, add(other.reach, half_d)) {
-                                    seen.push(o);
-                                }
+                        for o in in_cell(key) {
+                            let other = &active[o as usize];
+                            if other.fibre as usize != f && self.overlap(lo, hi, other.a, other.b, add(other.reach, half_d)) {
+                                seen.push(o);
                             }
                         }
                     }
@@ -437,6 +441,10 @@ impl ContactWorld {
                 n
             })
             .sum();
+        // cells left empty this time are dropped, the others emptied for the next
+        grid.retain(|_, ids| !ids.is_empty());
+        grid.values_mut().for_each(Vec::clear);
+        self.active_grid = grid;
         (active.len(), pairs)
     }
 
@@ -453,12 +461,10 @@ impl ContactWorld {
     }
 
     /// CD cell indices covering [lo, hi] (each once, wrapped when periodic).
-    fn cd_range(&self, lo: f64, hi: f64) -> Vec<i64> {
+    fn cd_range(&self, lo: f64, hi: f64) -> impl Iterator<Item = i64> + Clone + '_ {
         let (a, b) = (self.cd_index(lo), self.cd_index(hi));
-        if self.cd_cells > 0 && b - a + 1 >= self.cd_cells {
-            return (0..self.cd_cells).collect();
-        }
-        (a..=b).map(|i| self.wrap(i)).collect()
+        let (start, count) = if self.cd_cells > 0 && b - a + 1 >= self.cd_cells { (0, self.cd_cells) } else { (a, b - a + 1) };
+        (start..start + count).map(move |i| self.wrap(i))
     }
 
     fn cells_3d(&self, lo: [f64; 3], hi: [f64; 3]) -> impl Iterator<Item = (i64, i64, i64)> + '_ {
@@ -466,17 +472,14 @@ impl ContactWorld {
         let (x0, x1) = ((lo[0] / h).floor() as i64, (hi[0] / h).floor() as i64);
         let (z0, z1) = ((lo[2] / h).floor() as i64, (hi[2] / h).floor() as i64);
         let ys = self.cd_range(lo[1], hi[1]);
-        (x0..=x1).flat_map(move |ix| {
-            let ys = ys.clone();
-            ys.into_iter().flat_map(move |iy| (z0..=z1).map(move |iz| (ix, iy, iz)))
-        })
+        (x0..=x1).flat_map(move |ix| ys.clone().flat_map(move |iy| (z0..=z1).map(move |iz| (ix, iy, iz))))
     }
 
     fn cells_2d(&self, lo: [f64; 3], hi: [f64; 3]) -> impl Iterator<Item = (i64, i64)> + '_ {
         let h = self.cell;
         let (x0, x1) = ((lo[0] / h).floor() as i64, (hi[0] / h).floor() as i64);
         let ys = self.cd_range(lo[1], hi[1]);
-        (x0..=x1).flat_map(move |ix| ys.clone().into_iter().map(move |iy| (ix, iy)))
+        (x0..=x1).flat_map(move |ix| ys.clone().map(move |iy| (ix, iy)))
     }
 
     /// Whether the box [lo, hi] overlaps the box of segment a-b grown by `grow` (CD

@@ -244,10 +244,10 @@ impl FibreContact {
         let n = x.len();
         let seen = self.last_x.len().min(n);
         let mut largest = 0.0f64;
-        for k in 0..seen {
-            let step = norm(sub(x[k], self.last_x[k]));
-            self.travel[k] += step;
-            self.last_x[k] = x[k];
+        for ((&now, last), travel) in x[..seen].iter().zip(&mut self.last_x).zip(&mut self.travel) {
+            let step = norm(sub(now, *last));
+            *travel += step;
+            *last = now;
             largest = largest.max(step);
         }
         // (a node new since the last call has no candidates: rows are made at preparation)

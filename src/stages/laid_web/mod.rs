@@ -18,14 +18,16 @@
 //!   valid fibres, k = `edge_margin_spreads`, t_s = 2 z_f/v_f + 1/f the start-up time
 //!   (the initial hanging column laid twice over, then one oscillation period).
 //! - **Fibre-fibre contact** (opt-in, [`FibreContactSettings`]): without it fibres pass
-//!   through one another and each fibre is simulated alone; with it every fibre of the
-//!   web is advanced in lock step under a [`ContactWorld`] (centrelines at least d apart,
+//!   through one another and each fibre is simulated alone; with it the fibres of the
+//!   web advance under one [`ContactWorld`], those that can touch in lock step
+//!   ([`ContactWeb`]; centrelines at least d apart,
 //!   Coulomb friction μ_ff, spatial hashing; [`crate::rod::fibre_contact`]), and a node
 //!   that comes to rest on laid fibre has landed (on the web instead of the belt).
 //! - **Random streams.** Fibre j of replicate r draws from stream (seed, r, j + 1)
 //!   (phase, jitter, then imperfections); the coherent turbulence draws from (seed, r, 0).
 //!   Without contact the fibres are independent and computed in parallel; with contact
-//!   the rods of one lock step are; identical for any thread count either way.
+//!   the clusters of fibres that can touch are, and the rods of a large cluster;
+//!   identical for any thread count either way.
 //!
 //! Outputs are in belt coordinates at the end of the run, see [`stage`].
 //!

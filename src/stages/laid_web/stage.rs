@@ -121,7 +121,7 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a laid node must stay put on the belt (creep below 1 % of an element) before it may freeze"));
         v.push(ParamSpec::float("oscillation_ramp", "s", 0.0, 0.0, 1.0, "soft start: the oscillation amplitude grows smoothly from 0 to u0 over this time (needed with fibre_contact)"));
         let contact = FibreContactSettings::default();
-        v.push(ParamSpec::flag("fibre_contact", false, "fibre-fibre contact: centrelines stay a diameter apart, with friction fibre_friction; all fibres of a web advance in lock step (off: fibres pass through one another, at no cost)"));
+        v.push(ParamSpec::flag("fibre_contact", false, "fibre-fibre contact: centrelines stay a diameter apart, with friction fibre_friction; fibres that can touch advance in lock step (off: fibres pass through one another, at no cost)"));
         v.push(ParamSpec::float("fibre_friction", "1", contact.friction, 0.0, 10.0, "μ_ff, Coulomb friction coefficient between fibres (with fibre_contact)"));
         v.push(ParamSpec::float("contact_interval", "s", contact.interval, 1e-7, 1.0, "Δt_c, time between two broad-phase searches for fibre contact candidates"));
         v

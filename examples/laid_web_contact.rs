@@ -277,7 +277,7 @@ fn main() {
     eprintln!("start-up time t_s = {startup:.4} s of {t_end:.4} s");
     for (j, f) in laid.iter().enumerate() {
         println!(
-            "fibre {j}: laid {} nodes, frozen {}, top lift {:.3} mm (node {} of {}, landed at {:.4} s; {} landed nodes above 1 mm, {} of them landed after the start-up), steps {}, max penetration {:.3} d, error {:?}",
+            "fibre {j}: laid {} nodes, frozen {}, top lift {:.3} mm (node {} of {}, landed at {:.4} s; {} landed nodes above 1 mm, {} of them landed after the start-up), steps {} ({} rejected, smallest {:.2e} s), max penetration {:.3} d, error {:?}",
             f.laid_nodes(),
             f.frozen_nodes,
             f.final_lift_of_landed * 1e3,
@@ -287,6 +287,8 @@ fn main() {
             f.positions.iter().zip(&f.landing_time).filter(|(x, t)| t.is_finite() && x[2] > 1e-3).count(),
             f.positions.iter().zip(&f.landing_time).filter(|(x, t)| t.is_finite() && **t > startup && x[2] > 1e-3).count(),
             f.steps,
+            f.rejected_steps,
+            f.min_time_step,
             pen[j] / d,
             f.error
         );

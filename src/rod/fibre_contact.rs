@@ -451,7 +451,15 @@ impl FibreContact {
                     if !self.supported[near] {
                         self.unconstrained[near] = winv[near];
                     }
-                    winv[near] = without_direction(&winv[near], n);
+                    // a node already held along (nearly) this normal keeps its other
+                    // freedoms: pinned to a line by two nearly parallel or opposite
+                    // normals (a node squeezed between two fibres that overlap it from
+                    // both sides), the projection restores the lengths by sliding it far
+                    // along that line, and the slide becomes velocity (tens of m/s in one
+                    // step in the Table 4 web)
+                    if held_fraction(&winv[near], &self.unconstrained[near], n) < HELD_ALREADY {
+                        winv[near] = without_direction(&winv[near], n);
+                    }
                 }
                 self.supported[near] = true;
                 if vn == target {
@@ -595,6 +603,20 @@ pub fn yield_share(ob: &ObstacleSegment, u: f64, dz: f64, d: f64, own_landed: bo
     } else {
         0.5
     }
+}
+
+/// Fraction of a node's freedom along n that the contacts before took away (1 − nᵀWn /
+/// nᵀW₀n, W₀ its inverse node matrix before the velocity pass) above which it counts as
+/// held along n already: n then lies within 45° of the directions held (W₀ isotropic).
+const HELD_ALREADY: f64 = 0.5;
+
+/// 1 − nᵀ W n / nᵀ W₀ n: how much of the freedom along n that W₀ gives W no longer has.
+fn held_fraction(w: &[f64; 6], w0: &[f64; 6], n: [f64; 3]) -> f64 {
+    let before = dot(n, super::forces::sym_mul(w0, &n));
+    if !(before > 0.0) {
+        return 1.0;
+    }
+    1.0 - dot(n, super::forces::sym_mul(w, &n)) / before
 }
 
 /// W − (W n)(W n)ᵀ/(nᵀ W n): the symmetric inverse mass W [xx, yy, zz, xy, xz, yz] with

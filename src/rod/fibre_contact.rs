@@ -754,3 +754,4 @@ pub(super) fn lerp(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
 #[path = "fibre_contact_tests.rs"]
 mod tests;
 
+

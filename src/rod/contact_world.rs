@@ -558,6 +558,9 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
     };
     let mut steps = 0;
     let mut now = t;
+    // the obstacle lists the refreshes fill, swapped with the rods' own: no allocation
+    // per step once they have grown
+    let mut spare: Vec<Vec<ObstacleSegment>> = vec![Vec::new(); group.len()];
     while now < t_next - t_next.abs() * 1e-12 {
         let dt = group.iter().filter(|b| b.running()).map(|b| b.next_step()).fold(f64::INFINITY, f64::min);
         if !dt.is_finite() {
@@ -570,7 +573,7 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
             }
         });
         if group.len() > 1 {
-            refresh(group, local, now, parallel);
+            refresh(group, local, now, parallel, &mut spare);
         }
         each(group, &|b: &mut B| b.advance_to(until));
         now = until;
@@ -580,11 +583,13 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
 }
 
 /// Copy each rod's simulated obstacles afresh from the other rods' state at `t` (rods of
-/// one cluster; `local[g]` is rod g's place in it).
-fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parallel: bool) {
-    let copy = |body: &&mut B| -> Option<Vec<ObstacleSegment>> {
-        let contact = body.simulator().fibre_contact.as_ref()?;
-        Some(
+/// one cluster; `local[g]` is rod g's place in it), through `spare` (one list per rod,
+/// which ends up holding the rods' previous lists).
+fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parallel: bool, spare: &mut [Vec<ObstacleSegment>]) {
+    let copy = |(body, fresh): (&&mut B, &mut Vec<ObstacleSegment>)| {
+        fresh.clear();
+        let Some(contact) = body.simulator().fibre_contact.as_ref() else { return };
+        fresh.extend(
             contact
                 .obstacles
                 .iter()
@@ -608,14 +613,17 @@ fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parall
                         ObstacleSegment { a: shift(x[k]), b: shift(x[k + 1]), va: velocity(k), vb: velocity(k + 1), t_ref: t, landed: [rests(k), rests(k + 1)], ..*o }
                     }
                     _ => *o,
-                })
-                .collect(),
-        )
+                }),
+        );
     };
-    let fresh: Vec<Option<Vec<ObstacleSegment>>> = if parallel { group.par_iter().map(copy).collect() } else { group.iter().map(copy).collect() };
-    for (body, fresh) in group.iter_mut().zip(fresh) {
-        if let (Some(c), Some(fresh)) = (body.simulator_mut().fibre_contact.as_mut(), fresh) {
-            c.obstacles = fresh;
+    if parallel {
+        group.par_iter().zip(spare.par_iter_mut()).for_each(copy);
+    } else {
+        group.iter().zip(spare.iter_mut()).for_each(copy);
+    }
+    for (body, fresh) in group.iter_mut().zip(spare.iter_mut()) {
+        if let Some(c) = body.simulator_mut().fibre_contact.as_mut() {
+            std::mem::swap(&mut c.obstacles, fresh);
         }
     }
 }

@@ -382,7 +382,6 @@ impl FibreContact {
         let fastest = rod.v.iter().map(|&v| speed(v)).fold(0.0, f64::max) + self.obstacle_speed.iter().copied().fold(0.0, f64::max);
         let closing = dt * fastest;
         let pairs = self.pairs_to_test(rod.rest.len(), moved, closing, NEAR_MARGIN * d + 4.0 * closing);
-        let (mut tests, mut skipped) = (0, 0);
         let mut row = (usize::MAX, 0.0);
         for &(k, c) in &pairs {
             let (k, c) = (k as usize, c as usize);
@@ -390,102 +389,110 @@ impl FibreContact {
             if row.0 != k {
                 row = (k, speed(rod.v[i]).max(speed(rod.v[j])));
             }
-            {
-                let row_speed = row.1;
-                let q = self.candidates[c] as usize;
-                // nothing happens to a pair that cannot reach contact in this step
-                let travel = self.pair_travel(k, q);
-                if self.pruning && self.gap_bound[c] - travel - d > dt * (row_speed + self.obstacle_speed[q]) {
-                    skipped += 1;
-                    continue;
-                }
-                tests += 1;
-                let ob = &self.obstacles[q];
-                let (q0, q1) = ob.at(t);
-                let (s, u, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
-                let g = norm(gap);
-                self.gap_bound[c] = g + travel;
-                // a pair closer than d/2 has crossed (in a violent event, or before
-                // contact began): pushing it apart along a normal that flipped as they
-                // passed would drive them into each other; it is left until it parts
-                let near = if s < 0.5 { i } else { j };
-                let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, self.held_start[near]) };
-                self.shares[c] = share;
-                if share == 0.0 && g < CROSSED * d {
-                    self.crossed += 1;
-                }
-                if share == 0.0 || !(g > 0.0) {
-                    continue;
-                }
-                let n = scale(gap, 1.0 / g);
-                let vrel = sub(lerp(rod.v[i], rod.v[j], s), lerp(ob.va, ob.vb, u));
-                let vn = dot(vrel, n);
-                // approach: only up to contact at the end of the step; in contact or
-                // overlapping: no approach, and separation no faster than the position
-                // pass's (which would otherwise add up, step after step, while an
-                // overlap persists)
-                let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
-                if g >= d && vn >= target {
-                    continue;
-                }
-                // in contact (or reaching it in this step): the node nearer the contact
-                // point is held along n in the projection, with or without an impulse (a
-                // resting contact needs none, and the projection would otherwise pull the
-                // node back into the other fibre)
-                // resting on the web: held up from below by fibre that takes none of
-                // the correction (frozen, held, or itself on the belt or the web); a
-                // node lying on a fibre that gives way with it is not resting
-                if gap[2] > 0.0 && share == 1.0 {
-                    self.resting[near] = true;
-                    // the segment lies on laid fibre: both its nodes are part of the web
-                    if ob.landed[usize::from(u >= 0.5)] && q0[2] + u * (q1[2] - q0[2]) <= self.web_top {
-                        for k in [i, j] {
-                            self.on_web[k] = true;
-                            if self.web_landing_time[k].is_nan() {
-                                self.web_landing_time[k] = t;
-                            }
+            // nothing happens to a pair that cannot reach contact in this step
+            let Some(PairTest { q, s, u, gap, g, q0, q1 }) = self.test_pair(&rod.x, k, c, t, dt, row.1) else { continue };
+            let ob = &self.obstacles[q];
+            // a pair closer than d/2 has crossed (in a violent event, or before
+            // contact began): pushing it apart along a normal that flipped as they
+            // passed would drive them into each other; it is left until it parts
+            let near = if s < 0.5 { i } else { j };
+            let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, self.held_start[near]) };
+            self.shares[c] = share;
+            if share == 0.0 && g < CROSSED * d {
+                self.crossed += 1;
+            }
+            if share == 0.0 || !(g > 0.0) {
+                continue;
+            }
+            let n = scale(gap, 1.0 / g);
+            let vrel = sub(lerp(rod.v[i], rod.v[j], s), lerp(ob.va, ob.vb, u));
+            let vn = dot(vrel, n);
+            // approach: only up to contact at the end of the step; in contact or
+            // overlapping: no approach, and separation no faster than the position
+            // pass's (which would otherwise add up, step after step, while an
+            // overlap persists)
+            let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
+            if g >= d && vn >= target {
+                continue;
+            }
+            // in contact (or reaching it in this step): the node nearer the contact
+            // point is held along n in the projection, with or without an impulse (a
+            // resting contact needs none, and the projection would otherwise pull the
+            // node back into the other fibre)
+            // resting on the web: held up from below by fibre that takes none of
+            // the correction (frozen, held, or itself on the belt or the web); a
+            // node lying on a fibre that gives way with it is not resting
+            if gap[2] > 0.0 && share == 1.0 {
+                self.resting[near] = true;
+                // the segment lies on laid fibre: both its nodes are part of the web
+                if ob.landed[usize::from(u >= 0.5)] && q0[2] + u * (q1[2] - q0[2]) <= self.web_top {
+                    for k in [i, j] {
+                        self.on_web[k] = true;
+                        if self.web_landing_time[k].is_nan() {
+                            self.web_landing_time[k] = t;
                         }
                     }
                 }
-                if let Some(winv) = winv.as_deref_mut() {
-                    if !self.supported[near] {
-                        self.unconstrained[near] = winv[near];
-                    }
-                    // a node already held along (nearly) this normal keeps its other
-                    // freedoms: pinned to a line by two nearly parallel or opposite
-                    // normals (a node squeezed between two fibres that overlap it from
-                    // both sides), the projection restores the lengths by sliding it far
-                    // along that line, and the slide becomes velocity (tens of m/s in one
-                    // step in the Table 4 web)
-                    if held_fraction(&winv[near], &self.unconstrained[near], n) < HELD_ALREADY {
-                        winv[near] = without_direction(&winv[near], n);
-                    }
-                }
-                self.supported[near] = true;
-                if vn == target {
-                    continue;
-                }
-                let delta = target - vn;
-                let mobility = Mobility { winv: winv.as_deref(), supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
-                if !mobility.shift(&mut rod.v, i, j, s, scale(n, share * delta)) {
-                    continue;
-                }
-                if let Some(mu) = self.friction {
-                    let wt = sub(vrel, scale(n, vn));
-                    let wtn = norm(wt);
-                    if wtn > 0.0 {
-                        let removed = if wtn <= mu * delta { 1.0 } else { mu * delta / wtn };
-                        mobility.shift(&mut rod.v, i, j, s, scale(wt, -share * removed));
-                    }
-                }
-                row.1 = speed(rod.v[i]).max(speed(rod.v[j]));
-                impulses += 1;
             }
+            if let Some(winv) = winv.as_deref_mut() {
+                if !self.supported[near] {
+                    self.unconstrained[near] = winv[near];
+                }
+                // a node already held along (nearly) this normal keeps its other
+                // freedoms: pinned to a line by two nearly parallel or opposite
+                // normals (a node squeezed between two fibres that overlap it from
+                // both sides), the projection restores the lengths by sliding it far
+                // along that line, and the slide becomes velocity (tens of m/s in one
+                // step in the Table 4 web)
+                if held_fraction(&winv[near], &self.unconstrained[near], n) < HELD_ALREADY {
+                    winv[near] = without_direction(&winv[near], n);
+                }
+            }
+            self.supported[near] = true;
+            if vn == target {
+                continue;
+            }
+            let delta = target - vn;
+            let mobility = Mobility { winv: winv.as_deref(), supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
+            if !mobility.shift(&mut rod.v, i, j, s, scale(n, share * delta)) {
+                continue;
+            }
+            if let Some(mu) = self.friction {
+                let wt = sub(vrel, scale(n, vn));
+                let wtn = norm(wt);
+                if wtn > 0.0 {
+                    let removed = if wtn <= mu * delta { 1.0 } else { mu * delta / wtn };
+                    mobility.shift(&mut rod.v, i, j, s, scale(wt, -share * removed));
+                }
+            }
+            row.1 = speed(rod.v[i]).max(speed(rod.v[j]));
+            impulses += 1;
         }
         self.near = pairs;
         self.impulses += impulses;
-        self.pair_tests += tests;
-        self.pairs_skipped += skipped;
+    }
+
+    /// Test own segment k (of nodes `x`) against candidate c's obstacle at time `t`:
+    /// skipped (None) when the gap bound shows the pair cannot reach contact within `dt`,
+    /// the segment moving at `own_speed` and the obstacle at its speed (`dt` = 0: is not
+    /// in contact now); otherwise their closest points, which renew the pair's gap bound.
+    fn test_pair(&mut self, x: &[[f64; 3]], k: usize, c: usize, t: f64, dt: f64, own_speed: f64) -> Option<PairTest> {
+        let q = self.candidates[c] as usize;
+        let travel = self.pair_travel(k, q);
+        let bound = self.gap_bound.get(c).map_or(f64::NEG_INFINITY, |b| b - travel);
+        let reach = dt * (own_speed + self.obstacle_speed.get(q).copied().unwrap_or(f64::INFINITY));
+        if self.pruning && bound - self.diameter > reach {
+            self.pairs_skipped += 1;
+            return None;
+        }
+        self.pair_tests += 1;
+        let (q0, q1) = self.obstacles[q].at(t);
+        let (s, u, gap) = closest_points(x[k], x[k + 1], q0, q1);
+        let g = norm(gap);
+        if let Some(b) = self.gap_bound.get_mut(c) {
+            *b = g + travel;
+        }
+        Some(PairTest { q, s, u, gap, g, q0, q1 })
     }
 
     /// The share of candidate c (own segment k, obstacle q) the velocity pass skipped,
@@ -511,25 +518,10 @@ impl FibreContact {
         let moved = self.update_travel(&rod.x, t, false);
         let margin = NEAR_MARGIN * d;
         let pairs = self.pairs_to_test(rod.rest.len(), moved, 0.0, margin);
-        let (mut tests, mut skipped) = (0, 0);
         for &(k, c) in &pairs {
             let (k, c) = (k as usize, c as usize);
             let (i, j) = (k, k + 1);
-            let q = self.candidates[c] as usize;
-            let travel = self.pair_travel(k, q);
-            let bound = self.gap_bound.get(c).map_or(f64::NEG_INFINITY, |b| b - travel);
-            if self.pruning && bound >= d {
-                skipped += 1;
-                continue;
-            }
-            tests += 1;
-            let ob = &self.obstacles[q];
-            let (q0, q1) = ob.at(t);
-            let (s, _, gap) = closest_points(rod.x[i], rod.x[j], q0, q1);
-            let g = norm(gap);
-            if let Some(b) = self.gap_bound.get_mut(c) {
-                *b = g + travel;
-            }
+            let Some(PairTest { q, s, gap, g, .. }) = self.test_pair(&rod.x, k, c, t, 0.0, 0.0) else { continue };
             if !(g < d) {
                 continue;
             }
@@ -562,10 +554,21 @@ impl FibreContact {
         }
         self.near = pairs;
         self.corrections += count as u64;
-        self.pair_tests += tests;
-        self.pairs_skipped += skipped;
         (count, deepest)
     }
+}
+
+/// A pair tested by [`FibreContact::test_pair`]: obstacle q at the time of the test (end
+/// points q0, q1), the closest points' parameters s (own) and u (obstacle), the gap
+/// vector between them (obstacle to own) and its length g.
+struct PairTest {
+    q: usize,
+    s: f64,
+    u: f64,
+    gap: [f64; 3],
+    g: f64,
+    q0: [f64; 3],
+    q1: [f64; 3],
 }
 
 /// Margin, in diameters, by which a pair may be away from contact and still be kept in

@@ -1,7 +1,8 @@
 //! A small laid web fed with fibre-fibre contact (the rods of `src/rod/` in lock step under
 //! [`ContactWorld`]), beside the same web without it: how close the laid fibres come to
 //! one another, how many pairs have crossed, how high landed fibre ends above the belt,
-//! and the cost. A tool for finding where contact fails in denser webs (`laid_web` offers
+//! whether the laid nodes still simulated have come to rest (their speed relative to the
+//! belt by distance downstream), and the cost. A tool for finding where contact fails in denser webs (`laid_web` offers
 //! contact as `fibre_contact: true`; `pipelines/studies/PHYSICAL_WEBS.md`, last section).
 //!
 //! `cargo run --release --example laid_web_contact -- [fibres spacing_mm travel_mm seed] [name=value ...]`
@@ -63,6 +64,38 @@ fn least_between(segs: &[Vec<Segment>], period: f64, d: f64, top: f64) -> (f64, 
         }
     }
     best
+}
+
+/// The laid nodes still simulated (not frozen) at the end, in 2 mm bins of distance
+/// downstream of the feed point: how many, the median speed relative to the belt and the
+/// median height. A laid web at rest moves with the belt (speed 0) and freezes; one that
+/// keeps moving far downstream stays simulated, and its cost grows with its length.
+fn laid_but_active(feeders: &[Feeder], belt_speed: f64, d: f64) -> String {
+    const BIN: f64 = 2e-3;
+    let mut bins: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
+    for f in feeders {
+        let sim = f.simulator();
+        for i in (0..sim.rod.nodes()).filter(|&i| sim.laid_time(i).is_finite()) {
+            let (x, v) = (sim.rod.x[i], sim.rod.v[i]);
+            let b = (x[0] / BIN).floor().max(0.0) as usize;
+            if bins.len() <= b {
+                bins.resize(b + 1, (Vec::new(), Vec::new()));
+            }
+            bins[b].0.push(((v[0] - belt_speed).powi(2) + v[1] * v[1] + v[2] * v[2]).sqrt());
+            bins[b].1.push(x[2] / d);
+        }
+    }
+    let median = |mut a: Vec<f64>| {
+        a.sort_by(f64::total_cmp);
+        a.get(a.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    let rows: Vec<String> = bins
+        .into_iter()
+        .enumerate()
+        .filter(|(_, b)| !b.0.is_empty())
+        .map(|(k, (speed, z))| format!("{}-{} mm: {} nodes, |v - v_b| {:.3} m/s, z {:.1} d", 2 * k, 2 * k + 2, speed.len(), median(speed), median(z)))
+        .collect();
+    format!("laid nodes still simulated, by distance downstream of the feed point (medians): {}", rows.join("; "))
 }
 
 fn main() {
@@ -243,6 +276,7 @@ fn main() {
     let pen = worst;
     let (tests, skipped) = feeders.iter().filter_map(|f| f.simulator().fibre_contact.as_ref()).fold((0, 0), |(a, b), c| (a + c.pair_tests, b + c.pairs_skipped));
     eprintln!("narrow phase: {tests} pair tests, {skipped} skipped by the gap bound");
+    println!("{}", laid_but_active(&feeders, p.scene.belt_speed, d));
     let laid: Vec<_> = feeders.into_iter().map(|f| f.finish()).collect();
     // least distance between laid segments (both ends landed) of different fibres (world
     // coordinates, nearest CD image)

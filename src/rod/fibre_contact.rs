@@ -756,5 +756,3 @@ pub(super) fn lerp(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
 #[cfg(test)]
 #[path = "fibre_contact_tests.rs"]
 mod tests;
-
-

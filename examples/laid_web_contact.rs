@@ -12,7 +12,10 @@
 //! (after every interval, the true least distance between fibres from their positions,
 //! instead of what each rod saw in its own steps, and each landed node that rises above
 //! 0.5 mm; with the environment variable `LIFT_PROFILE` set, the heights of the fibre
-//! around it, L landed, S held by a contact, R resting on a fibre).
+//! around it, L landed, S held by a contact, R resting on a fibre). `integrator=` picks the
+//! scene's integrator by name; with the environment variable `DUMP_LAID=k` every k-th laid
+//! node still simulated of the first two fibres is printed at the end (height, velocity
+//! relative to the belt, flags).
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::closest_points;
@@ -98,6 +101,32 @@ fn laid_but_active(feeders: &[Feeder], belt_speed: f64, d: f64) -> String {
     format!("laid nodes still simulated, by distance downstream of the feed point (medians): {}", rows.join("; "))
 }
 
+/// Every `every`-th laid node still simulated of the first two fibres: position, height,
+/// velocity relative to the belt, and its flags in the last step (L landed on the belt,
+/// S held up by a contact, R resting on fibre, W on the web): which nodes move, and how.
+fn dump_laid(feeders: &[Feeder], every: usize, belt_speed: f64, d: f64) {
+    for (j, f) in feeders.iter().enumerate().take(2) {
+        let sim = f.simulator();
+        let c = sim.fibre_contact.as_ref();
+        let flag = |v: Option<&Vec<bool>>, m: usize, on: &'static str| if v.and_then(|v| v.get(m).copied()).unwrap_or(false) { on } else { "-" };
+        for i in (0..sim.rod.nodes()).filter(|&i| sim.laid_time(i).is_finite()).step_by(every.max(1)) {
+            let (x, v) = (sim.rod.x[i], sim.rod.v[i]);
+            println!(
+                "fibre {j} node {i}: x {:.3} mm, z {:.2} d, v - v_b ({:+.3} {:+.3} {:+.3}) m/s {}{}{}{}",
+                x[0] * 1e3,
+                x[2] / d,
+                v[0] - belt_speed,
+                v[1],
+                v[2],
+                if sim.landing_time[i].is_finite() { "L" } else { "-" },
+                flag(c.map(|c| &c.supported), i, "S"),
+                flag(c.map(|c| &c.resting), i, "R"),
+                flag(c.map(|c| &c.on_web), i, "W")
+            );
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num: Vec<&String> = args.iter().filter(|a| !a.contains('=')).collect();
@@ -116,6 +145,7 @@ fn main() {
             "contact" => contact = v != "0",
             "check" => check = v != "0",
             "coherent" => coherent = v != "0",
+            "integrator" => scene.integrator = serde_json::from_str(&format!("\"{v}\"")).expect("integrator"),
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
         }
     }
@@ -277,6 +307,9 @@ fn main() {
     let (tests, skipped) = feeders.iter().filter_map(|f| f.simulator().fibre_contact.as_ref()).fold((0, 0), |(a, b), c| (a + c.pair_tests, b + c.pairs_skipped));
     eprintln!("narrow phase: {tests} pair tests, {skipped} skipped by the gap bound");
     println!("{}", laid_but_active(&feeders, p.scene.belt_speed, d));
+    if let Some(every) = std::env::var("DUMP_LAID").ok().and_then(|v| v.parse().ok()) {
+        dump_laid(&feeders, every, p.scene.belt_speed, d);
+    }
     let laid: Vec<_> = feeders.into_iter().map(|f| f.finish()).collect();
     // least distance between laid segments (both ends landed) of different fibres (world
     // coordinates, nearest CD image)

@@ -94,7 +94,7 @@ fn run_json_prints_nothing_on_stdout_on_failure_and_nothing_else_under_quiet() {
     assert_eq!(out.status.code(), Some(2));
     assert!(out.stdout.is_empty(), "{:?}", text(&out));
     // -q with --json: the document, and nothing on stderr.
-    write_pipeline(d, "p.yaml", &PIPE);
+    write_pipeline(d, "p.yaml", PIPE);
     let out = run_in(d, &["-q", "run", "p.yaml", "--json", "--only", "ideal"]);
     let (o, e) = text(&out);
     assert_eq!((out.status.code(), e.as_str()), (Some(0), ""), "{o}");

@@ -138,10 +138,8 @@ impl MarkedEventReceiver for Builder {
                     self.error = Some((pos, "a second YAML document starts here; allowed: one pipeline per file (remove this `---` and what follows, or move it to its own file)".into()));
                 }
             }
-            Event::Alias(_) => {
-                if self.error.is_none() {
-                    self.error = Some((pos, "YAML anchors and aliases are not supported in pipelines".into()));
-                }
+            Event::Alias(_) if self.error.is_none() => {
+                self.error = Some((pos, "YAML anchors and aliases are not supported in pipelines".into()));
             }
             _ => {}
         }

@@ -862,10 +862,11 @@ where
             }
         }
         if let Some(err) = &s.error {
-            let bars = points.iter().zip(err).filter_map(|(&(a, b), &e)| {
-                (e.is_finite() && e > 0.0 && usable(a, p.log_x) && usable(b - e, p.log_y) && usable(b + e, p.log_y))
-                    .then(|| ErrorBar::new_vertical(a, b - e, b, b + e, style, (3.0 * sc.u).round() as u32))
-            });
+            let bars = points
+                .iter()
+                .zip(err)
+                .filter(|&(&(a, b), &e)| e.is_finite() && e > 0.0 && usable(a, p.log_x) && usable(b - e, p.log_y) && usable(b + e, p.log_y))
+                .map(|(&(a, b), &e)| ErrorBar::new_vertical(a, b - e, b, b + e, style, (3.0 * sc.u).round() as u32));
             chart.draw_series(bars).map_err(plot_err)?;
         }
     }

@@ -323,7 +323,7 @@ impl Feeder {
                 self.error = Some(f.to_string());
                 break;
             }
-            if sim.steps % 256 == 0 {
+            if sim.steps.is_multiple_of(256) {
                 self.last_good.clone_from(&sim.rod.x);
             }
             // settling bookkeeping: a node on the belt (or at rest on laid fibre) is

@@ -520,6 +520,39 @@ fn check(spec: &ParamSpec, value: f64) -> Result<(), ParamError> {
     Ok(spec.check_number(value)?)
 }
 
+/// The parameter table as Markdown (name | unit | default | range | doc), effect flags and
+/// integrators included, for `--help` output and documentation.
+pub fn parameter_table_markdown() -> String {
+    let mut s = String::from("| name | unit | default | allowed | description |\n|---|---|---|---|---|\n");
+    for p in PARAMETERS {
+        s += &format!("| {} | {} | {} | {} | {} |\n", p.name, p.unit, p.default, p.allowed(), p.doc);
+    }
+    for (name, doc) in Effects::FLAGS {
+        s += &format!("| effects.{name} | bool | true | | {doc} |\n");
+    }
+    s += &format!(
+        "| bounce_check | | {} | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
+        BounceCheck::default().name(),
+        BounceCheck::NAMES.join(", ")
+    );
+    s += &format!(
+        "| belt_removal | | {} | | one of {}: belt travel taken off since each node landed (the paper's reading) or since it was fed (x + (v_b/v_f) s; converges with the mesh) |\n",
+        super::metrics::BeltRemoval::default().name(),
+        super::metrics::BeltRemoval::NAMES.join(", ")
+    );
+    s += &format!(
+        "| air_field | | {} | | one of {}: air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height |\n",
+        AirField::default().name(),
+        AirField::NAMES.join(", ")
+    );
+    s += &format!(
+        "| integrator | | {} | | one of {} |\n",
+        Integrator::default().name(),
+        Integrator::NAMES.join(", ")
+    );
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -554,37 +587,4 @@ mod tests {
         p.duration = 0.5;
         assert!(p.validate().unwrap_err().to_string().contains("duration"));
     }
-}
-
-/// The parameter table as Markdown (name | unit | default | range | doc), effect flags and
-/// integrators included, for `--help` output and documentation.
-pub fn parameter_table_markdown() -> String {
-    let mut s = String::from("| name | unit | default | allowed | description |\n|---|---|---|---|---|\n");
-    for p in PARAMETERS {
-        s += &format!("| {} | {} | {} | {} | {} |\n", p.name, p.unit, p.default, p.allowed(), p.doc);
-    }
-    for (name, doc) in Effects::FLAGS {
-        s += &format!("| effects.{name} | bool | true | | {doc} |\n");
-    }
-    s += &format!(
-        "| bounce_check | | {} | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
-        BounceCheck::default().name(),
-        BounceCheck::NAMES.join(", ")
-    );
-    s += &format!(
-        "| belt_removal | | {} | | one of {}: belt travel taken off since each node landed (the paper's reading) or since it was fed (x + (v_b/v_f) s; converges with the mesh) |\n",
-        super::metrics::BeltRemoval::default().name(),
-        super::metrics::BeltRemoval::NAMES.join(", ")
-    );
-    s += &format!(
-        "| air_field | | {} | | one of {}: air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height |\n",
-        AirField::default().name(),
-        AirField::NAMES.join(", ")
-    );
-    s += &format!(
-        "| integrator | | {} | | one of {} |\n",
-        Integrator::default().name(),
-        Integrator::NAMES.join(", ")
-    );
-    s
 }

@@ -242,7 +242,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
                 error = Some(f.to_string());
                 break;
             }
-            if sim.steps % stride == 0 || sim.t >= end_time - tol {
+            if sim.steps.is_multiple_of(stride) || sim.t >= end_time - tol {
                 diagnostics.push(sim.energy_sample());
                 last_good.copy_from_slice(&sim.rod.x);
             }

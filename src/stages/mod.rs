@@ -179,7 +179,7 @@ impl Units {
             }
         } else if p1 == p0 + 1 {
             format!("point {p0} replicates {}..{}", a - p0 * self.per_point, b - p0 * self.per_point)
-        } else if a % self.per_point == 0 && b % self.per_point == 0 {
+        } else if a.is_multiple_of(self.per_point) && b.is_multiple_of(self.per_point) {
             format!("points {p0}..{p1}")
         } else {
             format!("units {a}..{b} (points {p0}..{p1})")

@@ -64,8 +64,8 @@ pub fn polar(q: usize, r: usize, h: usize, w: usize) -> (f64, f64) {
 pub fn in_half_plane(q: usize, r: usize, h: usize, w: usize) -> bool {
     let fy = signed_index(q, h);
     let fx = signed_index(r, w);
-    let y_axis_like = fy == 0 || (h % 2 == 0 && fy == -(h as isize) / 2);
-    let x_axis_like = fx == 0 || (w % 2 == 0 && fx == -(w as isize) / 2);
+    let y_axis_like = fy == 0 || (h.is_multiple_of(2) && fy == -(h as isize) / 2);
+    let x_axis_like = fx == 0 || (w.is_multiple_of(2) && fx == -(w as isize) / 2);
     if fy > 0 && !y_axis_like {
         return true;
     }

@@ -49,20 +49,20 @@
 //!    few per cent, and `cv_corr_compensated` adds back the expected web variance
 //!    `Σ(1 − g²)·B/N²` from the background model.
 //! 10. **Saturated pixels** ([`censor`], `censoring_correction`): grey levels at exactly
-//!    0 or 1 (images on that scale) are censored, the web under them unknown. Their
-//!    values are restored from the lattice: the pattern level of each lattice phase is
-//!    matched on its unclipped pixels against the web's distribution at unclipped
-//!    phases, a clipped pixel becomes that level plus the web's conditional mean above
-//!    (below) the clipping level, and the conditional variance it cannot show is added.
-//!    The compensated statistics are those of this image filtered by the same notches.
+//!     0 or 1 (images on that scale) are censored, the web under them unknown. Their
+//!     values are restored from the lattice: the pattern level of each lattice phase is
+//!     matched on its unclipped pixels against the web's distribution at unclipped
+//!     phases, a clipped pixel becomes that level plus the web's conditional mean above
+//!     (below) the clipping level, and the conditional variance it cannot show is added.
+//!     The compensated statistics are those of this image filtered by the same notches.
 //! 11. **The reported `cv_corr`** is chosen by [`CV_CORR_RULE`]: the compensated CV. On
-//!    bonded renderings of known web CV (weak, strong, rotated, staggered and large
-//!    elliptical lattices whose periods do not divide the image, strong and large bonds
-//!    clipping 6–9 % of the pixels to white) it has the smaller worst-case and mean error
-//!    and does not drift with the notch width as the plain CV does. It is within 1 % of
-//!    the truth at the paper's scan size and over-estimates more on smaller images
-//!    (pattern left below the growth threshold); the measurements and their commands are
-//!    in the README, "What accuracy costs". Without notches all of them are the raw CV.
+//!     bonded renderings of known web CV (weak, strong, rotated, staggered and large
+//!     elliptical lattices whose periods do not divide the image, strong and large bonds
+//!     clipping 6–9 % of the pixels to white) it has the smaller worst-case and mean error
+//!     and does not drift with the notch width as the plain CV does. It is within 1 % of
+//!     the truth at the paper's scan size and over-estimates more on smaller images
+//!     (pattern left below the growth threshold); the measurements and their commands are
+//!     in the README, "What accuracy costs". Without notches all of them are the raw CV.
 //!
 //! # The mean pitfall
 //! Notching never touches the DC bin, so the filtered image keeps the raw mean. If the

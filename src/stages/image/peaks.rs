@@ -67,7 +67,7 @@ pub(crate) struct SearchSpace {
 pub(crate) fn search_space(h: usize, w: usize, dc_exclusion: f64, passes: usize, alpha: f64) -> SearchSpace {
     // Half-plane bins (one of each conjugate pair; self-conjugate bins excluded) minus
     // those inside the DC disc, which only needs a scan of the disc's bounding box.
-    let self_conj = (1 + usize::from(h % 2 == 0)) * (1 + usize::from(w % 2 == 0));
+    let self_conj = (1 + usize::from(h.is_multiple_of(2))) * (1 + usize::from(w.is_multiple_of(2)));
     let half = (h * w - self_conj) / 2;
     let reach = dc_exclusion.floor() as isize;
     let mut inside = 0usize;

@@ -715,7 +715,7 @@ fn render_params(p: &ImageStageParams) -> (RenderParams, RenderParams) {
         attenuation: p.render.attenuation,
         white: p.render.white,
         black: p.render.black,
-        bits: p.render.bits as u8,
+        bits: p.render.bits,
         bonds: bond_pattern(&p.bonds),
     };
     let plain = RenderParams { bonds: None, ..bonded.clone() };

@@ -479,7 +479,7 @@ fn valid_replicate_target_is_deterministic_and_capped() {
     p.bounce_check = BounceCheck::Transient;
     let mut q = p.clone();
     q.bounce_tolerance = 1e-3;
-    let scenes = vec![p.clone(), q];
+    let scenes = [p.clone(), q];
     let targets = vec![(3, 10), (2, 10)];
     let go = |threads: usize| {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {

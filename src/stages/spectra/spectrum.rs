@@ -56,7 +56,7 @@ impl CurvatureSpectrum {
         }
         // Exact symmetry for a real signal (removes FFT round-off in the imaginary parts).
         buf[0].im = 0.0;
-        if n % 2 == 0 {
+        if n.is_multiple_of(2) {
             buf[n / 2].im = 0.0;
         }
         Ok(Self { segment_length, coefficients: buf })

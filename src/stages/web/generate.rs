@@ -58,7 +58,7 @@ impl Prepared {
         let k = s.coefficients();
         let n = k.len();
         let bins = (1..n.div_ceil(2)).map(|r| (r, k[r].norm())).filter(|&(_, m)| m > 0.0).collect();
-        let nyquist = if n % 2 == 0 { k[n / 2].re } else { 0.0 };
+        let nyquist = if n.is_multiple_of(2) { k[n / 2].re } else { 0.0 };
         Self { mean: k[0].re, nyquist, bins }
     }
 
@@ -69,7 +69,7 @@ impl Prepared {
     fn add_random(&self, rng: &mut ChaCha8Rng, w: Complex64, buf: &mut [Complex64], phases: &mut Phases) {
         let n = buf.len();
         buf[0] += w * self.mean;
-        if n % 2 == 0 {
+        if n.is_multiple_of(2) {
             buf[n / 2] += w * self.nyquist;
         }
         let m = self.bins.len();

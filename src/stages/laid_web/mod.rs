@@ -100,11 +100,20 @@ pub struct LaidWebParams {
 pub struct FibreContactSettings {
     /// μ_ff, Coulomb friction coefficient between fibres (0: frictionless).
     pub friction: f64,
-    /// Δt_c, time between two broad-phase searches (s): the candidate pairs of an
+    /// Δt_c, longest time between two broad-phase searches (s): the candidate pairs of an
     /// interval are those whose swept boxes (twice the motion their velocities predict)
-    /// overlap at its start.
+    /// overlap at its start. Shortened for fast fibres
+    /// ([`LaidWebParams::broad_phase_interval`]).
     pub interval: f64,
 }
+
+/// Elements a node at the largest imposed speed may travel between two broad-phase
+/// searches. A segment's box grows by twice its travel in the interval and the grid's
+/// cell is an element, so this bounds the cells a fast segment fills: at v_f = 50 m/s
+/// and the default interval of 0.2 ms a hanging segment's box grew by 20 mm, about 110
+/// cells per side, and the search took 1538 s of a 1600 s web
+/// (`pipelines/stability/laid_webs.yaml`, `fast_contact`).
+pub const BROAD_PHASE_TRAVEL: f64 = 4.0;
 
 impl Default for FibreContactSettings {
     fn default() -> Self {
@@ -165,6 +174,15 @@ impl LaidWebParams {
         s.oscillation_frequency *= frequency_scale;
         s.oscillation_amplitude *= amplitude_scale;
         s
+    }
+    /// Δt_c used with contact settings `c` (s): `c.interval`, shortened so that a node at
+    /// the largest imposed speed (feed v_f, belt v_b, oscillation ω u0) travels at most
+    /// [`BROAD_PHASE_TRAVEL`] elements between two searches.
+    pub fn broad_phase_interval(&self, c: &FibreContactSettings) -> f64 {
+        let s = &self.scene;
+        let imposed_speed = s.fibre_speed.max(s.belt_speed).max(s.angular_frequency() * s.oscillation_amplitude);
+        let travel_limit = BROAD_PHASE_TRAVEL * self.resolved_element_length() / imposed_speed;
+        if travel_limit > 0.0 { c.interval.min(travel_limit) } else { c.interval }
     }
     /// Element length actually used (m).
     pub fn resolved_element_length(&self) -> f64 {
@@ -389,7 +407,7 @@ impl ContactWeb {
         for (j, offset) in world.cd_offsets.iter_mut().enumerate() {
             *offset = p.feed_cd(j);
         }
-        ContactWeb { feeders, world, stats: ContactStats::default(), scenes, interval: c.interval, feed_time: p.feed_time() }
+        ContactWeb { feeders, world, stats: ContactStats::default(), scenes, interval: p.broad_phase_interval(c), feed_time: p.feed_time() }
     }
 
     /// Broad-phase intervals in the feed time.

@@ -10,7 +10,7 @@
 //!   oscillation `phase`, `frozen_nodes`, `final_lift_of_landed`, `node_steps`, ...;
 //! - per web: `interior_md_min`/`interior_md_max` (the MD range free of start-up and
 //!   touchdown), `cd_period`, `spread`; per point: `expected_interior_density`,
-//!   `element_length`, `mass_per_length`, `feed_time`.
+//!   `element_length`, `mass_per_length`, `feed_time`, `broad_phase_interval`.
 use crate::error::InvalidParam;
 use super::{lay_web, FibreContactSettings, LaidWeb, LaidWebParams, Turbulence};
 use crate::archive::data::Output;
@@ -123,7 +123,7 @@ impl Stage for LaidWebStage {
         let contact = FibreContactSettings::default();
         v.push(ParamSpec::flag("fibre_contact", false, "fibre-fibre contact: centrelines stay a diameter apart, with friction fibre_friction; fibres that can touch advance in lock step (off: fibres pass through one another, at no cost)"));
         v.push(ParamSpec::float("fibre_friction", "1", contact.friction, 0.0, 10.0, "μ_ff, Coulomb friction coefficient between fibres (with fibre_contact)"));
-        v.push(ParamSpec::float("contact_interval", "s", contact.interval, 1e-7, 1.0, "Δt_c, time between two broad-phase searches for fibre contact candidates"));
+        v.push(ParamSpec::float("contact_interval", "s", contact.interval, 1e-7, 1.0, "Δt_c, longest time between two broad-phase searches for fibre contact candidates; shortened so that a node at the largest imposed speed travels at most 4 elements in it (output broad_phase_interval)"));
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
@@ -330,6 +330,8 @@ fn assemble(params: &[LaidWebParams], reps: usize, rows: &Output) -> Result<Outp
     out.f64("element_length", &["point"], per_point(&|p| p.resolved_element_length()), "m", "Δs, element length used (after coil_resolution)");
     out.f64("mass_per_length", &["point"], per_point(&|p| p.scene.mass_per_length()), "kg m-1", "ρπd²/4");
     out.f64("feed_time", &["point"], per_point(&|p| p.feed_time()), "s", "T = belt_travel/belt_speed");
+    out.f64("broad_phase_interval", &["point"], per_point(&|p| p.fibre_contact.as_ref().map_or(0.0, |c| p.broad_phase_interval(c))), "s", "Δt_c used")
+        .describe("time between two broad-phase searches for contact candidates: contact_interval, shortened so that a node at the largest imposed speed (v_f, v_b, ω u0) travels at most 4 elements in it (0 without fibre_contact)");
     out.f64("startup_time", &["point"], per_point(&|p| p.startup_time()), "s", "start-up time").describe("t_s = 2 z_f/v_f + 1/f, the start-up excluded from the interior");
     out.f64("belt_speed", &["point"], per_point(&|p| p.scene.belt_speed), "m s-1", "v_b, belt speed");
     out.f64("belt_speed_ratio", &["point"], per_point(&|p| p.belt_speed_ratio()), "1", "c = v_b/v_f");

@@ -295,3 +295,36 @@ fn contact_web_parameters_are_checked() {
     p.fibre_contact = Some(FibreContactSettings { interval: 10.0, ..FibreContactSettings::default() });
     assert_eq!(p.validate().unwrap_err().key, "contact_interval");
 }
+
+/// The broad-phase interval is the user's `contact_interval` at the paper's speeds, and
+/// shortened for fast fibres so that a node at the largest imposed speed travels
+/// `BROAD_PHASE_TRAVEL` elements in it (limit cases of the rule, and the imposed speed
+/// being whichever of v_f, v_b and ω u0 is largest).
+#[test]
+fn broad_phase_interval_follows_the_fastest_imposed_speed() {
+    use super::BROAD_PHASE_TRAVEL;
+    let c = FibreContactSettings::default();
+    let table1 = LaidWebParams::default();
+    // Table 1: v_f = 5 m/s, Δs = 1 mm: 4 elements take 0.8 ms, longer than 0.2 ms
+    assert_eq!(table1.broad_phase_interval(&c), c.interval);
+    let mut fast = LaidWebParams::default();
+    fast.scene.fibre_speed = 50.0;
+    fast.scene.air_speed = 150.0;
+    fast.scene.belt_speed = 2.0;
+    fast.scene.oscillation_frequency = 100.0;
+    let ds = fast.resolved_element_length();
+    let expected = BROAD_PHASE_TRAVEL * ds / 50.0;
+    assert!(expected < c.interval);
+    assert!((fast.broad_phase_interval(&c) - expected).abs() <= 1e-12 * expected);
+    // a user's interval shorter than the limit is kept
+    let short = FibreContactSettings { interval: 0.5 * expected, ..c.clone() };
+    assert_eq!(fast.broad_phase_interval(&short), 0.5 * expected);
+    // the oscillation is the fastest imposed motion: ω u0 = 2π·1 kHz·10 mm = 63 m/s > v_f
+    let mut swinging = LaidWebParams::default();
+    swinging.scene.oscillation_frequency = 1000.0;
+    let omega_u0 = swinging.scene.angular_frequency() * swinging.scene.oscillation_amplitude;
+    assert!(omega_u0 > swinging.scene.fibre_speed);
+    let expected = BROAD_PHASE_TRAVEL * swinging.resolved_element_length() / omega_u0;
+    assert!((swinging.broad_phase_interval(&c) - expected.min(c.interval)).abs() <= 1e-12 * expected);
+    assert!(swinging.broad_phase_interval(&c) < c.interval);
+}

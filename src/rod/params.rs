@@ -491,6 +491,10 @@ impl LaydownParams {
     pub fn angular_frequency(&self) -> f64 {
         2.0 * PI * self.oscillation_frequency
     }
+    /// Largest speed the imposed oscillation gives a node, ω u0 (m/s; eq 7).
+    pub fn oscillation_speed(&self) -> f64 {
+        self.angular_frequency() * self.oscillation_amplitude
+    }
     /// Inertial coil scale √(EI/(ρA v_f²)) (m): 3.6 mm at the baseline.
     pub fn coil_scale(&self) -> f64 {
         (self.bending_stiffness() / self.mass_per_length()).sqrt() / self.fibre_speed
@@ -530,26 +534,17 @@ pub fn parameter_table_markdown() -> String {
     for (name, doc) in Effects::FLAGS {
         s += &format!("| effects.{name} | bool | true | | {doc} |\n");
     }
-    s += &format!(
-        "| bounce_check | | {} | | one of {}: lift of landed nodes in the final profile (paper) or at any time |\n",
-        BounceCheck::default().name(),
-        BounceCheck::NAMES.join(", ")
-    );
-    s += &format!(
-        "| belt_removal | | {} | | one of {}: belt travel taken off since each node landed (the paper's reading) or since it was fed (x + (v_b/v_f) s; converges with the mesh) |\n",
+    // a choice parameter: its default and its words, then what it picks
+    let mut choice = |name: &str, default: &str, words: &[&str], doc: &str| s += &format!("| {name} | | {default} | | one of {}{doc} |\n", words.join(", "));
+    choice("bounce_check", BounceCheck::default().name(), BounceCheck::NAMES, ": lift of landed nodes in the final profile (paper) or at any time");
+    choice(
+        "belt_removal",
         super::metrics::BeltRemoval::default().name(),
-        super::metrics::BeltRemoval::NAMES.join(", ")
+        super::metrics::BeltRemoval::NAMES,
+        ": belt travel taken off since each node landed (the paper's reading) or since it was fed (x + (v_b/v_f) s; converges with the mesh)",
     );
-    s += &format!(
-        "| air_field | | {} | | one of {}: air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height |\n",
-        AirField::default().name(),
-        AirField::NAMES.join(", ")
-    );
-    s += &format!(
-        "| integrator | | {} | | one of {} |\n",
-        Integrator::default().name(),
-        Integrator::NAMES.join(", ")
-    );
+    choice("air_field", AirField::default().name(), AirField::NAMES, ": air (0, 0, -air_speed) everywhere, or a round / slot jet turned sideways near a belt of belt_permeability over stagnation_height");
+    choice("integrator", Integrator::default().name(), Integrator::NAMES, "");
     s
 }
 

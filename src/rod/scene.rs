@@ -101,7 +101,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         belt_speed: p.belt_speed,
         friction: e.friction.then_some(p.friction_coefficient),
     });
-    let osc_speed = if e.oscillation { p.angular_frequency() * p.oscillation_amplitude } else { 0.0 };
+    let osc_speed = if e.oscillation { p.oscillation_speed() } else { 0.0 };
     let feed = if start.driven_top { p.fibre_speed } else { 0.0 };
     let belt = if e.contact { p.belt_speed } else { 0.0 };
     let max_speed = feed.max(belt).max(osc_speed);

@@ -180,9 +180,9 @@ impl LaidWebParams {
     /// [`BROAD_PHASE_TRAVEL`] elements between two searches.
     pub fn broad_phase_interval(&self, c: &FibreContactSettings) -> f64 {
         let s = &self.scene;
-        let imposed_speed = s.fibre_speed.max(s.belt_speed).max(s.angular_frequency() * s.oscillation_amplitude);
-        let travel_limit = BROAD_PHASE_TRAVEL * self.resolved_element_length() / imposed_speed;
-        if travel_limit > 0.0 { c.interval.min(travel_limit) } else { c.interval }
+        let imposed_speed = s.fibre_speed.max(s.belt_speed).max(s.oscillation_speed());
+        // no imposed motion: an infinite limit, and the user's interval
+        c.interval.min(BROAD_PHASE_TRAVEL * self.resolved_element_length() / imposed_speed)
     }
     /// Element length actually used (m).
     pub fn resolved_element_length(&self) -> f64 {

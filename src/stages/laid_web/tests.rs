@@ -322,7 +322,7 @@ fn broad_phase_interval_follows_the_fastest_imposed_speed() {
     // the oscillation is the fastest imposed motion: ω u0 = 2π·1 kHz·10 mm = 63 m/s > v_f
     let mut swinging = LaidWebParams::default();
     swinging.scene.oscillation_frequency = 1000.0;
-    let omega_u0 = swinging.scene.angular_frequency() * swinging.scene.oscillation_amplitude;
+    let omega_u0 = swinging.scene.oscillation_speed();
     assert!(omega_u0 > swinging.scene.fibre_speed);
     let expected = BROAD_PHASE_TRAVEL * swinging.resolved_element_length() / omega_u0;
     assert!((swinging.broad_phase_interval(&c) - expected.min(c.interval)).abs() <= 1e-12 * expected);

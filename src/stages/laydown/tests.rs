@@ -308,7 +308,7 @@ fn check_replicate(name: &str, r: &LaydownResult, p: &LaydownParams) {
     assert!(r.diagnostics.iter().all(|d| d.kinetic.is_finite() && d.elastic.is_finite()));
     // bounded energy: kinetic energy never above that of the whole fibre moving at ten
     // times the fastest imposed speed
-    let v_ref = p.fibre_speed.max(p.air_speed).max(p.belt_speed).max(p.angular_frequency() * p.oscillation_amplitude).max(1.0);
+    let v_ref = p.fibre_speed.max(p.air_speed).max(p.belt_speed).max(p.oscillation_speed()).max(1.0);
     let bound = 0.5 * p.mass_per_length() * p.length * (10.0 * v_ref).powi(2);
     let kmax = r.diagnostics.iter().map(|d| d.kinetic).fold(0.0, f64::max);
     assert!(kmax <= bound, "{name}: kinetic energy {kmax:.3e} J above {bound:.3e} J");

@@ -15,7 +15,10 @@
 //! around it, L landed, S held by a contact, R resting on a fibre). `integrator=` picks the
 //! scene's integrator by name; with the environment variable `DUMP_LAID=k` every k-th laid
 //! node still simulated of the first two fibres is printed at the end (height, velocity
-//! relative to the belt, flags).
+//! relative to the belt, flags). With `DISP_WINDOW=s` it prints how far the laid nodes
+//! moved relative to the belt over the last s seconds (creep, not only speed); it also
+//! names, per fibre, simulated nodes far downstream that do not count as laid. `drag=0`
+//! switches the air drag off; `age_limit=` (s) freezes laid nodes that old whatever they do.
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::closest_points;
@@ -127,6 +130,84 @@ fn dump_laid(feeders: &[Feeder], every: usize, belt_speed: f64, d: f64) {
     }
 }
 
+/// Laid nodes still simulated, by index along their fibre (frozen ones counted): position
+/// relative to the belt (x − v_b t, y, z) and position in the lab.
+type LaidNodes = std::collections::HashMap<usize, ([f64; 3], [f64; 3])>;
+
+fn laid_in_belt_frame(feeders: &[Feeder], belt_speed: f64, t: f64) -> Vec<LaidNodes> {
+    feeders
+        .iter()
+        .map(|f| {
+            let sim = f.simulator();
+            let mut laid = Vec::new();
+            sim.laid_times(&mut laid);
+            let base = f.frozen().len();
+            (0..sim.rod.nodes()).filter(|&i| laid[i].is_finite()).map(|i| (base + i, ([sim.rod.x[i][0] - belt_speed * t, sim.rod.x[i][1], sim.rod.x[i][2]], sim.rod.x[i]))).collect()
+        })
+        .collect()
+}
+
+/// How far the laid nodes simulated at both times moved relative to the belt between
+/// them, in 4 mm bins of distance downstream: machine-direction displacement (10th,
+/// 50th, 90th percentile; negative: upstream), horizontal and vertical distance (median,
+/// 90th percentile, largest), in µm. A web at rest moves 0; a jitter in place moves
+/// about its amplitude whatever the window; a creep grows with the window.
+fn print_displacements(before: &[LaidNodes], after: &[LaidNodes], window: f64) {
+    const BIN: f64 = 4e-3;
+    // per bin: (dx, horizontal, vertical) in µm
+    let mut bins: Vec<[Vec<f64>; 3]> = Vec::new();
+    for (b, a) in before.iter().zip(after) {
+        for (i, (now, lab)) in a {
+            let Some((then, _)) = b.get(i) else { continue };
+            let k = (lab[0] / BIN).floor().max(0.0) as usize;
+            if bins.len() <= k {
+                bins.resize(k + 1, Default::default());
+            }
+            let dx = now[0] - then[0];
+            bins[k][0].push(1e6 * dx);
+            bins[k][1].push(1e6 * dx.hypot(now[1] - then[1]));
+            bins[k][2].push(1e6 * (now[2] - then[2]).abs());
+        }
+    }
+    let q = |a: &mut Vec<f64>, p: f64| {
+        a.sort_by(f64::total_cmp);
+        a.get(((a.len() as f64 - 1.0) * p) as usize).copied().unwrap_or(f64::NAN)
+    };
+    for (k, [dx, h, z]) in bins.iter_mut().enumerate().filter(|(_, b)| !b[0].is_empty()) {
+        println!(
+            "moved over the last {:.0} ms, {}-{} mm downstream, {} laid nodes: MD {:.1} / {:.1} / {:.1} µm; horizontal {:.1} / {:.1} / {:.1} µm; vertical {:.1} / {:.1} / {:.1} µm",
+            1e3 * window,
+            4 * k,
+            4 * k + 4,
+            dx.len(),
+            q(dx, 0.1),
+            q(dx, 0.5),
+            q(dx, 0.9),
+            q(h, 0.5),
+            q(h, 0.9),
+            q(h, 1.0),
+            q(z, 0.5),
+            q(z, 0.9),
+            q(z, 1.0)
+        );
+    }
+}
+
+/// Per fibre, the simulated nodes more than 5 mm downstream that do not count as laid
+/// (a node there that never counts holds up the freezing of every node after it).
+fn not_laid_downstream(feeders: &[Feeder], d: f64) {
+    for (j, f) in feeders.iter().enumerate() {
+        let sim = f.simulator();
+        let mut laid = Vec::new();
+        sim.laid_times(&mut laid);
+        let unlaid: Vec<usize> = (0..sim.rod.nodes()).filter(|&i| sim.rod.x[i][0] > 5e-3 && !laid[i].is_finite()).collect();
+        match unlaid.first() {
+            Some(&i) => println!("fibre {j}: {} of {} simulated nodes more than 5 mm downstream are not laid, the first node {i} at z {:.2} d", unlaid.len(), sim.rod.nodes(), sim.rod.x[i][2] / d),
+            None => println!("fibre {j}: every one of {} simulated nodes more than 5 mm downstream is laid", sim.rod.nodes()),
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num: Vec<&String> = args.iter().filter(|a| !a.contains('=')).collect();
@@ -136,6 +217,7 @@ fn main() {
     let seed: u64 = num.get(3).map_or(7, |s| s.parse().expect("seed"));
     let mut scene = LaydownParams::default();
     let (mut interval, mut ramp, mut mu_ff, mut contact, mut check, mut coherent) = (2e-4, 0.01, 0.3, true, false, false);
+    let mut age_limit: Option<f64> = None;
     for kv in args.iter().filter(|a| a.contains('=')) {
         let (k, v) = kv.split_once('=').unwrap();
         match k {
@@ -145,6 +227,8 @@ fn main() {
             "contact" => contact = v != "0",
             "check" => check = v != "0",
             "coherent" => coherent = v != "0",
+            "drag" => scene.effects.drag = v != "0",
+            "age_limit" => age_limit = Some(v.parse().unwrap()),
             "integrator" => scene.integrator = serde_json::from_str(&format!("\"{v}\"")).expect("integrator"),
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
         }
@@ -153,6 +237,9 @@ fn main() {
     let turbulence = if coherent { Turbulence::Coherent } else { Turbulence::Independent };
     let mut p = LaidWebParams { scene, fibres_across: fibres, fibre_spacing: spacing, belt_travel: travel, turbulence, fibre_contact: contact.then(|| settings.clone()), ..LaidWebParams::default() };
     p.feed.oscillation_ramp = ramp;
+    if let Some(a) = age_limit {
+        p.feed.age_limit = a;
+    }
     p.validate().unwrap_or_else(|e| panic!("{e}"));
     let t_end = p.feed_time();
     let d = p.scene.diameter;
@@ -168,8 +255,17 @@ fn main() {
         let mut true_reports = 0;
         let mut lift_reports = 0;
         let mut was_lifted = vec![std::collections::HashSet::new(); fibres];
+        let disp_window: f64 = std::env::var("DISP_WINDOW").ok().map_or(0.0, |v| v.parse().unwrap());
+        let mut snapshot: Option<Vec<LaidNodes>> = None;
+        let vb = p.scene.belt_speed;
         for k in 0..n {
             let (_, t1) = web.run_interval(k);
+            if disp_window > 0.0 && snapshot.is_none() && t1 >= t_end - disp_window {
+                snapshot = Some(laid_in_belt_frame(&web.feeders, vb, t1));
+            }
+            if let (true, Some(before)) = (k + 1 == n, &snapshot) {
+                print_displacements(before, &laid_in_belt_frame(&web.feeders, vb, t1), disp_window);
+            }
             let (feeders, world, stats) = (&mut web.feeders, &web.world, &web.stats);
             // the true least distance at the end of the interval, from both rods' positions
             if check {
@@ -307,6 +403,7 @@ fn main() {
     let (tests, skipped) = feeders.iter().filter_map(|f| f.simulator().fibre_contact.as_ref()).fold((0, 0), |(a, b), c| (a + c.pair_tests, b + c.pairs_skipped));
     eprintln!("narrow phase: {tests} pair tests, {skipped} skipped by the gap bound");
     println!("{}", laid_but_active(&feeders, p.scene.belt_speed, d));
+    not_laid_downstream(&feeders, d);
     if let Some(every) = std::env::var("DUMP_LAID").ok().and_then(|v| v.parse().ok()) {
         dump_laid(&feeders, every, p.scene.belt_speed, d);
     }

@@ -14,6 +14,9 @@
 //! the laid fibre slips in short bursts of ~10⁻⁴ m/s as tension waves from the hanging
 //! part pass, so the friction state alone flickers), or that has been on the belt for
 //! `age_limit`, is frozen once a run of at least `freeze_batch` such nodes has formed
+//! (with fibre contact a span propped over a crossing counts as laid when the fibre
+//! beyond it has landed, [`Simulator::laid_times`]; otherwise one such node, never laid
+//! itself, held up every node after it)
 //! at the start of the active rod: those nodes leave the simulation and are carried with the belt at
 //! no cost (x ← x + v_b (t_end − t_freeze)); the two nodes after them are clamped to
 //! the belt, so the bending of the next free node still sees the laid tangent. With
@@ -80,7 +83,8 @@ pub struct FedFibre {
     /// the last good state.
     pub positions: Vec<[f64; 3]>,
     /// Time each node was laid (s): first touched the belt, or with fibre contact first
-    /// came to rest on laid fibre ([`Simulator::laid_time`]); NaN: still hanging.
+    /// came to rest on laid fibre or lies in a span between laid nodes
+    /// ([`Simulator::laid_times`]); NaN: still hanging.
     pub landing_time: Vec<f64>,
     /// Nodes frozen during the run (a prefix of `positions`).
     pub frozen_nodes: usize,
@@ -374,7 +378,9 @@ impl Feeder {
         let mut positions: Vec<[f64; 3]> = self.frozen.iter().map(|(x, tf, _)| [x[0] + vb * (t_end - tf), x[1], x[2]]).collect();
         let mut landing_time: Vec<f64> = self.frozen.iter().map(|f| f.2).collect();
         positions.extend_from_slice(&sim.rod.x);
-        landing_time.extend((0..sim.rod.nodes()).map(|i| sim.laid_time(i)));
+        let mut laid = Vec::new();
+        sim.laid_times(&mut laid);
+        landing_time.extend(laid);
         let (final_lift_node, final_lift_of_landed) = (frozen_nodes..positions.len())
             .filter(|&i| landing_time[i].is_finite())
             .map(|i| (i, positions[i][2]))
@@ -440,10 +446,18 @@ fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Ve
     const CLAMPED: usize = 2;
     let t = sim.t;
     let clamped = sim.clamped.len();
+    // with fibre contact the spans laid over crossings count as laid (whole-rod pass);
+    // without, node by node, as far as the run of settled nodes reaches
+    let spans = sim.fibre_contact.is_some().then(|| {
+        let mut laid = Vec::new();
+        sim.laid_times(&mut laid);
+        laid
+    });
+    let laid_time = |sim: &Simulator, i: usize| spans.as_ref().map_or_else(|| sim.laid_time(i), |laid| laid[i]);
     let settled = (clamped..stuck_since.len())
         .take_while(|&i| {
             let since = stuck_since[i];
-            (since.is_finite() && t - since >= s.settle_time) || t - sim.laid_time(i) >= s.age_limit
+            (since.is_finite() && t - since >= s.settle_time) || t - laid_time(sim, i) >= s.age_limit
         })
         .count();
     // nodes clamped now are settled by construction
@@ -453,7 +467,7 @@ fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Ve
     }
     let count = run - CLAMPED;
     for i in 0..count {
-        frozen.push((sim.rod.x[i], t, sim.laid_time(i)));
+        frozen.push((sim.rod.x[i], t, laid_time(sim, i)));
     }
     sim.drop_front(count, CLAMPED, belt);
     stuck_since.drain(..count);

@@ -285,3 +285,27 @@ fn three_fibres_stacked_stay_one_diameter_apart() {
         assert!(end[1] >= 1.9, "C does not rest on B: {:.3} d above A", end[1]);
     }
 }
+
+/// With fibre contact a node propped off the belt between two laid nodes (a span over a
+/// crossing, resting on nothing that holds it) counts as laid from the time the first
+/// later node was; the hanging part after the last laid node does not. Without fibre
+/// contact each node counts only if it touched the belt itself.
+#[test]
+fn spans_between_laid_nodes_count_as_laid_with_fibre_contact() {
+    let p = scene();
+    let mut sim = straight(&p, [0.0; 3], [1.0, 0.0, 0.0], 6, [0.0; 3]);
+    let nan = f64::NAN;
+    // node 0 on the belt at 0.1 s, 1-2 a span, 3 on laid fibre at 0.3 s, 4 on the belt
+    // at 0.2 s, 5-6 hanging
+    sim.landing_time = vec![0.1, nan, nan, nan, 0.2, nan, nan];
+    let mut own = Vec::new();
+    sim.laid_times(&mut own);
+    let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x == y || (x.is_nan() && y.is_nan()));
+    assert!(same(&own, &[0.1, nan, nan, nan, 0.2, nan, nan]), "without contact: {own:?}");
+    let mut contact = FibreContact::new(p.diameter, Some(0.3));
+    contact.web_landing_time = vec![nan, nan, nan, 0.3, nan, nan, nan];
+    sim.fibre_contact = Some(contact);
+    let mut spans = Vec::new();
+    sim.laid_times(&mut spans);
+    assert!(same(&spans, &[0.1, 0.2, 0.2, 0.3, 0.2, nan, nan]), "with contact: {spans:?}");
+}

@@ -279,6 +279,10 @@ fn dense_contact_web_keeps_every_fibre_valid() {
     println!("dense web with contact: {crossed} crossed laid pairs (without contact {crossed_without}), least {least:.3} d, top lift {:.3} mm", 1e3 * lift);
     for (j, f) in web.fibres.iter().enumerate() {
         assert!(f.valid, "fibre {j}: {:?}", f.invalid_reason);
+        // spans propped over crossings count as laid: the laid fibre has no gaps
+        let laid: Vec<usize> = (0..f.fed.landing_time.len()).filter(|&i| f.fed.landing_time[i].is_finite()).collect();
+        let (first, last) = (laid[0], laid[laid.len() - 1]);
+        assert_eq!(laid.len(), last - first + 1, "fibre {j}: gaps in the laid nodes {first}..={last}");
     }
     assert!(lift < 1e-3, "a landed node ends {lift:.3e} m above the belt");
     assert!(20 * crossed < crossed_without, "contact left {crossed} of {crossed_without} crossed pairs");

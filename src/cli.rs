@@ -76,6 +76,10 @@ pub enum Command {
         /// machine's available memory); a stage estimated above it is refused (exit 2).
         #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
         max_memory: Option<u64>,
+        /// CPU time a stage may be estimated to take, e.g. `30min`, `2h` (default: no
+        /// limit); a stage estimated above it is refused (exit 2) before anything runs.
+        #[arg(long, value_name = "DURATION", value_parser = crate::run_time::parse_duration)]
+        max_cpu_time: Option<f64>,
         /// Threads of this process (default: RAYON_NUM_THREADS, or one per core); the
         /// results are bit-identical with any number. Slurm array tasks use SLURM_CPUS_PER_TASK.
         #[arg(short = 'j', long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
@@ -106,6 +110,9 @@ pub enum Command {
         /// Memory the stages may use, e.g. `2GiB` (default: the machine's available memory).
         #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
         max_memory: Option<u64>,
+        /// CPU time a stage may be estimated to take, e.g. `30min`, `2h` (default: no limit).
+        #[arg(long, value_name = "DURATION", value_parser = crate::run_time::parse_duration)]
+        max_cpu_time: Option<f64>,
     },
     /// Print a pipeline's stage graph: one stage per line in the order they run, with
     /// kind, size and inputs; or Graphviz DOT (`laydown dag P --dot | dot -Tsvg > dag.svg`).
@@ -217,7 +224,7 @@ pub fn main_with(cli: Cli) -> i32 {
             clap_complete::generate(shell, &mut Cli::command(), "laydown", &mut std::io::stdout());
             0
         }
-        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, threads, json } => {
+        Command::Run { pipeline: path, only, from, dry_run, force, archive, executor, partition, max_parallel, units_per_task, sbatch_arg, max_memory, max_cpu_time, threads, json } => {
             crate::verbosity::set_json_stdout(json);
             // before the pipeline's memory estimates, which count the threads
             if let Some(n) = threads {
@@ -233,6 +240,13 @@ pub fn main_with(cli: Cli) -> i32 {
                     return 2;
                 }
             };
+            if let Some(limit) = max_cpu_time {
+                let over = crate::run_time::over_limit(&p, &path.display().to_string(), limit);
+                if !over.is_empty() {
+                    eprintln!("{}", over.join("\n"));
+                    return 2;
+                }
+            }
             if let Some(a) = archive {
                 if a.is_dir() {
                     eprintln!("error: --archive: `{}` is a directory; give the path of an HDF5 file, e.g. {}", a.display(), a.join("study.h5").display());
@@ -291,10 +305,19 @@ pub fn main_with(cli: Cli) -> i32 {
                 1
             }
         },
-        Command::Validate { pipeline: path, max_memory } => match pipeline::load_with(&path, memory_limit(max_memory)) {
+        Command::Validate { pipeline: path, max_memory, max_cpu_time } => match pipeline::load_with(&path, memory_limit(max_memory)) {
             Ok(p) => {
+                let over = max_cpu_time.map(|limit| crate::run_time::over_limit(&p, &path.display().to_string(), limit)).unwrap_or_default();
+                if !over.is_empty() {
+                    eprintln!("{}", over.join("\n"));
+                    return 2;
+                }
                 let n: usize = p.stages.iter().map(|s| s.points().0.len() * s.replicates).sum();
                 println!("{}: ok ({} stages, {} units of work)", path.display(), p.stages.len(), n);
+                for e in crate::run_time::estimates(&p) {
+                    let s = &p.stages[e.stage];
+                    println!("  stage `{}` ({}): {} of CPU time, estimated from its parameters", s.name, s.kind, e.describe());
+                }
                 0
             }
             Err(d) => {

@@ -76,6 +76,7 @@ pub mod progress;
 pub mod rng;
 pub mod rod;
 pub mod run_summary;
+pub mod run_time;
 pub mod runner;
 pub mod schema;
 pub mod signal_scope;

@@ -45,6 +45,35 @@ pub(crate) fn paper_start<R: Rng + ?Sized>(p: &LaydownParams, elements: usize, r
     CustomStart { velocities: vec![[0.0, 0.0, -p.fibre_speed]; elements + 1], positions, driven_top: true, clamped: 0, rest_length: None }
 }
 
+/// The automatic time step of `p`'s scene for elements of `ds` (with `driven_top`, the
+/// top node fed at v_f): the stable step of its integrator, limited by the largest
+/// imposed speed (feed, belt, oscillation ω u0). Shared by the scene's build and the
+/// run-time estimates.
+pub fn time_step_limits(p: &LaydownParams, ds: f64, driven_top: bool) -> super::integrator::TimeStepLimits {
+    let e = &p.effects;
+    let osc_speed = if e.oscillation { p.oscillation_speed() } else { 0.0 };
+    let feed = if driven_top { p.fibre_speed } else { 0.0 };
+    let belt = if e.contact { p.belt_speed } else { 0.0 };
+    let max_speed = feed.max(belt).max(osc_speed);
+    let mut limits = stable_time_step(
+        p.integrator,
+        ds,
+        p.youngs_modulus,
+        p.density,
+        p.mass_per_length(),
+        p.bending_stiffness(),
+        max_speed,
+        p.time_step_factor,
+        e.elasticity,
+    );
+    if p.integrator == Integrator::ImplicitBending && e.elasticity && max_speed > 0.0 {
+        // no elastic limit: a node at the largest imposed speed travels at most
+        // implicit_step_travel elements a step
+        limits.chosen = p.time_step_factor * p.implicit_step_travel * ds / max_speed;
+    }
+    limits
+}
+
 /// Assemble the simulator: only the enabled effects become terms.
 pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
     let n = start.positions.len();
@@ -102,26 +131,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         friction: e.friction.then_some(p.friction_coefficient),
     });
     let osc_speed = if e.oscillation { p.oscillation_speed() } else { 0.0 };
-    let feed = if start.driven_top { p.fibre_speed } else { 0.0 };
-    let belt = if e.contact { p.belt_speed } else { 0.0 };
-    let max_speed = feed.max(belt).max(osc_speed);
-    let limits = stable_time_step(
-        p.integrator,
-        ds,
-        p.youngs_modulus,
-        p.density,
-        p.mass_per_length(),
-        p.bending_stiffness(),
-        max_speed,
-        p.time_step_factor,
-        e.elasticity,
-    );
-    let mut limits = limits;
-    if p.integrator == Integrator::ImplicitBending && e.elasticity && max_speed > 0.0 {
-        // no elastic limit: a node at the largest imposed speed travels at most
-        // implicit_step_travel elements a step
-        limits.chosen = p.time_step_factor * p.implicit_step_travel * ds / max_speed;
-    }
+    let limits = time_step_limits(p, ds, start.driven_top);
     let v_ref = p.fibre_speed.max(p.air_speed).max(p.belt_speed).max(osc_speed).max(1.0);
     let top_start_z = start.positions[n - 1][2];
     let clamp_positions = start.positions[..start.clamped].to_vec();

@@ -62,6 +62,15 @@ pub struct DeclaredFibres {
 /// A stage's bad input is the crate's ([`crate::error`]).
 pub use crate::error::BadInput;
 
+/// A stage's estimate of the CPU time of one replicate ([`Stage::estimate_cpu_time`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CpuTime {
+    pub seconds: f64,
+    /// Whether the run may take several times longer (the estimate is what it costs at
+    /// least, e.g. a laid web with fibre contact).
+    pub lower_bound: bool,
+}
+
 pub trait Stage: Send + Sync {
     /// The `kind:` that selects this stage in a pipeline.
     fn kind(&self) -> &'static str;
@@ -82,6 +91,13 @@ pub trait Stage: Send + Sync {
     /// stage holds nothing large. Checked by `validate` and `run` before anything is
     /// computed ([`crate::memory`]).
     fn estimate_memory(&self, _stage: &Declared) -> Option<Estimate> {
+        None
+    }
+    /// The CPU time one replicate of a resolved point is expected to take, from the
+    /// parameters alone; `None` when the stage does not estimate it. `validate` prints
+    /// each stage's total and `--max-cpu-time` refuses a stage above it
+    /// ([`crate::run_time`]).
+    fn estimate_cpu_time(&self, _params: &ParamSet) -> Option<CpuTime> {
         None
     }
     fn run(&self, ctx: &RunContext) -> Result<Output>;

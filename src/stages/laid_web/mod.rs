@@ -107,6 +107,25 @@ pub struct FibreContactSettings {
     pub interval: f64,
 }
 
+/// Length of the hanging fibre in feed heights, for the work estimate (the fibre swings
+/// out by u0 and curls into the coil below z0).
+pub const HANGING_LENGTH: f64 = 1.5;
+
+/// How long a landed node slips before it settles (s), for the work estimate: without
+/// fibre contact a laid node stays active for about this plus `settle_time` (measured:
+/// 367 active nodes per fibre at Table 1, against 80 hanging and 132 settling).
+pub const SETTLING_DELAY: f64 = 0.03;
+
+/// CPU time of one node-step of a fed fibre without fibre contact (s): 1.13-1.33e-7
+/// measured on one thread of the development machine (Table 1, Table 4 density, 50 m/s).
+pub const CPU_SECONDS_PER_NODE_STEP: f64 = 1.2e-7;
+
+/// With fibre contact a node-step costs 1 + a (ρ_L Δs)^0.6 times more, ρ_L = v_f/(v_b Δw)
+/// the fibre length laid per belt area and Δs the element length (the other fibres'
+/// segments within reach of one): a = 5 fits the measured 10.6, 22 and 77 times at
+/// ρ_L Δs = 3.1, 12.5 and 87 (Table 1 webs at Δw = 8 and 2 mm, Table 4 density).
+pub const CONTACT_COST_SCALE: f64 = 5.0;
+
 /// Elements a node at the largest imposed speed may travel between two broad-phase
 /// searches. A segment's box grows by twice its travel in the interval and the grid's
 /// cell is an element, so this bounds the cells a fast segment fills: at v_f = 50 m/s
@@ -199,6 +218,46 @@ impl LaidWebParams {
         let period = if self.scene.effects.oscillation && self.scene.oscillation_frequency > 0.0 { 1.0 / self.scene.oscillation_frequency } else { 0.0 };
         2.0 * self.feed_height() / self.scene.fibre_speed + period
     }
+    /// Estimated work of one web in node-steps (Σ over a fibre's steps of its active
+    /// nodes, summed over the fibres), from the parameters alone: each fibre steps at its
+    /// scene's automatic step for the whole feed time, with the hanging fibre
+    /// (`HANGING_LENGTH` times the feed height) and the laid nodes not yet frozen active.
+    /// A laid node stays active for the settling time (or, with fibre contact, whose laid
+    /// web does not come to rest, for the age limit), plus a batch; without freezing, until
+    /// the end. Checked against the measured `node_steps` in the stage's tests.
+    pub fn estimated_node_steps(&self) -> f64 {
+        let ds = self.resolved_element_length();
+        let scene = self.fibre_scene(1.0, 1.0);
+        let dt = crate::rod::scene::time_step_limits(&scene, ds, true).chosen;
+        let t = self.feed_time();
+        let steps = t / dt;
+        let hanging = HANGING_LENGTH * self.feed_height() / ds;
+        let laid_rate = self.scene.fibre_speed / ds;
+        let keep = match (&self.fibre_contact, self.feed.freeze) {
+            (_, false) => f64::INFINITY,
+            (None, true) => self.feed.settle_time + SETTLING_DELAY,
+            (Some(_), true) => self.feed.age_limit,
+        };
+        // laid nodes active at time τ: min(laid_rate τ, laid_rate keep + batch), averaged over [0, T]
+        let mean_laid = if keep >= t { 0.5 * laid_rate * t } else { laid_rate * (keep - 0.5 * keep * keep / t) + self.feed.freeze_batch as f64 };
+        self.fibres_across as f64 * steps * (hanging + mean_laid)
+    }
+
+    /// Estimated CPU time of one web (s): [`Self::estimated_node_steps`] at the measured
+    /// cost of a node-step ([`CPU_SECONDS_PER_NODE_STEP`]), with fibre contact times
+    /// [`Self::contact_cost_factor`]. Good to a factor of about 2 (README, performance).
+    pub fn estimated_cpu_seconds(&self) -> f64 {
+        let factor = if self.fibre_contact.is_some() { self.contact_cost_factor() } else { 1.0 };
+        self.estimated_node_steps() * CPU_SECONDS_PER_NODE_STEP * factor
+    }
+
+    /// How many times a node-step costs more with fibre contact: 1 + a (ρ_L Δs)^0.6
+    /// ([`CONTACT_COST_SCALE`]).
+    pub fn contact_cost_factor(&self) -> f64 {
+        let laid_per_area = self.scene.fibre_speed / (self.scene.belt_speed * self.fibre_spacing);
+        1.0 + CONTACT_COST_SCALE * (laid_per_area * self.resolved_element_length()).powf(0.6)
+    }
+
     /// Nodes stored per web (laid nodes of every fibre, an upper bound).
     pub fn nodes_per_web(&self) -> f64 {
         self.fibres_across as f64 * (self.fed_length() / self.resolved_element_length() + 1.0)

@@ -11,6 +11,10 @@
 //! - per web: `interior_md_min`/`interior_md_max` (the MD range free of start-up and
 //!   touchdown), `cd_period`, `spread`; per point: `expected_interior_density`,
 //!   `element_length`, `mass_per_length`, `feed_time`, `broad_phase_interval`.
+//!
+//! Before a run, `validate` prints each point's estimated CPU time
+//! ([`LaidWebParams::estimated_cpu_seconds`]; "at least" with fibre contact), and
+//! `--max-cpu-time` refuses a stage above it ([`crate::run_time`]).
 use crate::error::InvalidParam;
 use super::{lay_web, FibreContactSettings, LaidWeb, LaidWebParams, Turbulence};
 use crate::archive::data::Output;
@@ -128,6 +132,13 @@ impl Stage for LaidWebStage {
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
         laid_web_params(p).validate()
+    }
+    /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it
+    /// costs at least (a dense web's contact work grows with its pile, which the
+    /// estimate leaves out: README, performance).
+    fn estimate_cpu_time(&self, p: &ParamSet) -> Option<crate::stages::CpuTime> {
+        let lw = laid_web_params(p);
+        Some(crate::stages::CpuTime { seconds: lw.estimated_cpu_seconds(), lower_bound: lw.fibre_contact.is_some() })
     }
     /// Every web of the run is held until the output is written
     /// (`KEPT_BYTES_PER_NODE`), and each thread simulates one fibre

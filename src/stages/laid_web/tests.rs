@@ -244,6 +244,13 @@ fn contact_web_keeps_laid_fibres_apart_on_any_thread_count() {
         format!("{w:?}")
     };
     assert!(bits(&one) == bits(&run(2, &p)), "1 and 2 threads differ");
+    // the run-time estimate's work model against the work done, with and without contact
+    for (web, p) in [(&without, &LaidWebParams { fibre_contact: None, ..p.clone() }), (&one, &p)] {
+        let done: u64 = web.fibres.iter().map(|f| f.fed.node_steps).sum();
+        let ratio = p.estimated_node_steps() / done as f64;
+        println!("estimated node-steps / done: {ratio:.2} (contact {})", p.fibre_contact.is_some());
+        assert!((0.5..2.0).contains(&ratio), "estimated node-steps {:.3e}, done {done}", p.estimated_node_steps());
+    }
     let impulses: u64 = one.fibres.iter().map(|f| f.contact_impulses).sum();
     let (least, crossed) = laid_pairs(&one, &p);
     let (least_without, crossed_without) = laid_pairs(&without, &p);

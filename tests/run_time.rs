@@ -1,0 +1,54 @@
+//! Run-time estimates: `validate` prints each laid web's estimated CPU time ("at least"
+//! with fibre contact), and `validate` and `run` with `--max-cpu-time` refuse a stage
+//! estimated above the limit with exit 2, naming it, before anything is computed.
+mod common;
+use common::*;
+
+/// A laid web of 4000 fibres over a metre of belt: hours of CPU time, refused by a
+/// one-hour limit at the stage's line; the archive is not created.
+#[test]
+fn a_laid_web_estimated_above_max_cpu_time_is_refused_before_it_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let big = write_pipeline(
+        tmp.path(),
+        "big.yaml",
+        "pipeline: big\narchive: study.h5\nstages:\n  - name: laid\n    kind: laid_web\n    params: {fibres_across: 4000, belt_travel: 1.0}\n",
+    );
+    for cmd in ["validate", "run"] {
+        let out = run_in(tmp.path(), &[cmd, big.to_str().unwrap(), "--max-cpu-time", "1h", "--max-memory", "1TiB"]);
+        let (stdout, err) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
+        assert!(err.contains("big.yaml:4:5: stages[0]: stage `laid` (laid_web) is estimated at about "), "{cmd}: {err}");
+        assert!(err.contains("above --max-cpu-time 60 min; lower belt_travel, fibres_across or replicates"), "{cmd}: {err}");
+        assert!(stdout.is_empty(), "{cmd} printed {stdout}");
+    }
+    assert!(!tmp.path().join("study.h5").exists(), "the refused run wrote an archive");
+}
+
+/// `validate` states the estimate ("at least" with fibre contact), and a limit above it
+/// lets the pipeline through.
+#[test]
+fn validate_prints_the_estimated_cpu_time_of_each_laid_web() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = write_pipeline(
+        tmp.path(),
+        "p.yaml",
+        "pipeline: p\narchive: study.h5\nstages:\n  - {name: plain, kind: laid_web, params: {fibres_across: 2, belt_travel: 0.01}}\n  - {name: touching, kind: laid_web, params: {fibres_across: 2, belt_travel: 0.01, fibre_contact: true, oscillation_ramp: 0.01}}\n  - {name: s, kind: spectra, params: {preset: spectrum1}}\n",
+    );
+    let out = run_in(tmp.path(), &["validate", p.to_str().unwrap(), "--max-cpu-time", "1d"]);
+    let (stdout, err) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(stdout.contains("stage `plain` (laid_web): about "), "{stdout}");
+    assert!(stdout.contains("stage `touching` (laid_web): at least "), "{stdout}");
+    assert!(!stdout.contains("stage `s`"), "spectra makes no estimate: {stdout}");
+}
+
+#[test]
+fn a_malformed_max_cpu_time_is_bad_input() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = write_pipeline(tmp.path(), "p.yaml", "pipeline: p\narchive: study.h5\nstages:\n  - {name: s, kind: spectra, params: {preset: spectrum1}}\n");
+    let out = run_in(tmp.path(), &["validate", p.to_str().unwrap(), "--max-cpu-time", "3 weeks"]);
+    let (_, err) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("unknown unit `weeks`"), "{err}");
+}

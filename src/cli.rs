@@ -240,12 +240,8 @@ pub fn main_with(cli: Cli) -> i32 {
                     return 2;
                 }
             };
-            if let Some(limit) = max_cpu_time {
-                let over = crate::run_time::over_limit(&p, &path.display().to_string(), limit);
-                if !over.is_empty() {
-                    eprintln!("{}", over.join("\n"));
-                    return 2;
-                }
+            if over_cpu_limit(&p, &crate::run_time::estimates(&p), &path, max_cpu_time) {
+                return 2;
             }
             if let Some(a) = archive {
                 if a.is_dir() {
@@ -307,14 +303,13 @@ pub fn main_with(cli: Cli) -> i32 {
         },
         Command::Validate { pipeline: path, max_memory, max_cpu_time } => match pipeline::load_with(&path, memory_limit(max_memory)) {
             Ok(p) => {
-                let over = max_cpu_time.map(|limit| crate::run_time::over_limit(&p, &path.display().to_string(), limit)).unwrap_or_default();
-                if !over.is_empty() {
-                    eprintln!("{}", over.join("\n"));
+                let estimates = crate::run_time::estimates(&p);
+                if over_cpu_limit(&p, &estimates, &path, max_cpu_time) {
                     return 2;
                 }
                 let n: usize = p.stages.iter().map(|s| s.points().0.len() * s.replicates).sum();
                 println!("{}: ok ({} stages, {} units of work)", path.display(), p.stages.len(), n);
-                for e in crate::run_time::estimates(&p) {
+                for e in estimates {
                     let s = &p.stages[e.stage];
                     println!("  stage `{}` ({}): {} of CPU time, estimated from its parameters", s.name, s.kind, e.describe());
                 }
@@ -351,6 +346,15 @@ pub fn main_with(cli: Cli) -> i32 {
             0
         }
     }
+}
+
+/// With `--max-cpu-time`, print the stages estimated above it; whether there are any.
+fn over_cpu_limit(p: &pipeline::Pipeline, estimates: &[crate::run_time::CpuEstimate], path: &std::path::Path, limit: Option<f64>) -> bool {
+    let over = limit.map(|limit| crate::run_time::over_limit(p, estimates, &path.display().to_string(), limit)).unwrap_or_default();
+    if !over.is_empty() {
+        eprintln!("{}", over.join("\n"));
+    }
+    !over.is_empty()
 }
 
 /// `--max-memory`, or the machine's available memory.

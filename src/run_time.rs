@@ -74,10 +74,11 @@ pub fn format_seconds(s: f64) -> String {
     }
 }
 
-/// The stages above `limit` CPU seconds, as `error: file:line:col: message` lines (empty: none).
-pub fn over_limit(p: &Pipeline, file: &str, limit: f64) -> Vec<String> {
-    estimates(p)
-        .into_iter()
+/// Of `estimates` (of `p`), the stages above `limit` CPU seconds, as
+/// `error: file:line:col: message` lines (empty: none).
+pub fn over_limit(p: &Pipeline, estimates: &[CpuEstimate], file: &str, limit: f64) -> Vec<String> {
+    estimates
+        .iter()
         .filter(|e| e.seconds > limit)
         .map(|e| {
             let s = &p.stages[e.stage];

@@ -18,7 +18,8 @@
 //! relative to the belt, flags). With `DISP_WINDOW=s` it prints how far the laid nodes
 //! moved relative to the belt over the last s seconds (creep, not only speed); it also
 //! names, per fibre, simulated nodes far downstream that do not count as laid. `drag=0`
-//! switches the air drag off; `age_limit=` (s) freezes laid nodes that old whatever they do.
+//! switches the air drag off; `age_limit=` (s) freezes laid nodes that old whatever they do;
+//! `front_margin=` (m) freezes laid nodes that far downstream of where any fibre has landed.
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::closest_points;
@@ -218,6 +219,7 @@ fn main() {
     let mut scene = LaydownParams::default();
     let (mut interval, mut ramp, mut mu_ff, mut contact, mut check, mut coherent) = (2e-4, 0.01, 0.3, true, false, false);
     let mut age_limit: Option<f64> = None;
+    let mut front_margin: Option<f64> = None;
     for kv in args.iter().filter(|a| a.contains('=')) {
         let (k, v) = kv.split_once('=').unwrap();
         match k {
@@ -229,6 +231,7 @@ fn main() {
             "coherent" => coherent = v != "0",
             "drag" => scene.effects.drag = v != "0",
             "age_limit" => age_limit = Some(v.parse().unwrap()),
+            "front_margin" => front_margin = Some(v.parse().unwrap()),
             "integrator" => scene.integrator = serde_json::from_str(&format!("\"{v}\"")).expect("integrator"),
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
         }
@@ -237,6 +240,9 @@ fn main() {
     let turbulence = if coherent { Turbulence::Coherent } else { Turbulence::Independent };
     let mut p = LaidWebParams { scene, fibres_across: fibres, fibre_spacing: spacing, belt_travel: travel, turbulence, fibre_contact: contact.then(|| settings.clone()), ..LaidWebParams::default() };
     p.feed.oscillation_ramp = ramp;
+    if let Some(m) = front_margin {
+        p.feed.front_margin = m;
+    }
     if let Some(a) = age_limit {
         p.feed.age_limit = a;
     }
@@ -439,6 +445,23 @@ fn main() {
     }
     let startup = p.startup_time();
     eprintln!("start-up time t_s = {startup:.4} s of {t_end:.4} s");
+    // where the fibres landed along MD (x − v_b (t_end − t_laid): the belt's carry removed)
+    let mut landed_at: Vec<f64> = laid
+        .iter()
+        .flat_map(|f| f.positions.iter().zip(&f.landing_time).filter(|(_, t)| t.is_finite() && **t > startup).map(|(x, t)| x[0] - p.scene.belt_speed * (t_end - t)))
+        .collect();
+    landed_at.sort_by(f64::total_cmp);
+    if !landed_at.is_empty() {
+        let q = |f: f64| landed_at[((landed_at.len() - 1) as f64 * f).round() as usize] * 1e3;
+        println!("landing position along MD after the start-up (mm): min {:.1}, 1 % {:.1}, median {:.1}, 99 % {:.1}, max {:.1}", q(0.0), q(0.01), q(0.5), q(0.99), q(1.0));
+    }
+    if std::env::var_os("FIRST_ACTIVE").is_some() {
+        for (j, f) in laid.iter().enumerate() {
+            let a = f.frozen_nodes;
+            let show: Vec<String> = (a..(a + 8).min(f.positions.len())).map(|i| format!("{:.1} mm/{:.3} s", f.positions[i][0] * 1e3, f.landing_time[i])).collect();
+            println!("fibre {j}: first active nodes (x, laid): {}", show.join(", "));
+        }
+    }
     for (j, f) in laid.iter().enumerate() {
         println!(
             "fibre {j}: laid {} nodes, frozen {}, top lift {:.3} mm (node {} of {}, landed at {:.4} s; {} landed nodes above 1 mm, {} of them landed after the start-up), steps {} ({} rejected, smallest {:.2e} s), max penetration {:.3} d, error {:?}",

@@ -131,9 +131,17 @@ pub trait ContactBody: Send + Sync {
     }
     /// What must happen before each step (a fed rod adds its new top node).
     fn before_step(&mut self) {}
+    /// The farthest downstream this body has laid fibre so far, along MD with the belt's
+    /// carry removed (m, lab frame); −∞ if it lays none. Called at each preparation,
+    /// before [`Self::freeze`]; a body notes here what it laid since the last call.
+    fn landing_reach(&mut self) -> f64 {
+        f64::NEG_INFINITY
+    }
     /// Freeze what has settled; append the nodes newly frozen, in fibre order, in belt
-    /// coordinates (x − v_b t_freeze, y, z).
-    fn freeze(&mut self, _frozen: &mut Vec<[f64; 3]>) {}
+    /// coordinates (x − v_b t_freeze, y, z). `landing_front` is the farthest downstream
+    /// any body of the world has laid fibre ([`Self::landing_reach`]): nothing lands
+    /// beyond it.
+    fn freeze(&mut self, _frozen: &mut Vec<[f64; 3]>, _landing_front: f64) {}
 }
 
 /// A rod with its step control and nothing else (falling fibres in tests and examples).
@@ -247,9 +255,10 @@ impl ContactWorld {
     pub fn run_interval<B: ContactBody>(&mut self, bodies: &mut [B], t: f64, t_next: f64, stats: &mut ContactStats) {
         let clock = std::time::Instant::now();
         let mut frozen = Vec::new();
+        let landing_front = bodies.iter_mut().map(|b| b.landing_reach()).fold(f64::NEG_INFINITY, f64::max);
         for (f, body) in bodies.iter_mut().enumerate() {
             frozen.clear();
-            body.freeze(&mut frozen);
+            body.freeze(&mut frozen, landing_front);
             self.add_frozen(f, &frozen);
         }
         let (segments, pairs) = self.prepare(t, t_next - t, bodies);

@@ -13,7 +13,11 @@
 //! the belt, or resting on laid fibre with fibre contact, and crept less than `creep_tolerance`·Δs relative to it for `settle_time`;
 //! the laid fibre slips in short bursts of ~10⁻⁴ m/s as tension waves from the hanging
 //! part pass, so the friction state alone flickers), or that has been on the belt for
-//! `age_limit`, is frozen once a run of at least `freeze_batch` such nodes has formed
+//! `age_limit`, or (in a [`ContactWorld`](super::contact_world::ContactWorld), laid at
+//! least `settle_time` ago) lies `front_margin` downstream of the farthest touchdown
+//! point of any of the world's fibres so far (the freezing front: no fibre lands there;
+//! a contact web's laid fibre creeps and may never settle), is frozen once a run of at
+//! least `freeze_batch` such nodes has formed (in a world, any run, at each preparation)
 //! (with fibre contact a span propped over a crossing counts as laid when the fibre
 //! beyond it has landed, [`Simulator::laid_times`]; otherwise one such node, never laid
 //! itself, held up every node after it)
@@ -56,7 +60,9 @@ pub struct FeedSettings {
     pub lift_tolerance: f64,
     /// Largest creep relative to the belt during the settling time, in elements Δs.
     pub creep_tolerance: f64,
-    /// Nodes frozen at once (the active rod is rebuilt each time).
+    /// Nodes frozen at once (the active rod is rebuilt each time) when freezing is
+    /// checked after every step; a [`ContactWorld`](super::contact_world::ContactWorld)
+    /// freezes at its preparations, any run.
     pub freeze_batch: usize,
     /// A node on the belt for this long is frozen even if it still creeps (s): slow
     /// creep of the fibre's start-up end would otherwise keep the whole laid fibre active.
@@ -67,11 +73,22 @@ pub struct FeedSettings {
     /// harmless for one fibre, but with fibre contact it throws neighbouring columns
     /// through one another.
     pub oscillation_ramp: f64,
+    /// With fibre contact: a node laid at least `settle_time` ago that lies this far (m)
+    /// downstream of the farthest place any fibre of the web has landed is frozen even
+    /// if it still creeps (no fibre lands on it any more); ∞: off.
+    pub front_margin: f64,
+}
+
+impl FeedSettings {
+    /// The laid web's default `front_margin` with fibre contact (m): two elements of the
+    /// Table 1 mesh. The cost and the crossings hardly change from 0 to 5 mm
+    /// (pipelines/studies/PHYSICAL_WEBS.md, "A freezing front").
+    pub const CONTACT_FRONT_MARGIN: f64 = 0.002;
 }
 
 impl Default for FeedSettings {
     fn default() -> Self {
-        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0 }
+        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0, front_margin: f64::INFINITY }
     }
 }
 
@@ -239,6 +256,9 @@ pub struct Feeder {
     /// fibre contact, the node indices other fibres refer to must not change between
     /// two preparations.
     pub defer_freezing: bool,
+    /// The farthest downstream this fibre's touchdown point has been (m, lab frame), as
+    /// noted at each preparation ([`ContactBody::landing_reach`]).
+    landing_reach: f64,
 }
 
 impl Feeder {
@@ -291,6 +311,7 @@ impl Feeder {
             last_good,
             wall_seconds: clock.elapsed().as_secs_f64(),
             defer_freezing: false,
+            landing_reach: f64::NEG_INFINITY,
             sim,
         }
     }
@@ -319,7 +340,7 @@ impl Feeder {
         while self.sim.t < until - tol {
             self.feed_top();
             let sim = &mut self.sim;
-            if self.settings.freeze && !self.defer_freezing && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt) {
+            if self.settings.freeze && !self.defer_freezing && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, f64::INFINITY, self.settings.freeze_batch) {
                 self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
             }
             self.node_steps += sim.rod.nodes() as u64;
@@ -426,13 +447,24 @@ impl ContactBody for Feeder {
     fn before_step(&mut self) {
         self.feed_top();
     }
-    fn freeze(&mut self, frozen: &mut Vec<[f64; 3]>) {
+    fn landing_reach(&mut self) -> f64 {
+        // the touchdown point: the last node along the fibre that has been laid (a span
+        // settling far downstream is not a landing)
+        if let Some(i) = (0..self.sim.rod.nodes()).rev().find(|&i| self.sim.laid_time(i).is_finite()) {
+            self.landing_reach = self.landing_reach.max(self.sim.rod.x[i][0]);
+        }
+        self.landing_reach
+    }
+    fn freeze(&mut self, frozen: &mut Vec<[f64; 3]>, landing_front: f64) {
         if !self.settings.freeze || self.error.is_some() {
             return;
         }
         let before = self.frozen.len();
         let belt = [self.belt_speed, 0.0, 0.0];
-        if freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt) {
+        let line = landing_front + self.settings.front_margin;
+        // once per preparation: any run is worth freezing (the batch spares rebuilding
+        // the rod after every step, which does not happen here)
+        if freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, 1) {
             self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
         }
         let vb = self.belt_speed;
@@ -440,34 +472,60 @@ impl ContactBody for Feeder {
     }
 }
 
-/// Freeze the leading run of nodes that have stuck for the settling time, once it is
-/// `freeze_batch` long; the two nodes after it become the clamped (belt-carried) end.
-fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Vec<([f64; 3], f64, f64)>, s: &FeedSettings, belt: [f64; 3]) -> bool {
-    const CLAMPED: usize = 2;
-    let t = sim.t;
-    let clamped = sim.clamped.len();
-    // with fibre contact the spans laid over crossings count as laid (whole-rod pass);
-    // without, node by node, as far as the run of settled nodes reaches
-    let spans = sim.fibre_contact.is_some().then(|| {
+/// Nodes that stay clamped to the belt after a freeze (the next free node's bending
+/// still sees the laid tangent).
+const CLAMPED: usize = 2;
+
+/// The laid times of `sim`'s nodes with the spans of a contact web
+/// ([`Simulator::laid_times`]); None without fibre contact (node by node then).
+fn laid_with_spans(sim: &Simulator) -> Option<Vec<f64>> {
+    sim.fibre_contact.is_some().then(|| {
         let mut laid = Vec::new();
         sim.laid_times(&mut laid);
         laid
-    });
-    let laid_time = |sim: &Simulator, i: usize| spans.as_ref().map_or_else(|| sim.laid_time(i), |laid| laid[i]);
+    })
+}
+
+/// The leading run of settled nodes, clamped ones included: stuck for the settling time,
+/// or laid `age_limit` ago, or laid at least `settle_time` ago and downstream of `line`
+/// (x ≥ line). Zero when it is too short to freeze (fewer than `batch` nodes, or not
+/// leaving the rod at least two more).
+pub(super) fn settled_run(sim: &Simulator, stuck_since: &[f64], s: &FeedSettings, line: f64, batch: usize, spans: Option<&[f64]>) -> usize {
+    let t = sim.t;
+    let clamped = sim.clamped.len();
+    let laid_time = |i: usize| spans.map_or_else(|| sim.laid_time(i), |laid| laid[i]);
     let settled = (clamped..stuck_since.len())
         .take_while(|&i| {
             let since = stuck_since[i];
-            (since.is_finite() && t - since >= s.settle_time) || t - laid_time(sim, i) >= s.age_limit
+            let age = t - laid_time(i);
+            (since.is_finite() && t - since >= s.settle_time) || age >= s.age_limit || (age >= s.settle_time && sim.rod.x[i][0] >= line)
         })
         .count();
     // nodes clamped now are settled by construction
     let run = clamped + settled;
-    if run < s.freeze_batch + CLAMPED || run + 2 >= sim.rod.nodes() {
+    if run < batch + CLAMPED || run + 2 >= sim.rod.nodes() {
+        0
+    } else {
+        run
+    }
+}
+
+/// Freeze the leading run of settled nodes ([`settled_run`], downstream of `line` with
+/// fibre contact), once it is `batch` long; the two nodes after it become the clamped
+/// (belt-carried) end.
+fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Vec<([f64; 3], f64, f64)>, s: &FeedSettings, belt: [f64; 3], line: f64, batch: usize) -> bool {
+    // with fibre contact the spans laid over crossings count as laid (whole-rod pass);
+    // without, node by node, as far as the run of settled nodes reaches
+    let spans = laid_with_spans(sim);
+    let run = settled_run(sim, stuck_since, s, line, batch, spans.as_deref());
+    if run == 0 {
         return false;
     }
+    let t = sim.t;
     let count = run - CLAMPED;
     for i in 0..count {
-        frozen.push((sim.rod.x[i], t, laid_time(sim, i)));
+        let laid = spans.as_ref().map_or_else(|| sim.laid_time(i), |laid| laid[i]);
+        frozen.push((sim.rod.x[i], t, laid));
     }
     sim.drop_front(count, CLAMPED, belt);
     stuck_since.drain(..count);

@@ -288,15 +288,16 @@ fn three_fibres_stacked_stay_one_diameter_apart() {
 
 /// With fibre contact a node propped off the belt between two laid nodes (a span over a
 /// crossing, resting on nothing that holds it) counts as laid from the time the first
-/// later node was; the hanging part after the last laid node does not. Without fibre
-/// contact each node counts only if it touched the belt itself.
+/// later node was, also if it comes to rest on the web after that (its laid time does
+/// not start again, which held up freezing); the hanging part after the last laid node
+/// does not. Without fibre contact each node counts only if it touched the belt itself.
 #[test]
 fn spans_between_laid_nodes_count_as_laid_with_fibre_contact() {
     let p = scene();
     let mut sim = straight(&p, [0.0; 3], [1.0, 0.0, 0.0], 6, [0.0; 3]);
     let nan = f64::NAN;
-    // node 0 on the belt at 0.1 s, 1-2 a span, 3 on laid fibre at 0.3 s, 4 on the belt
-    // at 0.2 s, 5-6 hanging
+    // node 0 on the belt at 0.1 s, 1-2 a span, 3 on laid fibre at 0.3 s (a span since
+    // 0.2 s), 4 on the belt at 0.2 s, 5-6 hanging
     sim.landing_time = vec![0.1, nan, nan, nan, 0.2, nan, nan];
     let mut own = Vec::new();
     sim.laid_times(&mut own);
@@ -307,5 +308,36 @@ fn spans_between_laid_nodes_count_as_laid_with_fibre_contact() {
     sim.fibre_contact = Some(contact);
     let mut spans = Vec::new();
     sim.laid_times(&mut spans);
-    assert!(same(&spans, &[0.1, 0.2, 0.2, 0.3, 0.2, nan, nan]), "with contact: {spans:?}");
+    assert!(same(&spans, &[0.1, 0.2, 0.2, 0.2, 0.2, nan, nan]), "with contact: {spans:?}");
+}
+
+/// The freezing front: laid fibre downstream of the line freezes once it was laid at
+/// least the settling time ago, even if it still creeps; the run stops at the first node
+/// upstream of the line, and nothing freezes without a line, too early, or in a run
+/// shorter than the batch.
+#[test]
+fn freezing_front_freezes_the_laid_run_downstream_of_the_line() {
+    use crate::rod::feed::{settled_run, FeedSettings};
+    let p = scene();
+    // 60 elements on the belt, the fibre's start downstream: node i at x = 30.5 − i mm
+    let mut sim = straight(&p, [0.0005, 0.0, 0.0], [-1.0, 0.0, 0.0], 60, [0.0; 3]);
+    sim.fibre_contact = Some(FibreContact::new(p.diameter, Some(0.3)));
+    // laid at t = 0 but for the last three, still hanging
+    sim.landing_time = (0..=60).map(|i| if i < 58 { 0.0 } else { f64::NAN }).collect();
+    let creeping = vec![f64::NAN; 61];
+    let s = FeedSettings::default();
+    let run = |sim: &Simulator, line: f64| {
+        let mut spans = Vec::new();
+        sim.laid_times(&mut spans);
+        settled_run(sim, &creeping, &s, line, s.freeze_batch, Some(&spans))
+    };
+    sim.t = 0.05;
+    // x ≥ −5.2 mm: nodes 0..=35 (x = 30.5 .. −4.5 mm)
+    assert_eq!(run(&sim, -0.0052), 36);
+    assert_eq!(run(&sim, f64::INFINITY), 0, "no line: nothing but the settle rule and the age limit");
+    assert_eq!(run(&sim, 0.0), 0, "31 nodes are fewer than the batch of 32");
+    sim.t = 0.01;
+    assert_eq!(run(&sim, -0.0052), 0, "laid less than settle_time ago");
+    sim.t = 0.25;
+    assert_eq!(run(&sim, f64::INFINITY), 58, "the age limit takes every laid node");
 }

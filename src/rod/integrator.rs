@@ -349,22 +349,21 @@ impl Simulator {
     }
 
     /// [`Self::laid_time`] of every node into `out`, with the spans of a contact web: a
-    /// node not laid itself but followed along the fibre by a laid node lies in a span the
-    /// fibre has laid over a crossing (propped off the belt, resting on nothing that
-    /// holds it) and counts as laid since the earliest of the later nodes was. Without
-    /// fibre contact every laid node has touched the belt, and this is `laid_time`.
+    /// node followed along the fibre by a laid node lies in a span the fibre has laid
+    /// over a crossing (propped off the belt, resting on nothing that holds it) from the
+    /// time the first of the later nodes was laid, so it counts as laid from the earlier
+    /// of that time and its own (a span node that comes to rest on the web later does
+    /// not start again). Without fibre contact every laid node has touched the belt, and
+    /// this is `laid_time`.
     pub fn laid_times(&self, out: &mut Vec<f64>) {
         out.clear();
         out.extend((0..self.rod.nodes()).map(|i| self.laid_time(i)));
         if self.fibre_contact.is_some() {
             let mut later = f64::NAN;
+            // (min of NaN and a number is the number)
             for t in out.iter_mut().rev() {
-                if t.is_nan() {
-                    *t = later;
-                } else {
-                    // (min of NaN and a number is the number)
-                    later = later.min(*t);
-                }
+                *t = t.min(later);
+                later = *t;
             }
         }
     }

@@ -23,6 +23,11 @@
 //!   ([`ContactWeb`]; centrelines at least d apart,
 //!   Coulomb friction μ_ff, spatial hashing; [`crate::rod::fibre_contact`]), and a node
 //!   that comes to rest on laid fibre has landed (on the web instead of the belt).
+//!   A contact web's laid fibre creeps (`pipelines/studies/PHYSICAL_WEBS.md`), so
+//!   besides the settle rule and the 0.2 s age limit a **freezing front** freezes it:
+//!   a node laid at least `settle_time` ago that lies `freeze_front_margin` downstream
+//!   of the farthest touchdown point any fibre of the web has reached so far, where no
+//!   fibre lands, is frozen.
 //! - **Random streams.** Fibre j of replicate r draws from stream (seed, r, j + 1)
 //!   (phase, jitter, then imperfections); the coherent turbulence draws from (seed, r, 0).
 //!   Without contact the fibres are independent and computed in parallel; with contact
@@ -152,7 +157,7 @@ impl Default for LaidWebParams {
             frequency_jitter: 0.0,
             amplitude_jitter: 0.0,
             edge_margin_spreads: 3.0,
-            feed: FeedSettings::default(),
+            feed: FeedSettings { front_margin: FeedSettings::CONTACT_FRONT_MARGIN, ..FeedSettings::default() },
             fibre_contact: None,
         }
     }
@@ -236,7 +241,12 @@ impl LaidWebParams {
         let keep = match (&self.fibre_contact, self.feed.freeze) {
             (_, false) => f64::INFINITY,
             (None, true) => self.feed.settle_time + SETTLING_DELAY,
-            (Some(_), true) => self.feed.age_limit,
+            // until the freezing front passes (the touchdown zone reaches about u0
+            // downstream of the feed point, a lower bound), or the age limit
+            (Some(_), true) => {
+                let front = (self.scene.oscillation_amplitude + self.feed.front_margin) / self.scene.belt_speed;
+                self.feed.age_limit.min(front.max(self.feed.settle_time))
+            }
         };
         // laid nodes active at time τ: min(laid_rate τ, laid_rate keep + batch), averaged over [0, T]
         let mean_laid = if keep >= t { 0.5 * laid_rate * t } else { laid_rate * (keep - 0.5 * keep * keep / t) + self.feed.freeze_batch as f64 };

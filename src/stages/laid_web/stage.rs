@@ -61,6 +61,7 @@ pub struct LaidWebStageParams {
     pub edge_margin_spreads: f64,
     pub freeze: bool,
     pub settle_time: f64,
+    pub freeze_front_margin: f64,
     pub oscillation_ramp: f64,
     pub fibre_contact: bool,
     pub fibre_friction: f64,
@@ -80,7 +81,7 @@ pub fn laid_web_params(p: &ParamSet) -> LaidWebParams {
         frequency_jitter: p.frequency_jitter,
         amplitude_jitter: p.amplitude_jitter,
         edge_margin_spreads: p.edge_margin_spreads,
-        feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, oscillation_ramp: p.oscillation_ramp, ..FeedSettings::default() },
+        feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, oscillation_ramp: p.oscillation_ramp, front_margin: p.freeze_front_margin, ..FeedSettings::default() },
         fibre_contact: p.fibre_contact.then_some(FibreContactSettings { friction: p.fibre_friction, interval: p.contact_interval }),
     }
 }
@@ -121,8 +122,9 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::float("frequency_jitter", "1", 0.0, 0.0, 0.3, "relative standard deviation of each fibre's oscillation frequency"));
         v.push(ParamSpec::float("amplitude_jitter", "1", 0.0, 0.0, 0.9, "relative standard deviation of each fibre's oscillation amplitude"));
         v.push(ParamSpec::float("edge_margin_spreads", "1", 3.0, 0.0, 100.0, "interior MD range: this many belt-removed spreads from the touchdown and from the start-up"));
-        v.push(ParamSpec::flag("freeze", true, "freeze settled laid nodes (crept < 1 % of an element relative to the belt for settle_time, or on the belt for 0.2 s): carried with the belt at no cost"));
+        v.push(ParamSpec::flag("freeze", true, "freeze settled laid nodes (crept < 1 % of an element relative to the belt for settle_time, or laid 0.2 s ago, or with fibre_contact past the freezing front: freeze_front_margin): carried with the belt at no cost"));
         v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a laid node must stay put on the belt (creep below 1 % of an element) before it may freeze"));
+        v.push(ParamSpec::float("freeze_front_margin", "m", FeedSettings::CONTACT_FRONT_MARGIN, 0.0, 1.0, "with fibre_contact: a laid node this far downstream of the farthest touchdown point any fibre has reached (no fibre lands there) freezes after settle_time even if it still creeps; larger freezes later, 1 m switches the rule off"));
         v.push(ParamSpec::float("oscillation_ramp", "s", 0.0, 0.0, 1.0, "soft start: the oscillation amplitude grows smoothly from 0 to u0 over this time (needed with fibre_contact)"));
         let contact = FibreContactSettings::default();
         v.push(ParamSpec::flag("fibre_contact", false, "fibre-fibre contact: centrelines stay a diameter apart, with friction fibre_friction; fibres that can touch advance in lock step (off: fibres pass through one another, at no cost)"));

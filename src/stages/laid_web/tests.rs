@@ -175,6 +175,7 @@ fn stage_table_is_its_typed_parameters() {
         edge_margin_spreads: d.edge_margin_spreads,
         freeze: d.feed.freeze,
         settle_time: d.feed.settle_time,
+        freeze_front_margin: d.feed.front_margin,
         oscillation_ramp: d.feed.oscillation_ramp,
         fibre_contact: d.fibre_contact.is_some(),
         fibre_friction: FibreContactSettings::default().friction,

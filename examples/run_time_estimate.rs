@@ -4,7 +4,8 @@
 //! Used to set the constants in `src/stages/laid_web/mod.rs` (`CPU_SECONDS_PER_NODE_STEP`,
 //! `SETTLING_DELAY`, `CONTACT_COST_SCALE`); the table is in the README ("Run time").
 //!
-//! `cargo run --release --example run_time_estimate -- [part of a case name]`
+//! `cargo run --release --example run_time_estimate -- [part of a case name]`; with the
+//! environment variable `ESTIMATE_ONLY` set it prints the estimates without running.
 use laydown::stages::laid_web::{lay_web, FibreContactSettings, LaidWebParams};
 use laydown::rod::LaydownParams;
 fn main() {
@@ -25,10 +26,19 @@ fn main() {
     cases.push(("contact table1 4x2mm 20mm", c.clone()));
     let mut c4 = LaidWebParams { scene: s4, fibres_across: 4, fibre_spacing: 2.3036e-4, belt_travel: 0.012, fibre_contact: Some(FibreContactSettings::default()), ..LaidWebParams::default() };
     c4.feed.oscillation_ramp = 0.01;
-    cases.push(("contact table4 4 fibres 12mm", c4));
+    cases.push(("contact table4 4 fibres 12mm", c4.clone()));
+    // long enough for the freezing front to act (it needs the zone plus the margin of belt)
+    c4.belt_travel = 0.04;
+    cases.push(("contact table4 4 fibres 40mm", c4));
+    c.belt_travel = 0.1; c.fibre_spacing = 8e-3;
+    cases.push(("contact table1 4x8mm 100mm", c.clone()));
     let only: Option<String> = std::env::args().nth(1);
     for (name, p) in cases {
         if let Some(o) = &only { if !name.contains(o.as_str()) { continue; } }
+        if std::env::var_os("ESTIMATE_ONLY").is_some() {
+            println!("{name}: estimated node-steps {:.3e}, cpu {:.1} s", p.estimated_node_steps(), p.estimated_cpu_seconds());
+            continue;
+        }
         let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let clock = std::time::Instant::now();
         let web = pool.install(|| lay_web(&p, 7, 0, &indicatif::ProgressBar::hidden()));

@@ -73,16 +73,16 @@ pub struct FeedSettings {
     /// harmless for one fibre, but with fibre contact it throws neighbouring columns
     /// through one another.
     pub oscillation_ramp: f64,
-    /// With fibre contact: a node laid at least `settle_time` ago that lies this far (m)
-    /// downstream of the farthest place any fibre of the web has landed is frozen even
-    /// if it still creeps (no fibre lands on it any more); ∞: off.
+    /// In a contact world: a node laid at least `settle_time` ago that lies this far (m)
+    /// downstream of the farthest touchdown point any fibre of the world has reached is
+    /// frozen even if it still creeps (no fibre lands on it any more); ∞: off.
     pub front_margin: f64,
 }
 
 impl FeedSettings {
     /// The laid web's default `front_margin` with fibre contact (m): two elements of the
-    /// Table 1 mesh. The cost and the crossings hardly change from 0 to 5 mm
-    /// (pipelines/studies/PHYSICAL_WEBS.md, "A freezing front").
+    /// Table 1 mesh. The cost changes little from 0 to 5 mm
+    /// (`pipelines/studies/freezing_front.yaml`; PHYSICAL_WEBS.md, "A freezing front").
     pub const CONTACT_FRONT_MARGIN: f64 = 0.002;
 }
 

@@ -228,8 +228,10 @@ impl LaidWebParams {
     /// scene's automatic step for the whole feed time, with the hanging fibre
     /// (`HANGING_LENGTH` times the feed height) and the laid nodes not yet frozen active.
     /// A laid node stays active for the settling time (or, with fibre contact, whose laid
-    /// web does not come to rest, for the age limit), plus a batch; without freezing, until
-    /// the end. Checked against the measured `node_steps` in the stage's tests.
+    /// web does not come to rest, until the freezing front passes it, taken as u0 plus the
+    /// margin downstream of the feed point, or the age limit), plus a batch; without
+    /// freezing, until the end. Checked against the measured `node_steps` in the stage's
+    /// tests.
     pub fn estimated_node_steps(&self) -> f64 {
         let ds = self.resolved_element_length();
         let scene = self.fibre_scene(1.0, 1.0);

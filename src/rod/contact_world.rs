@@ -131,16 +131,16 @@ pub trait ContactBody: Send + Sync {
     }
     /// What must happen before each step (a fed rod adds its new top node).
     fn before_step(&mut self) {}
-    /// The farthest downstream this body has laid fibre so far, along MD with the belt's
-    /// carry removed (m, lab frame); −∞ if it lays none. Called at each preparation,
-    /// before [`Self::freeze`]; a body notes here what it laid since the last call.
+    /// The farthest downstream (m, lab frame) this body's touchdown point (its last laid
+    /// node along the fibre) has been at any preparation so far; −∞ if it lays none.
+    /// Called at each preparation, before [`Self::freeze`]; it notes the touchdown point then.
     fn landing_reach(&mut self) -> f64 {
         f64::NEG_INFINITY
     }
     /// Freeze what has settled; append the nodes newly frozen, in fibre order, in belt
     /// coordinates (x − v_b t_freeze, y, z). `landing_front` is the farthest downstream
-    /// any body of the world has laid fibre ([`Self::landing_reach`]): nothing lands
-    /// beyond it.
+    /// touchdown point of any body of the world so far ([`Self::landing_reach`]): nothing
+    /// lands beyond it.
     fn freeze(&mut self, _frozen: &mut Vec<[f64; 3]>, _landing_front: f64) {}
 }
 

@@ -486,6 +486,11 @@ fn laid_with_spans(sim: &Simulator) -> Option<Vec<f64>> {
     })
 }
 
+/// Node `i`'s laid time: from `spans` ([`laid_with_spans`]) when given, else its own.
+fn laid_time_of(sim: &Simulator, spans: Option<&[f64]>, i: usize) -> f64 {
+    spans.map_or_else(|| sim.laid_time(i), |laid| laid[i])
+}
+
 /// The leading run of settled nodes, clamped ones included: stuck for the settling time,
 /// or laid `age_limit` ago, or laid at least `settle_time` ago and downstream of `line`
 /// (x ≥ line). Zero when it is too short to freeze (fewer than `batch` nodes, or not
@@ -493,11 +498,10 @@ fn laid_with_spans(sim: &Simulator) -> Option<Vec<f64>> {
 pub(super) fn settled_run(sim: &Simulator, stuck_since: &[f64], s: &FeedSettings, line: f64, batch: usize, spans: Option<&[f64]>) -> usize {
     let t = sim.t;
     let clamped = sim.clamped.len();
-    let laid_time = |i: usize| spans.map_or_else(|| sim.laid_time(i), |laid| laid[i]);
     let settled = (clamped..stuck_since.len())
         .take_while(|&i| {
             let since = stuck_since[i];
-            let age = t - laid_time(i);
+            let age = t - laid_time_of(sim, spans, i);
             (since.is_finite() && t - since >= s.settle_time) || age >= s.age_limit || (age >= s.settle_time && sim.rod.x[i][0] >= line)
         })
         .count();
@@ -524,8 +528,7 @@ fn freeze_stuck(sim: &mut Simulator, stuck_since: &mut Vec<f64>, frozen: &mut Ve
     let t = sim.t;
     let count = run - CLAMPED;
     for i in 0..count {
-        let laid = spans.as_ref().map_or_else(|| sim.laid_time(i), |laid| laid[i]);
-        frozen.push((sim.rod.x[i], t, laid));
+        frozen.push((sim.rod.x[i], t, laid_time_of(sim, spans.as_deref(), i)));
     }
     sim.drop_front(count, CLAMPED, belt);
     stuck_since.drain(..count);

@@ -1,0 +1,102 @@
+#!/usr/bin/env python3
+"""Where a laydown scheme's e differs from the explicit reference's: the curvature of the
+laid fibres split into its net turning and its fluctuation (pipelines/studies/FIBRE_SPEED.md,
+"At the same converged mesh").
+
+e = (L/2) ∫κ² ds (eq 6), so at a given laid length e follows the mean of κ² along the fibre,
+and ⟨κ²⟩ = ⟨κ⟩² + var κ with κ the signed curvature of the laid fibre in the belt plane.
+⟨κ⟩ is the net turning per length: loops laid one way round keep it large, loops whose sense
+alternates cancel it. ⟨|κ|⟩ is how tightly the fibre bends, whatever the sense.
+
+For every laydown stage of the archive (its current version) and every sweep point, prints
+the mean over valid replicates of S, e, L, ⟨κ²⟩, |⟨κ⟩|, var κ and ⟨|κ|⟩, each relative to the
+reference stage's (laydown_reference unless named) at the sweep values the point shares with
+one of its points (its first point when none), with the standard error of the difference (replicates unpaired: the
+seeds do not correlate the runs of two schemes).
+
+Usage (from the repository root, after `laydown run pipelines/studies/converged_mesh_accuracy.yaml`):
+    .venv/bin/python scripts/curvature_split.py [ARCHIVE [REFERENCE_STAGE]]
+Needs h5py and numpy (tests/python/requirements.txt).
+"""
+import sys
+
+import h5py
+import numpy as np
+
+from physical_webs_table import current
+
+ARCHIVE = "results/converged_mesh_accuracy.h5"
+MEASURES = ["S", "e", "L", "<k^2>", "|<k>|", "var k", "<|k|>"]
+
+
+def signed_curvature(laid):
+    """Signed curvature (1/m) at the inner nodes of a laid polyline in the belt plane:
+    turning angle over the mean length of the two segments, as geometry::bending_energy."""
+    xy = laid[np.isfinite(laid[:, 0])][:, :2]
+    seg = np.diff(xy, axis=0)
+    length = np.linalg.norm(seg, axis=1)
+    heading = np.arctan2(seg[:, 1], seg[:, 0])
+    turning = np.angle(np.exp(1j * np.diff(heading)))
+    return turning / (0.5 * (length[1:] + length[:-1]))
+
+
+def measures(group, point, replicate):
+    k = signed_curvature(group["laid_positions"][point, replicate])
+    return [group["radius_of_gyration"][point, replicate], group["bending_energy"][point, replicate], group["laid_length"][point, replicate],
+            np.mean(k * k), abs(np.mean(k)), np.var(k), np.mean(np.abs(k))]
+
+
+def label(group, point):
+    """The sweep point's swept values, e.g. "start=fed, time_step_factor=0.4": the
+    datasets of the point's length other than dimension scales and per-point summaries."""
+    parts = []
+    for name, data in group.items():
+        if (not data.is_scale and data.shape == group["point"].shape and data.dtype.kind in "OSf"
+                and not name.endswith(("_mean", "_std"))):
+            v = data[point]
+            parts.append(f"{name}={v.decode() if isinstance(v, bytes) else f'{v:g}'}")
+    return ", ".join(parts) or "-"
+
+
+def matching(point, references):
+    """The reference point whose swept values the candidate point shares, the most specific
+    one (e.g. "friction_coefficient=10" for "friction_coefficient=10, integrator=inextensible")."""
+    items = set(point.split(", "))
+    shared = [ref for ref in references if set(ref.split(", ")) <= items]
+    return max(shared, key=len, default=None)
+
+
+def table(path, reference):
+    with h5py.File(path, "r") as f:
+        stages = [name for name in f if "bending_energy" in current(f, name)]
+        stages.sort(key=lambda name: name != reference)
+        rows = []
+        for stage in stages:
+            g = current(f, stage)
+            for p in range(g["valid"].shape[0]):
+                valid = g["valid"][p].astype(bool)
+                values = np.array([measures(g, p, r) for r in np.flatnonzero(valid)])
+                rows.append((stage, label(g, p), values))
+    references = {point: values for stage, point, values in rows if stage == reference}
+    print("| stage | point | valid | " + " | ".join(MEASURES) + " |")
+    print("|---|---|---:|" + "---:|" * len(MEASURES))
+    for point, values in references.items():
+        print(f"| {reference} (reference) | {point} | {len(values)} | "
+              + " | ".join(f"{m:.4g}" for m in values.mean(axis=0)) + " |")
+    first = next(iter(references.values()))
+    for stage, point, values in rows:
+        if stage == reference:
+            continue
+        ref = references.get(matching(point, references), first)
+        ref_mean = ref.mean(axis=0)
+        ref_se = ref.std(axis=0, ddof=1) / np.sqrt(len(ref))
+        mean = values.mean(axis=0)
+        se = values.std(axis=0, ddof=1) / np.sqrt(len(values))
+        rel = 100 * (mean / ref_mean - 1)
+        rel_se = 100 * np.hypot(se / ref_mean, ref_se * mean / ref_mean**2)
+        print(f"| {stage} | {point} | {len(values)} | "
+              + " | ".join(f"{r:+.1f} ± {s:.1f} %" for r, s in zip(rel, rel_se)) + " |")
+
+
+if __name__ == "__main__":
+    table(sys.argv[1] if len(sys.argv) > 1 else ARCHIVE, sys.argv[2] if len(sys.argv) > 2 else "laydown_reference")

@@ -10,9 +10,9 @@ alternates cancel it. ⟨|κ|⟩ is how tightly the fibre bends, whatever the se
 
 For every laydown stage of the archive (its current version) and every sweep point, prints
 the mean over valid replicates of S, e, L, ⟨κ²⟩, |⟨κ⟩|, var κ and ⟨|κ|⟩, each relative to the
-reference stage's (laydown_reference unless named) at the sweep values the point shares with
-one of its points (its first point when none), with the standard error of the difference (replicates unpaired: the
-seeds do not correlate the runs of two schemes).
+reference stage's (laydown_reference unless named) at the sweep values the point shares
+with one of its points (its first point when none), with the standard error of the
+difference (replicates unpaired: the seeds do not correlate the runs of two schemes).
 
 Usage (from the repository root, after `laydown run pipelines/studies/converged_mesh_accuracy.yaml`):
     .venv/bin/python scripts/curvature_split.py [ARCHIVE [REFERENCE_STAGE]]
@@ -23,6 +23,7 @@ import sys
 import h5py
 import numpy as np
 
+from laid_curves import turning_angles
 from physical_webs_table import current
 
 ARCHIVE = "results/converged_mesh_accuracy.h5"
@@ -32,18 +33,21 @@ MEASURES = ["S", "e", "L", "<k^2>", "|<k>|", "var k", "<|k|>"]
 def signed_curvature(laid):
     """Signed curvature (1/m) at the inner nodes of a laid polyline in the belt plane:
     turning angle over the mean length of the two segments, as geometry::bending_energy."""
-    xy = laid[np.isfinite(laid[:, 0])][:, :2]
-    seg = np.diff(xy, axis=0)
-    length = np.linalg.norm(seg, axis=1)
-    heading = np.arctan2(seg[:, 1], seg[:, 0])
-    turning = np.angle(np.exp(1j * np.diff(heading)))
-    return turning / (0.5 * (length[1:] + length[:-1]))
+    turn, length = turning_angles(laid[:, :2])
+    return turn / (0.5 * (length[1:] + length[:-1]))
 
 
-def measures(group, point, replicate):
-    k = signed_curvature(group["laid_positions"][point, replicate])
-    return [group["radius_of_gyration"][point, replicate], group["bending_energy"][point, replicate], group["laid_length"][point, replicate],
-            np.mean(k * k), abs(np.mean(k)), np.var(k), np.mean(np.abs(k))]
+def point_measures(group, point):
+    """The MEASURES of every valid replicate of one sweep point, (replicates, measures);
+    each dataset read once."""
+    valid = np.flatnonzero(group["valid"][point].astype(bool))
+    laid = group["laid_positions"][point]
+    per_replicate = [group[name][point][valid] for name in ("radius_of_gyration", "bending_energy", "laid_length")]
+    curvature = []
+    for r in valid:
+        k = signed_curvature(laid[r])
+        curvature.append([np.mean(k * k), abs(np.mean(k)), np.var(k), np.mean(np.abs(k))])
+    return np.column_stack(per_replicate + [np.array(curvature).reshape(len(valid), 4)])
 
 
 def label(group, point):
@@ -74,9 +78,7 @@ def table(path, reference):
         for stage in stages:
             g = current(f, stage)
             for p in range(g["valid"].shape[0]):
-                valid = g["valid"][p].astype(bool)
-                values = np.array([measures(g, p, r) for r in np.flatnonzero(valid)])
-                rows.append((stage, label(g, p), values))
+                rows.append((stage, label(g, p), point_measures(g, p)))
     references = {point: values for stage, point, values in rows if stage == reference}
     print("| stage | point | valid | " + " | ".join(MEASURES) + " |")
     print("|---|---|---:|" + "---:|" * len(MEASURES))

@@ -17,6 +17,8 @@ import sys
 import h5py
 import numpy as np
 
+from laid_curves import turning_angles
+
 
 def latest(group):
     versions = sorted((k for k in group if k.startswith("v")), key=lambda k: int(k[1:]))
@@ -25,13 +27,7 @@ def latest(group):
 
 def coiling(xy):
     """(turns, regularity, coil radius) of a laid polyline (n, 2), NaN rows dropped."""
-    xy = xy[np.all(np.isfinite(xy), axis=1)]
-    seg = np.diff(xy, axis=0)
-    length = np.hypot(seg[:, 0], seg[:, 1])
-    seg = seg[length > 0]
-    length = length[length > 0]
-    heading = np.arctan2(seg[:, 1], seg[:, 0])
-    turn = np.angle(np.exp(1j * np.diff(heading)))
+    turn, length = turning_angles(xy)
     total = np.abs(turn).sum()
     return turn.sum() / (2 * np.pi), abs(turn.sum()) / total, length[1:].sum() / total
 

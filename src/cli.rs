@@ -41,9 +41,10 @@ pub enum Command {
         /// The pipeline YAML file.
         pipeline: PathBuf,
         /// Run only this stage, on the current versions of its inputs (with a warning
-        /// naming any that is out of date).
-        #[arg(long, value_name = "STAGE", conflicts_with = "from")]
-        only: Option<String>,
+        /// naming any that is out of date). Repeatable or comma-separated: the stages
+        /// named run in pipeline order, one selected stage feeding the next.
+        #[arg(long, value_name = "STAGE", conflicts_with = "from", value_delimiter = ',')]
+        only: Vec<String>,
         /// Recompute this stage and run every stage downstream of it.
         #[arg(long, value_name = "STAGE")]
         from: Option<String>,

@@ -28,8 +28,9 @@ use std::time::Instant;
 
 #[derive(Debug, Default, Clone)]
 pub struct RunOptions {
-    /// Run only this stage, on the current versions of its inputs.
-    pub only: Option<String>,
+    /// Run only these stages (in pipeline order), on the current versions of their
+    /// other inputs; empty: no such selection.
+    pub only: Vec<String>,
     /// Recompute this stage (as with `force`) and run everything downstream of it.
     pub from: Option<String>,
     /// Ignore the cache for these stages.
@@ -333,10 +334,10 @@ pub fn run(pipeline: &Pipeline, opts: &RunOptions) -> Result<Vec<StageReport>, R
             )));
         }
     }
-    let selected: Vec<String> = match (&opts.only, &opts.from) {
-        (Some(only), _) => vec![only.clone()],
-        (None, Some(from)) => pipeline.downstream(from),
-        (None, None) => pipeline.topological_order(),
+    let selected: Vec<String> = match &opts.from {
+        _ if !opts.only.is_empty() => opts.only.clone(),
+        Some(from) => pipeline.downstream(from),
+        None => pipeline.topological_order(),
     };
     let archive = if opts.dry_run { Archive::open_if_exists(&pipeline.archive) } else { Archive::open_write(&pipeline.archive) }
         .map_err(RunError::Runtime)?;

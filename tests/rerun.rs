@@ -115,3 +115,26 @@ fn changing_an_upstream_stage_reruns_downstream_with_the_reason() {
     let o = run(tmp.path(), &["run", "p.yaml", "--only", "spectra", "--force", "spectra"]);
     assert!(o.contains("fibre: not selected, using v2") && o.contains("spectra: runs: forced (--force)"), "{o}");
 }
+
+#[test]
+fn only_takes_several_stages_and_runs_them_in_pipeline_order() {
+    let tmp = tempfile::tempdir().unwrap();
+    let chain = "pipeline: chain\narchive: study.h5\nstages:\n  - name: fibre\n    kind: laydown\n    params: {length: 0.12, elements: 60, diameter: 5.0e-05}\n    replicates: 2\n  - name: spectra\n    kind: spectra\n    input: fibre\n  - name: other\n    kind: spectra\n    input: fibre\n";
+    write_pipeline(tmp.path(), "p.yaml", chain);
+    run(tmp.path(), &["run", "p.yaml"]);
+    write_pipeline(tmp.path(), "p.yaml", &chain.replace("diameter: 5.0e-05", "diameter: 4.0e-05"));
+    // named downstream first: still run upstream first, and the second on the first's new version
+    let o = run(tmp.path(), &["run", "p.yaml", "--only", "spectra,fibre"]);
+    assert!(o.contains("fibre: runs: params.diameter changed 5e-05 -> 4e-05"), "{o}");
+    assert!(o.contains("spectra: runs: input fibre v1 -> v2"), "{o}");
+    assert!(o.contains("other: not selected, using v1 (out of date"), "{o}");
+    assert!(o.find("fibre: runs").unwrap() < o.find("spectra: runs").unwrap(), "{o}");
+    // repeated flags select the same way
+    let o = run(tmp.path(), &["run", "p.yaml", "--only", "other", "--only", "spectra"]);
+    assert!(o.contains("other: runs: input fibre v1 -> v2") && o.contains("spectra: up to date (v2)"), "{o}");
+    // a name that is not a stage is refused before anything runs
+    let out = run_in(tmp.path(), &["run", "p.yaml", "--only", "spectra,fibres"]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    assert!(e.contains("no stage named `fibres`; allowed: fibre, spectra, other"), "{e}");
+}

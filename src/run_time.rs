@@ -2,9 +2,11 @@
 //! alone, before anything is computed.
 //!
 //! A stage that can say ([`crate::stages::Stage::estimate_cpu_time`]; today `laid_web`,
-//! whose webs with fibre contact run for hours) estimates one replicate of each resolved
+//! whose webs with fibre contact run for hours, and `laydown`, whose explicit reference
+//! at a fine mesh runs for minutes a replicate) estimates one replicate of each resolved
 //! sweep point; a stage's total is the sum over its points times its replicates. Some
-//! estimates are lower bounds (a laid web with fibre contact: "at least").
+//! estimates are bounds (a laid web with fibre contact: "at least"; a laydown with the fed
+//! start: "at most").
 //! `laydown validate` prints every estimate, and `validate` and `run` with
 //! `--max-cpu-time` refuse a pipeline with a stage above the limit (exit 2), naming the
 //! stage, its estimate and the parameters that drive it. The wall time is about the CPU
@@ -18,14 +20,17 @@ pub struct CpuEstimate {
     pub stage: usize,
     /// Σ over its points and replicates (s).
     pub seconds: f64,
-    /// The run may take several times longer.
-    pub lower_bound: bool,
+    /// The least trustworthy of its points' ([`crate::stages::Bound`]: at least, over
+    /// at most, over about).
+    pub bound: crate::stages::Bound,
+    /// What lowers it ([`crate::stages::CpuTime::advice`], of its first point).
+    pub advice: &'static str,
 }
 
 impl CpuEstimate {
-    /// "about 15 min" or "at least 45 min".
+    /// "about 15 min", "at least 45 min" or "at most 2 min".
     pub fn describe(&self) -> String {
-        format!("{} {}", if self.lower_bound { "at least" } else { "about" }, format_seconds(self.seconds))
+        format!("{} {}", self.bound.words(), format_seconds(self.seconds))
     }
 }
 
@@ -39,7 +44,7 @@ fn stage_estimate(s: &StageDecl, stage: usize) -> Option<CpuEstimate> {
     let per_replicate: Option<Vec<_>> = s.points().0.iter().map(|p| kind.estimate_cpu_time(p)).collect();
     let per_replicate = per_replicate?;
     let seconds = per_replicate.iter().map(|e| e.seconds).sum::<f64>() * s.replicates as f64;
-    Some(CpuEstimate { stage, seconds, lower_bound: per_replicate.iter().any(|e| e.lower_bound) })
+    Some(CpuEstimate { stage, seconds, bound: per_replicate.iter().map(|e| e.bound).max()?, advice: per_replicate.first()?.advice })
 }
 
 /// A duration such as `90s`, `30min`, `2h`, `1.5d` or a plain number of seconds.
@@ -83,7 +88,7 @@ pub fn over_limit(p: &Pipeline, estimates: &[CpuEstimate], file: &str, limit: f6
         .map(|e| {
             let s = &p.stages[e.stage];
             format!(
-                "error: {file}:{}:{}: stages[{}]: stage `{}` ({}) is estimated at {} of CPU time ({} replicate(s) of {} point(s)), above --max-cpu-time {}; lower belt_travel, fibres_across or replicates, or raise the limit",
+                "error: {file}:{}:{}: stages[{}]: stage `{}` ({}) is estimated at {} of CPU time ({} replicate(s) of {} point(s)), above --max-cpu-time {}; {}, or raise the limit",
                 s.pos.line,
                 s.pos.col,
                 e.stage,
@@ -92,7 +97,8 @@ pub fn over_limit(p: &Pipeline, estimates: &[CpuEstimate], file: &str, limit: f6
                 e.describe(),
                 s.replicates,
                 s.points().0.len(),
-                format_seconds(limit)
+                format_seconds(limit),
+                e.advice
             )
         })
         .collect()

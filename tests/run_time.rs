@@ -1,6 +1,7 @@
-//! Run-time estimates: `validate` prints each laid web's estimated CPU time ("at least"
-//! with fibre contact), and `validate` and `run` with `--max-cpu-time` refuse a stage
-//! estimated above the limit with exit 2, naming it, before anything is computed.
+//! Run-time estimates: `validate` prints each laid web's and laydown's estimated CPU time
+//! ("at least" with fibre contact, "at most" for the fed start), and `validate` and `run`
+//! with `--max-cpu-time` refuse a stage estimated above the limit with exit 2, naming it
+//! and what lowers it, before anything is computed.
 mod common;
 use common::*;
 
@@ -51,4 +52,32 @@ fn a_malformed_max_cpu_time_is_bad_input() {
     let (_, err) = text(&out);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("unknown unit `weeks`"), "{err}");
+}
+
+/// The explicit reference at a fine mesh: minutes a replicate, so 200 of them are refused
+/// by a one-hour limit with the advice to use a projection integrator; the default scheme
+/// at the same mesh passes, and the fed start is stated as an upper bound.
+#[test]
+fn a_laydown_estimated_above_max_cpu_time_is_refused_before_it_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = write_pipeline(
+        tmp.path(),
+        "p.yaml",
+        "pipeline: p\narchive: study.h5\nstages:\n  - {name: fast, kind: laydown, params: {elements: 2000}, replicates: 200}\n  - {name: fed, kind: laydown, params: {start: fed}}\n  - {name: reference, kind: laydown, params: {integrator: explicit, elements: 2000}, replicates: 200}\n",
+    );
+    for cmd in ["validate", "run"] {
+        let out = run_in(tmp.path(), &[cmd, p.to_str().unwrap(), "--max-cpu-time", "1h"]);
+        let (stdout, err) = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
+        assert!(err.contains("p.yaml:6:6: stages[2]: stage `reference` (laydown) is estimated at about "), "{cmd}: {err}");
+        assert!(err.contains("; lower elements or replicates, or use a projection integrator (the default trapezoidal_axial), or raise the limit"), "{cmd}: {err}");
+        assert!(!err.contains("`fast`") && !err.contains("`fed`"), "{cmd}: {err}");
+        assert!(stdout.is_empty(), "{cmd} printed {stdout}");
+    }
+    assert!(!tmp.path().join("study.h5").exists(), "the refused run wrote an archive");
+    let out = run_in(tmp.path(), &["validate", p.to_str().unwrap()]);
+    let (stdout, err) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(stdout.contains("stage `fast` (laydown): about "), "{stdout}");
+    assert!(stdout.contains("stage `fed` (laydown): at most "), "{stdout}");
 }

@@ -62,13 +62,35 @@ pub struct DeclaredFibres {
 /// A stage's bad input is the crate's ([`crate::error`]).
 pub use crate::error::BadInput;
 
+/// Whether an estimate is the expected value or a bound.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Bound {
+    About,
+    AtMost,
+    AtLeast,
+}
+
+impl Bound {
+    /// "about", "at most" or "at least".
+    pub fn words(self) -> &'static str {
+        match self {
+            Bound::About => "about",
+            Bound::AtMost => "at most",
+            Bound::AtLeast => "at least",
+        }
+    }
+}
+
 /// A stage's estimate of the CPU time of one replicate ([`Stage::estimate_cpu_time`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CpuTime {
     pub seconds: f64,
-    /// Whether the run may take several times longer (the estimate is what it costs at
-    /// least, e.g. a laid web with fibre contact).
-    pub lower_bound: bool,
+    /// How far to trust it: about, at least (the run may take several times longer, e.g.
+    /// a laid web with fibre contact) or at most.
+    pub bound: Bound,
+    /// What lowers it, for the refusal above `--max-cpu-time`, e.g. "lower belt_travel,
+    /// fibres_across or replicates".
+    pub advice: &'static str,
 }
 
 pub trait Stage: Send + Sync {

@@ -140,7 +140,11 @@ impl Stage for LaidWebStage {
     /// estimate leaves out: README, performance).
     fn estimate_cpu_time(&self, p: &ParamSet) -> Option<crate::stages::CpuTime> {
         let lw = laid_web_params(p);
-        Some(crate::stages::CpuTime { seconds: lw.estimated_cpu_seconds(), lower_bound: lw.fibre_contact.is_some() })
+        Some(crate::stages::CpuTime {
+            seconds: lw.estimated_cpu_seconds(),
+            bound: if lw.fibre_contact.is_some() { crate::stages::Bound::AtLeast } else { crate::stages::Bound::About },
+            advice: "lower belt_travel, fibres_across or replicates",
+        })
     }
     /// Every web of the run is held until the output is written
     /// (`KEPT_BYTES_PER_NODE`), and each thread simulates one fibre

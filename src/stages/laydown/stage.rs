@@ -123,6 +123,43 @@ pub fn scene(p: &ParamSet) -> LaydownParams {
     LaydownStageParams::of(p).scene
 }
 
+/// CPU time of one node-step of the vertical start on one thread (s), by integrator:
+/// wall time over steps × nodes of the replicates of `scheme_offset.yaml` and
+/// `converged_mesh_accuracy.yaml` (Table 1, 1000 and 2000 elements, one replicate per
+/// core on the 2-core development machine): explicit 4.4-5.1e-8, the projection schemes
+/// 6.5-9.7e-8, implicit_bending (a banded solve a step) 3.3e-7.
+fn cpu_seconds_per_node_step(integrator: Integrator) -> f64 {
+    match integrator {
+        Integrator::Explicit => 4.8e-8,
+        Integrator::ImplicitBending => 3.3e-7,
+        Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => 8.0e-8,
+    }
+}
+
+/// Node-steps of one simulation of `scene` with the vertical start: every node at every
+/// step of the chosen time step ([`crate::rod::scene::time_step_limits`]; the adaptive
+/// schemes take a few percent more, at the start-up impact). The fed start integrates
+/// fewer nodes: its wall time is 0.3-0.55 of the vertical start's at Table 1 and 0.26 at
+/// 50 m/s (README, "Performance").
+pub fn estimated_node_steps(scene: &LaydownParams) -> f64 {
+    let elements = scene.resolved_elements();
+    let ds = scene.length / elements as f64;
+    let dt = crate::rod::scene::time_step_limits(scene, ds, true).chosen;
+    (scene.end_time() / dt).ceil() * (elements + 1) as f64
+}
+
+/// Estimated CPU time of one replicate of a point (s): [`estimated_node_steps`] at the
+/// integrator's cost per node-step, plus the half-mesh run of `mesh_error_estimate`.
+pub fn estimated_cpu_seconds(p: &LaydownStageParams) -> f64 {
+    let scene = &p.scene;
+    let mut node_steps = estimated_node_steps(scene);
+    if p.mesh_error_estimate {
+        let coarse = LaydownParams { elements: scene.resolved_elements() / 2, coil_resolution: 0.0, ..scene.clone() };
+        node_steps += estimated_node_steps(&coarse);
+    }
+    node_steps * cpu_seconds_per_node_step(scene.integrator)
+}
+
 impl Stage for LaydownStage {
     fn kind(&self) -> &'static str {
         "laydown"
@@ -215,6 +252,24 @@ impl Stage for LaydownStage {
             };
             InvalidParam::new(name, e.to_string())
         })
+    }
+
+    /// [`estimated_cpu_seconds`]: about, for the vertical start; at most, for the fed
+    /// start (frozen laid fibre costs nothing); at least, with a `valid_replicates_target`
+    /// (invalid replicates are redrawn).
+    fn estimate_cpu_time(&self, p: &ParamSet) -> Option<crate::stages::CpuTime> {
+        use crate::stages::Bound;
+        let own = LaydownStageParams::of(p);
+        let bound = match (own.valid_replicates_target > 0, own.scene.start) {
+            (true, _) => Bound::AtLeast,
+            (false, Start::Fed) => Bound::AtMost,
+            (false, Start::Vertical) => Bound::About,
+        };
+        let advice = match own.scene.integrator {
+            Integrator::Explicit => "lower elements or replicates, or use a projection integrator (the default trapezoidal_axial)",
+            _ => "lower elements, coil_resolution or replicates, or use start: fed",
+        };
+        Some(crate::stages::CpuTime { seconds: estimated_cpu_seconds(&own), bound, advice })
     }
 
     fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {

@@ -531,3 +531,28 @@ fn stage_table_is_its_typed_parameters() {
     let own = super::stage::LaydownStageParams { scene: LaydownParams::default(), valid_replicates_target: 0, max_replicates: 40, mesh_error_estimate: true };
     crate::params::assert_table_matches(&crate::stages::Stage::params(&LaydownStage), &own);
 }
+
+// ---------------------------------------------------------------- run-time estimate
+
+/// The run-time estimate counts the node-steps a replicate takes: exactly the fixed step
+/// of the explicit integrator, and within a few percent the adaptive projection schemes'
+/// (their start-up impact takes short steps), on a short Table 1 scene and at 50 m/s.
+#[test]
+fn estimated_node_steps_match_the_steps_taken() {
+    let fast = |p: LaydownParams| LaydownParams { fibre_speed: 50.0, air_speed: 150.0, belt_speed: 2.0, oscillation_frequency: 100.0, ..p };
+    for integrator in [Integrator::Explicit, Integrator::TrapezoidalAxial, Integrator::ImplicitBending] {
+        for (label, p) in [
+            ("Table 1", LaydownParams { length: 0.15, elements: 150, integrator, ..LaydownParams::default() }),
+            ("50 m/s", fast(LaydownParams { length: 0.15, elements: 150, integrator, ..LaydownParams::default() })),
+        ] {
+            let r = simulate(&p, &mut replicate_rng(1, 0));
+            assert!(r.error.is_none(), "{label} {integrator:?}: {:?}", r.error);
+            let taken = r.steps as f64 * (r.elements + 1) as f64;
+            let estimated = super::stage::estimated_node_steps(&p);
+            let ratio = taken / estimated;
+            eprintln!("{label} {integrator:?}: {} elements, {} steps, taken/estimated node-steps {ratio:.3}", r.elements, r.steps);
+            let range = if integrator == Integrator::Explicit { 0.999..1.001 } else { 0.999..1.2 };
+            assert!(range.contains(&ratio), "{label} {integrator:?}: {taken} node-steps taken, {estimated} estimated");
+        }
+    }
+}

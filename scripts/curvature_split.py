@@ -14,8 +14,13 @@ reference stage's (laydown_reference unless named) at the sweep values the point
 with one of its points (its first point when none), with the standard error of the
 difference (replicates unpaired: the seeds do not correlate the runs of two schemes).
 
+REFERENCE_STAGE may name several stages, comma-separated: their replicates are pooled point by
+point (e.g. the explicit reference at two steps, or on two seeds). POOL, comma-separated
+stages, adds one row per point label those stages share, their replicates pooled.
+
 Usage (from the repository root, after `laydown run pipelines/studies/converged_mesh_accuracy.yaml`):
-    .venv/bin/python scripts/curvature_split.py [ARCHIVE [REFERENCE_STAGE]]
+    .venv/bin/python scripts/curvature_split.py [ARCHIVE [REFERENCE_STAGE[,STAGE...] [POOL]]]
+e.g. `... results/converged_mesh_accuracy.h5 laydown_reference,laydown_reference_half_step,laydown_reference_seed12 laydown_start,laydown_default_seed12`.
 Needs h5py and numpy (tests/python/requirements.txt).
 """
 import sys
@@ -70,35 +75,54 @@ def matching(point, references):
     return max(shared, key=len, default=None)
 
 
-def table(path, reference):
+def difference(values, ref):
+    """Relative difference of the means (%) and its standard error, unpaired."""
+    ref_mean = ref.mean(axis=0)
+    ref_se = ref.std(axis=0, ddof=1) / np.sqrt(len(ref))
+    mean = values.mean(axis=0)
+    se = values.std(axis=0, ddof=1) / np.sqrt(len(values))
+    return 100 * (mean / ref_mean - 1), 100 * np.hypot(se / ref_mean, ref_se * mean / ref_mean**2)
+
+
+def pooled(rows, stages):
+    """{point label: the replicates of `stages` at that label, stacked}, in first-seen order."""
+    out = {}
+    for stage, point, values in rows:
+        if stage in stages:
+            out[point] = np.vstack([out[point], values]) if point in out else values
+    return out
+
+
+def table(path, reference, pool=()):
+    reference = reference.split(",")
     with h5py.File(path, "r") as f:
         stages = [name for name in f if "bending_energy" in current(f, name)]
-        stages.sort(key=lambda name: name != reference)
+        missing = [name for name in reference + list(pool) if name not in stages]
+        if missing:
+            sys.exit(f"{path}: no laydown stage named {', '.join(missing)}; there are: {', '.join(stages)}")
+        stages.sort(key=lambda name: name not in reference)
         rows = []
         for stage in stages:
             g = current(f, stage)
             for p in range(g["valid"].shape[0]):
                 rows.append((stage, label(g, p), point_measures(g, p)))
-    references = {point: values for stage, point, values in rows if stage == reference}
+    references = pooled(rows, reference)
+    name = " + ".join(reference)
     print("| stage | point | valid | " + " | ".join(MEASURES) + " |")
     print("|---|---|---:|" + "---:|" * len(MEASURES))
     for point, values in references.items():
-        print(f"| {reference} (reference) | {point} | {len(values)} | "
+        print(f"| {name} (reference) | {point} | {len(values)} | "
               + " | ".join(f"{m:.4g}" for m in values.mean(axis=0)) + " |")
     first = next(iter(references.values()))
-    for stage, point, values in rows:
-        if stage == reference:
-            continue
-        ref = references.get(matching(point, references), first)
-        ref_mean = ref.mean(axis=0)
-        ref_se = ref.std(axis=0, ddof=1) / np.sqrt(len(ref))
-        mean = values.mean(axis=0)
-        se = values.std(axis=0, ddof=1) / np.sqrt(len(values))
-        rel = 100 * (mean / ref_mean - 1)
-        rel_se = 100 * np.hypot(se / ref_mean, ref_se * mean / ref_mean**2)
+    candidates = [row for row in rows if row[0] not in reference]
+    if pool:
+        candidates += [(" + ".join(pool) + " (pooled)", point, values) for point, values in pooled(rows, pool).items()]
+    for stage, point, values in candidates:
+        rel, rel_se = difference(values, references.get(matching(point, references), first))
         print(f"| {stage} | {point} | {len(values)} | "
               + " | ".join(f"{r:+.1f} ± {s:.1f} %" for r, s in zip(rel, rel_se)) + " |")
 
 
 if __name__ == "__main__":
-    table(sys.argv[1] if len(sys.argv) > 1 else ARCHIVE, sys.argv[2] if len(sys.argv) > 2 else "laydown_reference")
+    table(sys.argv[1] if len(sys.argv) > 1 else ARCHIVE, sys.argv[2] if len(sys.argv) > 2 else "laydown_reference",
+          sys.argv[3].split(",") if len(sys.argv) > 3 else ())

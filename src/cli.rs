@@ -40,9 +40,9 @@ pub enum Command {
     Run {
         /// The pipeline YAML file.
         pipeline: PathBuf,
-        /// Run only this stage, on the current versions of its inputs (with a warning
-        /// naming any that is out of date). Repeatable or comma-separated: the stages
-        /// named run in pipeline order, one selected stage feeding the next.
+        /// Run only these stages, on the current versions of their other inputs (with a
+        /// warning naming any that is out of date). Repeatable or comma-separated: the
+        /// stages named run in pipeline order, one selected stage feeding the next.
         #[arg(long, value_name = "STAGE", conflicts_with = "from", value_delimiter = ',')]
         only: Vec<String>,
         /// Recompute this stage and run every stage downstream of it.

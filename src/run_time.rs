@@ -20,11 +20,10 @@ pub struct CpuEstimate {
     pub stage: usize,
     /// Σ over its points and replicates (s).
     pub seconds: f64,
-    /// The least trustworthy of its points' ([`crate::stages::Bound`]: at least, over
-    /// at most, over about).
+    /// Its points' bounds combined ([`crate::stages::Bound::of_sum`]).
     pub bound: crate::stages::Bound,
-    /// What lowers it ([`crate::stages::CpuTime::advice`], of its first point).
-    pub advice: &'static str,
+    /// What lowers it ([`crate::stages::CpuTime::advice`] of its costliest point).
+    pub advice: String,
 }
 
 impl CpuEstimate {
@@ -44,7 +43,13 @@ fn stage_estimate(s: &StageDecl, stage: usize) -> Option<CpuEstimate> {
     let per_replicate: Option<Vec<_>> = s.points().0.iter().map(|p| kind.estimate_cpu_time(p)).collect();
     let per_replicate = per_replicate?;
     let seconds = per_replicate.iter().map(|e| e.seconds).sum::<f64>() * s.replicates as f64;
-    Some(CpuEstimate { stage, seconds, bound: per_replicate.iter().map(|e| e.bound).max()?, advice: per_replicate.first()?.advice })
+    let costliest = per_replicate.iter().max_by(|a, b| a.seconds.total_cmp(&b.seconds))?;
+    Some(CpuEstimate {
+        stage,
+        seconds,
+        bound: crate::stages::Bound::of_sum(per_replicate.iter().map(|e| e.bound)),
+        advice: costliest.advice.clone(),
+    })
 }
 
 /// A duration such as `90s`, `30min`, `2h`, `1.5d` or a plain number of seconds.

@@ -482,7 +482,7 @@ fn run_stages(pipeline: &Pipeline, opts: &RunOptions, archive: &Archive, selecte
         let (Some(inputs), Some(fp)) = (inputs, fp) else {
             let missing = decl.inputs.iter().find(|i| !chosen.contains_key(*i)).cloned().unwrap_or_default();
             return Err(RunError::BadInput(format!(
-                "stage `{name}` needs input `{missing}`, which has no complete version in {}; run it first (without --only)",
+                "stage `{name}` needs input `{missing}`, which has no complete version in {}; run it first (without --only, or add it to --only)",
                 pipeline.archive.display()
             )));
         };
@@ -765,7 +765,7 @@ impl<'a> Decision<'a> {
             (Some(_), Some(flag)) => Planned::Runs(format!("forced ({flag})")),
             (None, _) => match inputs {
                 Some(inputs) => Planned::Runs(self.reason(&inputs.iter().map(|v| (v.stage.clone(), v.number)).collect::<Vec<_>>())),
-                None => Planned::CannotRun("an input has no complete version; run it first (without --only)".into()),
+                None => Planned::CannotRun("an input has no complete version; run it first (without --only, or add it to --only)".into()),
             },
         }
     }

@@ -55,8 +55,10 @@ fn a_malformed_max_cpu_time_is_bad_input() {
 }
 
 /// The explicit reference at a fine mesh: minutes a replicate, so 200 of them are refused
-/// by a one-hour limit with the advice to use a projection integrator; the default scheme
-/// at the same mesh passes, and the fed start is stated as an upper bound.
+/// by a one-hour limit with the advice to use a projection integrator (`run --dry-run`:
+/// were the refusal gone, nothing would be computed); the default scheme at the same mesh
+/// passes. The fed start is an upper bound, a valid-replicate target a lower one, both
+/// together neither; a sweep over both starts sums an estimate and an upper bound.
 #[test]
 fn a_laydown_estimated_above_max_cpu_time_is_refused_before_it_runs() {
     let tmp = tempfile::tempdir().unwrap();
@@ -65,19 +67,28 @@ fn a_laydown_estimated_above_max_cpu_time_is_refused_before_it_runs() {
         "p.yaml",
         "pipeline: p\narchive: study.h5\nstages:\n  - {name: fast, kind: laydown, params: {elements: 2000}, replicates: 200}\n  - {name: fed, kind: laydown, params: {start: fed}}\n  - {name: reference, kind: laydown, params: {integrator: explicit, elements: 2000}, replicates: 200}\n",
     );
-    for cmd in ["validate", "run"] {
-        let out = run_in(tmp.path(), &[cmd, p.to_str().unwrap(), "--max-cpu-time", "1h"]);
+    for cmd in [&["validate"][..], &["run", "--dry-run"][..]] {
+        let out = run_in(tmp.path(), &[cmd, &[p.to_str().unwrap(), "--max-cpu-time", "1h"]].concat());
         let (stdout, err) = text(&out);
-        assert_eq!(out.status.code(), Some(2), "{cmd}: {err}");
-        assert!(err.contains("p.yaml:6:6: stages[2]: stage `reference` (laydown) is estimated at about "), "{cmd}: {err}");
-        assert!(err.contains("; lower elements or replicates, or use a projection integrator (the default trapezoidal_axial), or raise the limit"), "{cmd}: {err}");
-        assert!(!err.contains("`fast`") && !err.contains("`fed`"), "{cmd}: {err}");
-        assert!(stdout.is_empty(), "{cmd} printed {stdout}");
+        assert_eq!(out.status.code(), Some(2), "{cmd:?}: {err}");
+        assert!(err.contains("p.yaml:6:6: stages[2]: stage `reference` (laydown) is estimated at about "), "{cmd:?}: {err}");
+        assert!(
+            err.contains("; lower elements, coil_resolution or replicates, set mesh_error_estimate: false (its half-mesh run), use a projection integrator (the default trapezoidal_axial), or raise the limit"),
+            "{cmd:?}: {err}"
+        );
+        assert!(!err.contains("`fast`") && !err.contains("`fed`"), "{cmd:?}: {err}");
+        assert!(stdout.is_empty(), "{cmd:?} printed {stdout}");
     }
     assert!(!tmp.path().join("study.h5").exists(), "the refused run wrote an archive");
+    let p = write_pipeline(
+        tmp.path(),
+        "bounds.yaml",
+        "pipeline: p\narchive: study.h5\nstages:\n  - {name: fast, kind: laydown}\n  - {name: fed, kind: laydown, params: {start: fed}}\n  - {name: target, kind: laydown, params: {valid_replicates_target: 2}}\n  - {name: fed_target, kind: laydown, params: {start: fed, valid_replicates_target: 2}}\n  - {name: starts, kind: laydown, sweep: {start: [vertical, fed]}}\n",
+    );
     let out = run_in(tmp.path(), &["validate", p.to_str().unwrap()]);
     let (stdout, err) = text(&out);
     assert_eq!(out.status.code(), Some(0), "{err}");
-    assert!(stdout.contains("stage `fast` (laydown): about "), "{stdout}");
-    assert!(stdout.contains("stage `fed` (laydown): at most "), "{stdout}");
+    for (stage, bound) in [("fast", "about"), ("fed", "at most"), ("target", "at least"), ("fed_target", "about"), ("starts", "at most")] {
+        assert!(stdout.contains(&format!("stage `{stage}` (laydown): {bound} ")), "{stage}: {stdout}");
+    }
 }

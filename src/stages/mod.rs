@@ -63,7 +63,7 @@ pub struct DeclaredFibres {
 pub use crate::error::BadInput;
 
 /// Whether an estimate is the expected value or a bound.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Bound {
     About,
     AtMost,
@@ -71,6 +71,22 @@ pub enum Bound {
 }
 
 impl Bound {
+    /// The bound of a sum of estimates with these bounds: at least (at most) when some are
+    /// at least (at most) and none is the other way, otherwise about (the estimates that
+    /// are "about" are taken as exact).
+    pub fn of_sum(bounds: impl IntoIterator<Item = Bound>) -> Bound {
+        let (mut least, mut most) = (false, false);
+        for b in bounds {
+            least |= b == Bound::AtLeast;
+            most |= b == Bound::AtMost;
+        }
+        match (least, most) {
+            (true, false) => Bound::AtLeast,
+            (false, true) => Bound::AtMost,
+            _ => Bound::About,
+        }
+    }
+
     /// "about", "at most" or "at least".
     pub fn words(self) -> &'static str {
         match self {
@@ -82,7 +98,7 @@ impl Bound {
 }
 
 /// A stage's estimate of the CPU time of one replicate ([`Stage::estimate_cpu_time`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CpuTime {
     pub seconds: f64,
     /// How far to trust it: about, at least (the run may take several times longer, e.g.
@@ -90,7 +106,7 @@ pub struct CpuTime {
     pub bound: Bound,
     /// What lowers it, for the refusal above `--max-cpu-time`, e.g. "lower belt_travel,
     /// fibres_across or replicates".
-    pub advice: &'static str,
+    pub advice: String,
 }
 
 pub trait Stage: Send + Sync {
@@ -415,6 +431,17 @@ pub fn kinds() -> Vec<&'static str> {
 
 #[cfg(test)]
 mod tests {
+    use super::Bound::{About, AtLeast, AtMost};
+
+    /// A sum is at least (at most) what its parts are only when none is bounded the other way.
+    #[test]
+    fn a_sum_of_estimates_keeps_a_bound_only_its_parts_share() {
+        assert_eq!(super::Bound::of_sum([About, AtLeast, About]), AtLeast);
+        assert_eq!(super::Bound::of_sum([AtMost, About]), AtMost);
+        assert_eq!(super::Bound::of_sum([AtMost, AtLeast]), About);
+        assert_eq!(super::Bound::of_sum([About]), About);
+    }
+
     /// A parameter `a` and another `a.b` cannot both be written in YAML (`a` would be a
     /// value and a mapping at once); the JSON schema nests dotted names, so it could not
     /// describe such a pair either.

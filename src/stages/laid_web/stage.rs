@@ -143,7 +143,7 @@ impl Stage for LaidWebStage {
         Some(crate::stages::CpuTime {
             seconds: lw.estimated_cpu_seconds(),
             bound: if lw.fibre_contact.is_some() { crate::stages::Bound::AtLeast } else { crate::stages::Bound::About },
-            advice: "lower belt_travel, fibres_across or replicates",
+            advice: "lower belt_travel, fibres_across or replicates".into(),
         })
     }
     /// Every web of the run is held until the output is written

@@ -126,19 +126,21 @@ pub fn scene(p: &ParamSet) -> LaydownParams {
 /// CPU time of one node-step of the vertical start on one thread (s), by integrator:
 /// wall time over steps × nodes of the replicates of `scheme_offset.yaml` and
 /// `converged_mesh_accuracy.yaml` (Table 1, 1000 and 2000 elements, one replicate per
-/// core on the 2-core development machine): explicit 4.4-5.1e-8, the projection schemes
-/// 6.5-9.7e-8, implicit_bending (a banded solve a step) 3.3e-7.
+/// core on the 2-core development machine): explicit 4.4-5.3e-8, the projection schemes
+/// 6.5-9.8e-8 (1.4e-7 on a busy host), implicit_bending (a banded solve a step) 3.7e-7.
+/// The host's speed varies by some 40 % from day to day.
 fn cpu_seconds_per_node_step(integrator: Integrator) -> f64 {
     match integrator {
         Integrator::Explicit => 4.8e-8,
-        Integrator::ImplicitBending => 3.3e-7,
+        Integrator::ImplicitBending => 3.7e-7,
         Integrator::Inextensible | Integrator::ImplicitAxial | Integrator::TrapezoidalAxial => 8.0e-8,
     }
 }
 
 /// Node-steps of one simulation of `scene` with the vertical start: every node at every
 /// step of the chosen time step ([`crate::rod::scene::time_step_limits`]; the adaptive
-/// schemes take a few percent more, at the start-up impact). The fed start integrates
+/// schemes take more, for their short steps at the start-up impact: 2 % at Table 1, 14 %
+/// on a fibre of 0.15 m). The opt-in twist's extra work per node is not counted. The fed start integrates
 /// fewer nodes: its wall time is 0.3-0.55 of the vertical start's at Table 1 and 0.26 at
 /// 50 m/s (README, "Performance").
 pub fn estimated_node_steps(scene: &LaydownParams) -> f64 {
@@ -146,6 +148,27 @@ pub fn estimated_node_steps(scene: &LaydownParams) -> f64 {
     let ds = scene.length / elements as f64;
     let dt = crate::rod::scene::time_step_limits(scene, ds, true).chosen;
     (scene.end_time() / dt).ceil() * (elements + 1) as f64
+}
+
+/// What lowers the cost of a point, for the refusal above `--max-cpu-time`: only the
+/// settings it can still change.
+fn cost_advice(p: &LaydownStageParams) -> String {
+    let scene = &p.scene;
+    let mut lower = vec!["elements"];
+    if scene.coil_resolution > 0.0 {
+        lower.push("coil_resolution");
+    }
+    lower.push("replicates");
+    let mut advice = format!("lower {} or {}", lower[..lower.len() - 1].join(", "), lower[lower.len() - 1]);
+    if p.mesh_error_estimate {
+        advice += ", set mesh_error_estimate: false (its half-mesh run)";
+    }
+    if scene.integrator == Integrator::Explicit {
+        advice += ", use a projection integrator (the default trapezoidal_axial)";
+    } else if scene.start == Start::Vertical {
+        advice += ", use start: fed";
+    }
+    advice
 }
 
 /// Estimated CPU time of one replicate of a point (s): [`estimated_node_steps`] at the
@@ -256,20 +279,17 @@ impl Stage for LaydownStage {
 
     /// [`estimated_cpu_seconds`]: about, for the vertical start; at most, for the fed
     /// start (frozen laid fibre costs nothing); at least, with a `valid_replicates_target`
-    /// (invalid replicates are redrawn).
+    /// (invalid replicates are redrawn), unless the start is fed too (then about).
     fn estimate_cpu_time(&self, p: &ParamSet) -> Option<crate::stages::CpuTime> {
         use crate::stages::Bound;
         let own = LaydownStageParams::of(p);
         let bound = match (own.valid_replicates_target > 0, own.scene.start) {
-            (true, _) => Bound::AtLeast,
+            (true, Start::Fed) => Bound::About,
+            (true, Start::Vertical) => Bound::AtLeast,
             (false, Start::Fed) => Bound::AtMost,
             (false, Start::Vertical) => Bound::About,
         };
-        let advice = match own.scene.integrator {
-            Integrator::Explicit => "lower elements or replicates, or use a projection integrator (the default trapezoidal_axial)",
-            _ => "lower elements, coil_resolution or replicates, or use start: fed",
-        };
-        Some(crate::stages::CpuTime { seconds: estimated_cpu_seconds(&own), bound, advice })
+        Some(crate::stages::CpuTime { seconds: estimated_cpu_seconds(&own), bound, advice: cost_advice(&own) })
     }
 
     fn estimate_memory(&self, stage: &Declared) -> Option<Estimate> {

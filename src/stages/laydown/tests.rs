@@ -535,8 +535,8 @@ fn stage_table_is_its_typed_parameters() {
 // ---------------------------------------------------------------- run-time estimate
 
 /// The run-time estimate counts the node-steps a replicate takes: exactly the fixed step
-/// of the explicit integrator, and within a few percent the adaptive projection schemes'
-/// (their start-up impact takes short steps), on a short Table 1 scene and at 50 m/s.
+/// of the explicit integrator, and the adaptive projection schemes' to within 15 % on this
+/// short Table 1 scene (their start-up impact takes short steps) and 1 % at 50 m/s.
 #[test]
 fn estimated_node_steps_match_the_steps_taken() {
     let fast = |p: LaydownParams| LaydownParams { fibre_speed: 50.0, air_speed: 150.0, belt_speed: 2.0, oscillation_frequency: 100.0, ..p };

@@ -84,13 +84,15 @@ def difference(values, ref):
     return 100 * (mean / ref_mean - 1), 100 * np.hypot(se / ref_mean, ref_se * mean / ref_mean**2)
 
 
-def pooled(rows, stages):
-    """{point label: the replicates of `stages` at that label, stacked}, in first-seen order."""
-    out = {}
+def pooled(rows, stages, shared=False):
+    """{point label: the replicates of `stages` at that label, stacked}, in first-seen order;
+    with `shared`, only the labels every one of `stages` has."""
+    out, having = {}, {}
     for stage, point, values in rows:
         if stage in stages:
             out[point] = np.vstack([out[point], values]) if point in out else values
-    return out
+            having.setdefault(point, set()).add(stage)
+    return {point: v for point, v in out.items() if not shared or having[point] == set(stages)}
 
 
 def table(path, reference, pool=()):
@@ -100,6 +102,9 @@ def table(path, reference, pool=()):
         missing = [name for name in reference + list(pool) if name not in stages]
         if missing:
             sys.exit(f"{path}: no laydown stage named {', '.join(missing)}; there are: {', '.join(stages)}")
+        both = [name for name in pool if name in reference]
+        if both:
+            sys.exit(f"{', '.join(both)}: named as reference and in the pool; a stage is one or the other")
         stages.sort(key=lambda name: name not in reference)
         rows = []
         for stage in stages:
@@ -116,7 +121,7 @@ def table(path, reference, pool=()):
     first = next(iter(references.values()))
     candidates = [row for row in rows if row[0] not in reference]
     if pool:
-        candidates += [(" + ".join(pool) + " (pooled)", point, values) for point, values in pooled(rows, pool).items()]
+        candidates += [(" + ".join(pool) + " (pooled)", point, values) for point, values in pooled(rows, pool, shared=True).items()]
     for stage, point, values in candidates:
         rel, rel_se = difference(values, references.get(matching(point, references), first))
         print(f"| {stage} | {point} | {len(values)} | "

@@ -285,6 +285,8 @@ impl Feeder {
             rest_length: Some(ds),
         };
         let mut sim = build(p, start);
+        // a fed fibre records no energy diagnostics
+        sim.stop_work_ledger();
         for term in sim.terms.iter_mut() {
             if let super::forces::Term::Oscillation(o) = term {
                 o.phase = phase;
@@ -335,7 +337,7 @@ impl Feeder {
         let clock = Instant::now();
         let ds = self.element_length;
         let belt = [self.belt_speed, 0.0, 0.0];
-        let creep_tolerance = self.settings.creep_tolerance * ds;
+        let creep_tolerance2 = (self.settings.creep_tolerance * ds).powi(2);
         let tol = until * 1e-12;
         while self.sim.t < until - tol {
             self.feed_top();
@@ -365,7 +367,7 @@ impl Feeder {
                 let here = [x[0] - self.belt_speed * t, x[1]];
                 if !on_belt {
                     *since = f64::NAN;
-                } else if since.is_nan() || (here[0] - anchor[0]).hypot(here[1] - anchor[1]) > creep_tolerance {
+                } else if since.is_nan() || (here[0] - anchor[0]).powi(2) + (here[1] - anchor[1]).powi(2) > creep_tolerance2 {
                     *since = t;
                     *anchor = here;
                 }

@@ -153,6 +153,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         clamp_positions,
         clamp_velocity: [0.0; 3],
         work: Work::default(),
+        work_ledger: true,
         landing_time: vec![f64::NAN; n],
         max_lift: vec![0.0; n],
         lift_time: vec![f64::NAN; n],

@@ -177,8 +177,7 @@ pub fn estimated_cpu_seconds(p: &LaydownStageParams) -> f64 {
     let scene = &p.scene;
     let mut node_steps = estimated_node_steps(scene);
     if p.mesh_error_estimate {
-        let coarse = LaydownParams { elements: scene.resolved_elements() / 2, coil_resolution: 0.0, ..scene.clone() };
-        node_steps += estimated_node_steps(&coarse);
+        node_steps += estimated_node_steps(&half_mesh_scene(scene, scene.resolved_elements()));
     }
     node_steps * cpu_seconds_per_node_step(scene.integrator)
 }
@@ -376,15 +375,20 @@ struct HalfMesh {
     wall_seconds: f64,
 }
 
-/// The scene at half the elements `fine` used (coil_resolution off, so the halving
-/// holds), simulated on its own stream; None when the fine run failed, the coarse one
-/// failed or bounced, or the mesh is too coarse to halve (under 8 elements).
+/// `scene` at half of `elements` (the fine run's), with coil_resolution off so the
+/// halving holds: the run of `mesh_error_estimate`, and its cost estimate.
+fn half_mesh_scene(scene: &LaydownParams, elements: usize) -> LaydownParams {
+    LaydownParams { elements: elements / 2, coil_resolution: 0.0, ..scene.clone() }
+}
+
+/// [`half_mesh_scene`] of the fine run, simulated on its own stream; None when the fine
+/// run failed, the coarse one failed or bounced, or the mesh is too coarse to halve
+/// (under 8 elements).
 fn half_mesh(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha::ChaCha8Rng) -> Option<HalfMesh> {
     if fine.error.is_some() || fine.elements < 8 {
         return None;
     }
-    let coarse = LaydownParams { elements: fine.elements / 2, coil_resolution: 0.0, ..scene.clone() };
-    let r = simulate(&coarse, rng);
+    let r = simulate(&half_mesh_scene(scene, fine.elements), rng);
     (r.valid && r.error.is_none()).then_some(HalfMesh {
         measures: [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed],
         wall_seconds: r.wall_seconds,

@@ -13,10 +13,11 @@
 //! the belt, or resting on laid fibre with fibre contact, and crept less than `creep_tolerance`·Δs relative to it for `settle_time`;
 //! the laid fibre slips in short bursts of ~10⁻⁴ m/s as tension waves from the hanging
 //! part pass, so the friction state alone flickers), or that has been on the belt for
-//! `age_limit`, or (in a [`ContactWorld`](super::contact_world::ContactWorld), laid at
-//! least `settle_time` ago) lies `front_margin` downstream of the farthest touchdown
-//! point of any of the world's fibres so far (the freezing front: no fibre lands there;
-//! a contact web's laid fibre creeps and may never settle), is frozen once a run of at
+//! `age_limit`, or (laid at least `settle_time` ago) lies `front_margin` downstream of
+//! the farthest touchdown point so far (of any fibre in a
+//! [`ContactWorld`](super::contact_world::ContactWorld); the freezing front: no fibre
+//! lands there, and a contact web's laid fibre creeps and may never settle; a single
+//! fibre's node must lie on the belt), is frozen once a run of at
 //! least `freeze_batch` such nodes has formed (in a world, any run, at each preparation)
 //! (with fibre contact a span propped over a crossing counts as laid when the fibre
 //! beyond it has landed, [`Simulator::laid_times`]; otherwise one such node, never laid
@@ -73,9 +74,10 @@ pub struct FeedSettings {
     /// harmless for one fibre, but with fibre contact it throws neighbouring columns
     /// through one another.
     pub oscillation_ramp: f64,
-    /// In a contact world: a node laid at least `settle_time` ago that lies this far (m)
-    /// downstream of the farthest touchdown point any fibre of the world has reached is
-    /// frozen even if it still creeps (no fibre lands on it any more); ∞: off.
+    /// A node laid at least `settle_time` ago that lies this far (m) downstream of the
+    /// farthest touchdown point reached so far (of any fibre, in a contact world) is
+    /// frozen even if it still creeps (no fibre lands on it any more); without fibre
+    /// contact only if it lies on the belt (within `lift_tolerance`); ∞: off.
     pub front_margin: f64,
 }
 
@@ -172,12 +174,33 @@ impl FedFibre {
 /// `laid_web` defaults), 2 ms and 20 ms at 50 m/s.
 const FED_SETTLE_LENGTH: f64 = 0.1;
 const FED_AGE_LENGTH: f64 = 1.0;
+/// The fed start's freezing front (m): a laid node lying on the belt this far
+/// downstream of the farthest touchdown point so far, laid at least the settle time
+/// ago, freezes even if it still creeps. At Table 1 the fibre's start-up end (its first
+/// ~20 nodes) slides relative to the belt for the whole run (up to 60 mm/s at its tip),
+/// and freezing takes only a leading run, so without the front it held up freezing of
+/// the whole laid fibre behind it (FIBRE_SPEED.md, "A freezing front for the fed start").
+pub const FED_FRONT_MARGIN: f64 = 0.002;
 
-/// One replicate of the laydown scene with `start: fed`: the paper's element length
-/// (after `coil_resolution`) and end time, the fibre fed into a short buffer above z0
-/// instead of hanging from z = L, settled laid nodes frozen; validated parameters
-/// ([`super::replicate::simulate`] validates). Errors are reported in [`LaydownResult::error`].
+/// The freezing settings of `start: fed` for the scene `p`: the settle time and age
+/// limit as the time [`FED_SETTLE_LENGTH`] and [`FED_AGE_LENGTH`] take to feed, the
+/// front at [`FED_FRONT_MARGIN`].
+pub fn fed_settings(p: &LaydownParams) -> FeedSettings {
+    FeedSettings { settle_time: FED_SETTLE_LENGTH / p.fibre_speed, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin: FED_FRONT_MARGIN, ..FeedSettings::default() }
+}
+
+/// One replicate of the laydown scene with `start: fed` ([`fed_settings`]).
 pub(crate) fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> LaydownResult {
+    simulate_fed_with(p, &fed_settings(p), rng)
+}
+
+/// One replicate of the laydown scene fed continuously with the freezing `settings`:
+/// the paper's element length (after `coil_resolution`) and end time, the fibre fed
+/// into a short buffer above z0 instead of hanging from z = L, settled laid nodes
+/// frozen; validated parameters ([`super::replicate::simulate`] validates). Errors are
+/// reported in [`LaydownResult::error`]. The accuracy of a setting against another:
+/// `examples/fed_freezing_accuracy.rs`.
+pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSettings, rng: &mut R) -> LaydownResult {
     let elements = p.resolved_elements();
     let element_length = p.length / elements as f64;
     let t_end = p.end_time();
@@ -186,8 +209,7 @@ pub(crate) fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> L
     scene.elements = (scene.length / element_length).round().max(1.0) as usize;
     scene.coil_resolution = 0.0; // the element length is the resolved one already
     scene.duration = 0.0;
-    let settings = FeedSettings { settle_time: FED_SETTLE_LENGTH / p.fibre_speed, age_limit: FED_AGE_LENGTH / p.fibre_speed, ..FeedSettings::default() };
-    let fed = feed_fibre(&scene, 0.0, t_end, &settings, rng);
+    let fed = feed_fibre(&scene, 0.0, t_end, settings, rng);
     let ((laid, removed), (s, e), (sr, er)) = fed.shape(p);
     let invalid_reason = fed.invalid_reason(p);
     LaydownResult {
@@ -341,8 +363,13 @@ impl Feeder {
         let tol = until * 1e-12;
         while self.sim.t < until - tol {
             self.feed_top();
+            let line = if self.settings.front_margin.is_finite() && self.settings.freeze && !self.defer_freezing {
+                ContactBody::landing_reach(self) + self.settings.front_margin
+            } else {
+                f64::INFINITY
+            };
             let sim = &mut self.sim;
-            if self.settings.freeze && !self.defer_freezing && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, f64::INFINITY, self.settings.freeze_batch) {
+            if self.settings.freeze && !self.defer_freezing && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, self.settings.freeze_batch) {
                 self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
             }
             self.node_steps += sim.rod.nodes() as u64;
@@ -504,7 +531,10 @@ pub(super) fn settled_run(sim: &Simulator, stuck_since: &[f64], s: &FeedSettings
         .take_while(|&i| {
             let since = stuck_since[i];
             let age = t - laid_time_of(sim, spans, i);
-            (since.is_finite() && t - since >= s.settle_time) || age >= s.age_limit || (age >= s.settle_time && sim.rod.x[i][0] >= line)
+            // past the front a node may still creep, but without fibre contact it must
+            // lie on the belt: a lifted node frozen would hang in the air
+            let past_front = age >= s.settle_time && sim.rod.x[i][0] >= line && (spans.is_some() || sim.rod.x[i][2] <= s.lift_tolerance);
+            (since.is_finite() && t - since >= s.settle_time) || age >= s.age_limit || past_front
         })
         .count();
     // nodes clamped now are settled by construction

@@ -341,3 +341,27 @@ fn freezing_front_freezes_the_laid_run_downstream_of_the_line() {
     sim.t = 0.25;
     assert_eq!(run(&sim, f64::INFINITY), 58, "the age limit takes every laid node");
 }
+
+/// Without fibre contact (a single fed fibre, `start: fed`) the front takes only nodes
+/// lying on the belt: a node lifted 1 mm is not frozen in the air, and the run ends
+/// before it; with fibre contact (a node resting on the web is above the belt) it counts.
+#[test]
+fn freezing_front_without_fibre_contact_takes_only_nodes_on_the_belt() {
+    use crate::rod::feed::{settled_run, FeedSettings};
+    let p = scene();
+    // 60 elements on the belt, the fibre's start downstream: node i at x = 30.5 − i mm
+    let mut sim = straight(&p, [0.0005, 0.0, 0.0], [-1.0, 0.0, 0.0], 60, [0.0; 3]);
+    sim.landing_time = (0..=60).map(|i| if i < 58 { 0.0 } else { f64::NAN }).collect();
+    let creeping = vec![f64::NAN; 61];
+    let s = FeedSettings::default();
+    sim.t = 0.05;
+    let line = -0.0052; // nodes 0..=35 downstream of it
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 36, "every node on the belt past the line");
+    sim.rod.x[34][2] = 1e-3;
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 34, "the run stops at the lifted node");
+    sim.rod.x[33][2] = 1e-3;
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 0, "33 nodes are fewer than the batch and the clamp");
+    let mut spans = Vec::new();
+    sim.laid_times(&mut spans);
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, Some(&spans)), 36, "with fibre contact a node above the belt may rest on the web");
+}

@@ -394,7 +394,10 @@ pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::
         None => {
             let fibres = crate::progress::par_map(bar, 0..p.fibres_across, |j| {
                 let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
-                let fed = feed_fibre(&scene, turbulence.0, t_end, &p.feed, &mut rng);
+                // the freezing front is the contact web's rule (validated there); fibres
+                // that do not touch freeze by the settle rule and the age limit
+                let feed = FeedSettings { front_margin: f64::INFINITY, ..p.feed.clone() };
+                let fed = feed_fibre(&scene, turbulence.0, t_end, &feed, &mut rng);
                 finish_fibre(p, &scene, j, fed, turbulence, [0; 3])
             });
             (fibres, None)

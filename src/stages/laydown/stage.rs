@@ -141,8 +141,8 @@ fn cpu_seconds_per_node_step(integrator: Integrator) -> f64 {
 /// step of the chosen time step ([`crate::rod::scene::time_step_limits`]; the adaptive
 /// schemes take more, for their short steps at the start-up impact: 2 % at Table 1, 14 %
 /// on a fibre of 0.15 m). The opt-in twist's extra work per node is not counted. The fed start integrates
-/// fewer nodes: its wall time is 0.3-0.55 of the vertical start's at Table 1 and 0.26 at
-/// 50 m/s (README, "Performance").
+/// fewer nodes: with its freezing front its wall time is 0.31 of the vertical start's at
+/// Table 1 (README, "Performance").
 pub fn estimated_node_steps(scene: &LaydownParams) -> f64 {
     let elements = scene.resolved_elements();
     let ds = scene.length / elements as f64;

@@ -82,10 +82,16 @@ pub struct FeedSettings {
 }
 
 impl FeedSettings {
-    /// The laid web's default `front_margin` with fibre contact (m): two elements of the
-    /// Table 1 mesh. The cost changes little from 0 to 5 mm
-    /// (`pipelines/studies/freezing_front.yaml`; PHYSICAL_WEBS.md, "A freezing front").
-    pub const CONTACT_FRONT_MARGIN: f64 = 0.002;
+    /// The default `front_margin` of the laid web and of `start: fed` (m): two elements
+    /// of the Table 1 mesh. A laid node lying this far downstream of the farthest
+    /// touchdown point so far, laid at least the settle time ago, freezes even if it
+    /// still creeps. A contact web's laid fibre creeps, and a single fibre's start-up end
+    /// (its first ~20 nodes at Table 1) slides for the whole run, up to 60 mm/s at its
+    /// tip; freezing takes only a leading run, so without the front either held up the
+    /// whole laid fibre behind it. The cost changes little from 0 to 5 mm
+    /// (`pipelines/studies/freezing_front.yaml`; PHYSICAL_WEBS.md, "A freezing front";
+    /// FIBRE_SPEED.md, "A freezing front for the fed start").
+    pub const FRONT_MARGIN: f64 = 0.002;
 }
 
 impl Default for FeedSettings {
@@ -174,19 +180,12 @@ impl FedFibre {
 /// `laid_web` defaults), 2 ms and 20 ms at 50 m/s.
 const FED_SETTLE_LENGTH: f64 = 0.1;
 const FED_AGE_LENGTH: f64 = 1.0;
-/// The fed start's freezing front (m): a laid node lying on the belt this far
-/// downstream of the farthest touchdown point so far, laid at least the settle time
-/// ago, freezes even if it still creeps. At Table 1 the fibre's start-up end (its first
-/// ~20 nodes) slides relative to the belt for the whole run (up to 60 mm/s at its tip),
-/// and freezing takes only a leading run, so without the front it held up freezing of
-/// the whole laid fibre behind it (FIBRE_SPEED.md, "A freezing front for the fed start").
-pub const FED_FRONT_MARGIN: f64 = 0.002;
 
 /// The freezing settings of `start: fed` for the scene `p`: the settle time and age
 /// limit as the time [`FED_SETTLE_LENGTH`] and [`FED_AGE_LENGTH`] take to feed, the
-/// front at [`FED_FRONT_MARGIN`].
+/// front at [`FeedSettings::FRONT_MARGIN`].
 pub fn fed_settings(p: &LaydownParams) -> FeedSettings {
-    FeedSettings { settle_time: FED_SETTLE_LENGTH / p.fibre_speed, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin: FED_FRONT_MARGIN, ..FeedSettings::default() }
+    FeedSettings { settle_time: FED_SETTLE_LENGTH / p.fibre_speed, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin: FeedSettings::FRONT_MARGIN, ..FeedSettings::default() }
 }
 
 /// One replicate of the laydown scene with `start: fed` ([`fed_settings`]).

@@ -559,7 +559,7 @@ fn fed_start_reproduces_the_vertical_start() {
     }
 }
 
-/// The fed start's freezing front ([`super::feed::FED_FRONT_MARGIN`]): at Table 1 the
+/// The fed start's freezing front ([`super::feed::FeedSettings::FRONT_MARGIN`]): at Table 1 the
 /// fibre's start-up end slides on the belt for the whole run, and since freezing takes
 /// only a leading run, without the front almost nothing freezes. With it the laid fibre
 /// that has passed the front freezes, and S and e stay within a fraction of a percent

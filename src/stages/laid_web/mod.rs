@@ -23,11 +23,14 @@
 //!   ([`ContactWeb`]; centrelines at least d apart,
 //!   Coulomb friction μ_ff, spatial hashing; [`crate::rod::fibre_contact`]), and a node
 //!   that comes to rest on laid fibre has landed (on the web instead of the belt).
-//!   A contact web's laid fibre creeps (`pipelines/studies/PHYSICAL_WEBS.md`), so
-//!   besides the settle rule and the 0.2 s age limit a **freezing front** freezes it:
-//!   a node laid at least `settle_time` ago that lies `freeze_front_margin` downstream
-//!   of the farthest touchdown point any fibre of the web has reached so far, where no
-//!   fibre lands, is frozen.
+//! - **Freezing.** Besides the settle rule and the 0.2 s age limit a **freezing front**
+//!   freezes laid fibre: a node laid at least `settle_time` ago that lies
+//!   `freeze_front_margin` downstream of the farthest touchdown point reached so far,
+//!   where no fibre lands, is frozen even if it still creeps. A contact web's laid fibre
+//!   creeps (`pipelines/studies/PHYSICAL_WEBS.md`); without contact a fibre's start-up
+//!   end keeps sliding and, since only a leading run of nodes freezes, held up the rest
+//!   (`pipelines/studies/FIBRE_SPEED.md`). With contact the front is the web's (any
+//!   fibre's touchdown); without, each fibre's own, and only nodes on the belt freeze.
 //! - **Random streams.** Fibre j of replicate r draws from stream (seed, r, j + 1)
 //!   (phase, jitter, then imperfections); the coherent turbulence draws from (seed, r, 0).
 //!   Without contact the fibres are independent and computed in parallel; with contact
@@ -157,7 +160,7 @@ impl Default for LaidWebParams {
             frequency_jitter: 0.0,
             amplitude_jitter: 0.0,
             edge_margin_spreads: 3.0,
-            feed: FeedSettings { front_margin: FeedSettings::CONTACT_FRONT_MARGIN, ..FeedSettings::default() },
+            feed: FeedSettings { front_margin: FeedSettings::FRONT_MARGIN, ..FeedSettings::default() },
             fibre_contact: None,
         }
     }
@@ -394,10 +397,7 @@ pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::
         None => {
             let fibres = crate::progress::par_map(bar, 0..p.fibres_across, |j| {
                 let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
-                // the freezing front is the contact web's rule (validated there); fibres
-                // that do not touch freeze by the settle rule and the age limit
-                let feed = FeedSettings { front_margin: f64::INFINITY, ..p.feed.clone() };
-                let fed = feed_fibre(&scene, turbulence.0, t_end, &feed, &mut rng);
+                let fed = feed_fibre(&scene, turbulence.0, t_end, &p.feed, &mut rng);
                 finish_fibre(p, &scene, j, fed, turbulence, [0; 3])
             });
             (fibres, None)

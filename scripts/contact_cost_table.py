@@ -15,11 +15,9 @@ import h5py
 import numpy as np
 import yaml
 
+from physical_webs_table import current
+
 ARCHIVE = "results/contact_cost.h5"
-
-
-def current(f, stage):
-    return f[stage][f[stage].attrs["current"]]
 
 
 def segment_distances(p0, p1, q0, q1):

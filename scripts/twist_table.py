@@ -18,11 +18,7 @@ import h5py
 import numpy as np
 
 from laid_curves import turning_angles
-
-
-def latest(group):
-    versions = sorted((k for k in group if k.startswith("v")), key=lambda k: int(k[1:]))
-    return group[versions[-1]]
+from physical_webs_table import current
 
 
 def coiling(xy):
@@ -38,7 +34,7 @@ def main(path, stages):
         print("| stage | valid | S (mm) | e | turns | regularity | coil radius (mm) | abs Ω end (rad/m) | abs laid twist (turns) | wall per replicate (s) | steps |")
         print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
         for name in names:
-            g = latest(f[name])
+            g = current(f, name)
             valid = g["valid"][0].astype(bool)
             s = g["radius_of_gyration"][0][valid] * 1e3
             e = g["bending_energy"][0][valid]

@@ -46,9 +46,21 @@ fn accuracy_stage_records_error_and_time_per_candidate() {
     let error = hdf::read_f64(&g, "relative_error").unwrap();
     let wall = hdf::read_f64(&g, "wall_seconds").unwrap();
     assert_eq!(error.shape(), [4, 2]);
-    // The explicit candidate is the reference's own setting with the same seed: identical.
+    // The explicit candidate is the reference's own setting with the same seed: identical,
+    // and so is every replicate, so the paired standard error is 0.
     assert_eq!(error[[0, 0]], 0.0);
     assert_eq!(error[[0, 1]], 0.0);
+    let standard_error = hdf::read_f64(&g, "relative_error_standard_error").unwrap();
+    let pairs = hdf::read_i64(&g, "paired_units").unwrap();
+    assert_eq!(standard_error.shape(), [4, 2]);
+    assert_eq!((standard_error[[0, 0]], standard_error[[0, 1]]), (0.0, 0.0));
+    // both replicates of every candidate pair with the reference's (same seed, 2 each)
+    for c in 0..4 {
+        for m in 0..2 {
+            assert_eq!(pairs[[c, m]], 2, "candidate {c} metric {m}");
+            assert!(standard_error[[c, m]].is_finite() && standard_error[[c, m]] >= 0.0);
+        }
+    }
     // The others differ but stay finite and are not wildly off for a short fibre.
     for c in 1..4 {
         for m in 0..2 {
@@ -59,6 +71,7 @@ fn accuracy_stage_records_error_and_time_per_candidate() {
     // The markdown table is beside the archive.
     let md = std::fs::read_to_string(dir.path().join("acc_figures/cost/v1/accuracy_cost.md")).unwrap();
     assert!(md.contains("| schemes | integrator = trapezoidal_axial |"), "{md}");
+    assert!(md.contains("| +0.00 ± 0.00 % |"), "standard errors in the table: {md}");
     // And it plots.
     let o = run_in(dir.path(), &["plot", "acc.h5", "cost"]);
     assert!(o.status.success(), "{:?}", text(&o));

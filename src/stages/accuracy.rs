@@ -14,9 +14,16 @@
 //! input's `wall_seconds` averaged over everything but the point (per replicate,
 //! realisation or image), or the version's wall time divided by its points when a stage
 //! records none per unit.
-//! Errors of means over a few random replicates include their sampling error: compare
-//! candidates against a reference with the same seed and replicates, and read errors
-//! below the replicate scatter (`<metric>_std / sqrt(n)`) as "converged".
+//! Errors of means over a few random replicates include their sampling error, so each
+//! error comes with the standard error of the difference (`relative_error_standard_error`,
+//! "± … %" in the table) from the inputs' per-unit values (`<metric>` with the point
+//! first; units not in the mean, by `used` or `valid`, left out). When the reference and
+//! the candidate record the same number of units, unit i of one is paired with unit i of
+//! the other (`paired_units`): with the same seed the pairs share their random draws
+//! and the paired error is far smaller than either's scatter (with different seeds it
+//! is as large as the unpaired one, and still right). Otherwise it is
+//! √(s_r²/n_r + s_c²/n_c). An error within about two standard errors is not resolved
+//! by the replicates: read it as "converged" or add replicates.
 //! It reads only per-point values, so it makes no memory estimate
 //! ([`Stage::estimate_memory`]).
 use crate::error::InvalidParam;
@@ -25,7 +32,7 @@ use crate::archive::data::Output;
 use crate::archive::hdf;
 use crate::params::{ParamSet, ParamSpec};
 use anyhow::Result;
-use ndarray::{Array1, Array2};
+use ndarray::{Array1, Array2, Axis};
 
 pub struct AccuracyStage;
 
@@ -35,6 +42,9 @@ struct Candidate {
     point: usize,
     label: String,
     values: Vec<f64>,
+    /// Per metric: the standard error of the difference from the reference (in the
+    /// metric's units; NaN without per-unit values) and the pairs it used (0: unpaired).
+    standard_errors: Vec<(f64, usize)>,
     wall_seconds: f64,
 }
 
@@ -70,6 +80,52 @@ fn metric(input: &Input, metric: &str, points: usize) -> Result<Vec<f64>> {
         )));
     }
     Ok(values.iter().copied().collect())
+}
+
+/// Per-unit values of `metric` at sweep point `point` of an input version of `points`
+/// points: the dataset `<metric>` with the point first (replicates, realisations or
+/// fibres after it), NaN where a unit does not enter `<metric>_mean` (`used`, else
+/// `valid`, when recorded with the same shape). None when the input records none.
+fn units(input: &Input, metric: &str, points: usize, point: usize) -> Result<Option<Vec<f64>>> {
+    if !input.has(metric) {
+        return Ok(None);
+    }
+    let values = input.read_f64(metric)?;
+    if values.ndim() < 2 || values.shape()[0] != points {
+        return Ok(None);
+    }
+    let mut row: Vec<f64> = values.index_axis(Axis(0), point).iter().copied().collect();
+    if let Some(mask) = ["used", "valid"].iter().filter(|m| input.has(m)).map(|m| input.read_u8(m)).find(|m| m.as_ref().is_ok_and(|m| m.shape() == values.shape())) {
+        for (x, keep) in row.iter_mut().zip(mask?.index_axis(Axis(0), point).iter()) {
+            if *keep == 0 {
+                *x = f64::NAN;
+            }
+        }
+    }
+    Ok(Some(row))
+}
+
+/// Standard error of the candidate's mean minus the reference's, from their per-unit
+/// values (NaN: unit left out), and the pairs it used. With as many units in both, unit i
+/// is paired with unit i over the units present in both: the standard error of the mean
+/// difference. Otherwise (0 pairs) √(s_r²/n_r + s_c²/n_c). NaN with fewer than two units
+/// (pairs) on a side.
+fn difference_standard_error(reference: &[f64], candidate: &[f64]) -> (f64, usize) {
+    fn mean_variance(v: impl Iterator<Item = f64>) -> (f64, usize) {
+        let v: Vec<f64> = v.collect();
+        if v.len() < 2 {
+            return (f64::NAN, v.len());
+        }
+        let (_, sd) = super::mean_std(&v);
+        (sd * sd / v.len() as f64, v.len())
+    }
+    if reference.len() == candidate.len() {
+        let (var, n) = mean_variance(reference.iter().zip(candidate).filter(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| b - a));
+        return (var.sqrt(), n);
+    }
+    let (var_r, _) = mean_variance(reference.iter().copied().filter(|x| x.is_finite()));
+    let (var_c, _) = mean_variance(candidate.iter().copied().filter(|x| x.is_finite()));
+    ((var_r + var_c).sqrt(), 0)
 }
 
 /// Mean wall time per unit of work at each of `points` points: `wall_seconds` averaged
@@ -132,9 +188,8 @@ fn default_metrics(kind: &str) -> Vec<String> {
     }
 }
 
-/// The markdown table of a run.
 /// The markdown table of a run; `against[i]` is what metric `i` is compared with in
-/// the reference.
+/// the reference. An error reads "± its standard error" where there is one.
 fn table(metrics: &[String], against: &[String], reference: &[f64], reference_wall: f64, cands: &[Candidate]) -> String {
     let mut t = String::from("| candidate | setting | wall per unit (s) | speed-up |");
     for (m, r) in metrics.iter().zip(against) {
@@ -160,8 +215,10 @@ fn table(metrics: &[String], against: &[String], reference: &[f64], reference_wa
             c.wall_seconds,
             reference_wall / c.wall_seconds
         );
-        for (v, r) in c.values.iter().zip(reference) {
-            t += &format!(" {} | {:+.2} % |", sig(*v), 100.0 * (v - r) / r.abs());
+        for ((v, r), (se, _)) in c.values.iter().zip(reference).zip(&c.standard_errors) {
+            let se = 100.0 * se / r.abs();
+            let error = 100.0 * (v - r) / r.abs();
+            t += &if se.is_finite() { format!(" {} | {error:+.2} ± {se:.2} % |", sig(*v)) } else { format!(" {} | {error:+.2} % |", sig(*v)) };
         }
     }
     t + "\n"
@@ -209,7 +266,7 @@ impl Stage for AccuracyStage {
         "what accuracy costs in time: each candidate's error against a reference input, next to its wall time per unit"
     }
     fn cache_version(&self) -> u32 {
-        1
+        2
     }
     fn params(&self) -> Vec<ParamSpec> {
         PARAMS.to_vec()
@@ -250,6 +307,7 @@ impl Stage for AccuracyStage {
         let ref_values: Vec<Vec<f64>> = reference_metrics.iter().map(|m| metric(reference, m, 1)).collect::<Result<_>>()?;
         let reference_values: Vec<f64> = ref_values.iter().map(|v| v[0]).collect();
         let reference_wall = wall_per_point(reference, 1)?[0];
+        let reference_units: Vec<Option<Vec<f64>>> = reference_metrics.iter().map(|m| units(reference, m, 1, 0)).collect::<Result<_>>()?;
 
         let mut cands = vec![];
         for input in &ctx.inputs[1..] {
@@ -260,11 +318,19 @@ impl Stage for AccuracyStage {
             // An unswept candidate is named by the parameters it changes from the reference.
             let unswept = if swept.is_empty() { differing_params(reference, input) } else { String::new() };
             for p in 0..points {
+                let mut standard_errors = vec![];
+                for (m, name) in metrics.iter().enumerate() {
+                    standard_errors.push(match (&reference_units[m], units(input, name, points, p)?) {
+                        (Some(r), Some(c)) => difference_standard_error(r, &c),
+                        _ => (f64::NAN, 0),
+                    });
+                }
                 cands.push(Candidate {
                     stage: input.name.clone(),
                     point: p,
                     label: if swept.is_empty() { unswept.clone() } else { hdf::point_label(&swept, p) },
                     values: values.iter().map(|v| v[p]).collect(),
+                    standard_errors,
                     wall_seconds: wall[p],
                 });
             }
@@ -283,6 +349,11 @@ impl Stage for AccuracyStage {
         let error = Array2::from_shape_fn((n, metrics.len()), |(c, m)| (cands[c].values[m] - reference_values[m]) / reference_values[m].abs());
         out.f64("value", &["candidate", "metric"], value, "", "candidate's value (units of the metric)");
         out.f64("relative_error", &["candidate", "metric"], error, "1", "(candidate - reference) / |reference|");
+        let standard_error = Array2::from_shape_fn((n, metrics.len()), |(c, m)| cands[c].standard_errors[m].0 / reference_values[m].abs());
+        out.f64("relative_error_standard_error", &["candidate", "metric"], standard_error, "1", "standard error of relative_error")
+            .describe("standard error of relative_error from the per-unit values: of the paired differences when paired_units > 0, else of the two means' difference; NaN without per-unit values");
+        out.i64("paired_units", &["candidate", "metric"], Array2::from_shape_fn((n, metrics.len()), |(c, m)| cands[c].standard_errors[m].1 as i64), "1", "units paired for the standard error")
+            .describe("units (replicates, realisations, fibres) paired with the reference's for the standard error, used in both; 0: unpaired");
         out.f64("wall_seconds", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.wall_seconds)), "s", "wall time per unit of work").describe("wall time per unit of work (replicate, realisation)");
         out.f64("speedup", &["candidate"], Array1::from_iter(cands.iter().map(|c| reference_wall / c.wall_seconds)), "1", "reference wall time / candidate wall time");
 
@@ -308,10 +379,31 @@ mod tests {
 
     #[test]
     fn table_has_errors_and_speedups() {
-        let c = Candidate { stage: "fast".into(), point: 0, label: "elements = 250".into(), values: vec![1.1, 2.0], wall_seconds: 0.5 };
+        let c = Candidate { stage: "fast".into(), point: 0, label: "elements = 250".into(), values: vec![1.1, 2.0], standard_errors: vec![(0.05, 4), (f64::NAN, 0)], wall_seconds: 0.5 };
         let names = ["s".to_string(), "e".to_string()];
         let t = table(&names, &names, &[1.0, 2.0], 5.0, &[c]);
-        assert!(t.contains("| fast | elements = 250 | 0.500 | 10.0 | 1.100 | +10.00 % | 2.000 | +0.00 % |"), "{t}");
+        assert!(t.contains("| fast | elements = 250 | 0.500 | 10.0 | 1.100 | +10.00 ± 5.00 % | 2.000 | +0.00 % |"), "{t}");
+    }
+
+    /// Paired: the standard error of the mean difference over units present in both
+    /// (a shared offset cancels); unpaired: √(s_r²/n_r + s_c²/n_c); too few units: NaN.
+    #[test]
+    fn standard_error_of_the_difference() {
+        let reference = [1.0, 2.0, 3.0, 4.0, f64::NAN];
+        // the candidate is the reference + 0.5 with ±0.1 jitter; unit 4 is left out in
+        // the reference, unit 0 in the candidate
+        let candidate = [f64::NAN, 2.6, 3.4, 4.6, 9.0];
+        let (se, pairs) = difference_standard_error(&reference, &candidate);
+        // differences 0.6, 0.4, 0.6: sd = 0.11547, se = sd/√3
+        assert_eq!(pairs, 3);
+        assert!((se - 0.115_470_053_8 / 3f64.sqrt()).abs() < 1e-9, "{se}");
+        let (se, pairs) = difference_standard_error(&reference[..4], &[2.0, 3.0, 4.0]);
+        // s_r² = 5/3 over 4, s_c² = 1 over 3
+        assert_eq!(pairs, 0);
+        assert!((se - (5.0 / 3.0 / 4.0 + 1.0 / 3.0f64).sqrt()).abs() < 1e-12, "{se}");
+        // identical ensembles: exactly 0
+        assert_eq!(difference_standard_error(&reference, &reference), (0.0, 4));
+        assert!(difference_standard_error(&[1.0, f64::NAN], &[2.0, 3.0]).0.is_nan());
     }
 
     #[test]

@@ -1,15 +1,21 @@
 //! Accuracy figures: relative error of each metric against wall time per unit, one
-//! series per candidate stage, log-log.
+//! series per candidate stage, log-log; in grey, twice each error's standard error (what
+//! the replicates resolve: an error below its grey marker is not resolved).
 use super::figure::{Figure, LinePanel, Panel, Series, Style};
 use super::StageData;
 use anyhow::Result;
 use ndarray::Ix2;
+
+/// Palette index of the standard errors' markers (grey).
+const GREY: usize = 7;
 
 pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
     let metrics = d.strings("metric")?;
     let stages = d.strings("candidate_stage")?;
     let error = d.f64("relative_error")?.into_dimensionality::<Ix2>()?;
     let wall = d.f64("wall_seconds")?;
+    // archives written before the accuracy stage recorded standard errors have none
+    let standard_error = if d.has("relative_error_standard_error") { Some(d.f64("relative_error_standard_error")?.into_dimensionality::<Ix2>()?) } else { None };
     let mut names: Vec<String> = vec![];
     for s in &stages {
         if !names.contains(s) {
@@ -20,7 +26,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         .iter()
         .enumerate()
         .map(|(m, metric)| {
-            let series = names
+            let mut series: Vec<Series> = names
                 .iter()
                 .enumerate()
                 .map(|(k, name)| {
@@ -37,6 +43,10 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                     Series::new(Some(name), pts, Style::Markers, k)
                 })
                 .collect();
+            if let Some(se) = &standard_error {
+                let pts = (0..stages.len()).map(|c| (wall[[c]], 2.0 * se[[c, m]])).collect();
+                series.push(Series::new(Some("2 standard errors"), pts, Style::Markers, GREY));
+            }
             Panel::Lines(LinePanel {
                 title: format!("{}: error against cost", super::labels::label(metric, "", &[]).symbol),
                 x_label: "wall time per unit (s)".into(),

@@ -19,7 +19,8 @@
 //! moved relative to the belt over the last s seconds (creep, not only speed); it also
 //! names, per fibre, simulated nodes far downstream that do not count as laid. `drag=0`
 //! switches the air drag off; `age_limit=` (s) freezes laid nodes that old whatever they do;
-//! `front_margin=` (m) freezes laid nodes that far downstream of where any fibre has landed.
+//! `front_margin=` (m) freezes laid nodes that far downstream of where any fibre has landed
+//! (with `contact=0`, of where each fibre itself has landed, and only nodes on the belt).
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::closest_points;

@@ -44,7 +44,8 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
                 })
                 .collect();
             if let Some(se) = &standard_error {
-                let pts = (0..stages.len()).map(|c| (wall[[c]], 2.0 * se[[c, m]])).collect();
+                // an exact 0 (a candidate identical to the reference) at 10⁻⁶, as its error
+                let pts = (0..stages.len()).map(|c| (wall[[c]], (2.0 * se[[c, m]]).max(1e-6))).collect();
                 series.push(Series::new(Some("2 standard errors"), pts, Style::Markers, GREY));
             }
             Panel::Lines(LinePanel {

@@ -17,13 +17,15 @@
 //! Errors of means over a few random replicates include their sampling error, so each
 //! error comes with the standard error of the difference (`relative_error_standard_error`,
 //! "± … %" in the table) from the inputs' per-unit values (`<metric>` with the point
-//! first; units not in the mean, by `used` or `valid`, left out). When the reference and
-//! the candidate record the same number of units, unit i of one is paired with unit i of
-//! the other (`paired_units`): with the same seed the pairs share their random draws
-//! and the paired error is far smaller than either's scatter (with different seeds it
-//! is as large as the unpaired one, and still right). Otherwise it is
-//! √(s_r²/n_r + s_c²/n_c). An error within about two standard errors is not resolved
-//! by the replicates: read it as "converged" or add replicates.
+//! first; units not in the mean, by `used` or `valid`, left out; a laid web's fibres
+//! averaged per web). When the reference and the candidate are of one kind and the same
+//! units enter both means, unit i of one is paired with unit i of the other
+//! (`paired_units`): with the same seed the pairs share their random draws and the
+//! paired error is far smaller than either's scatter (with different seeds it is as
+//! large as the unpaired one, and still right). Otherwise it is √(s_r²/n_r + s_c²/n_c).
+//! An error within its standard error times Student's t is not resolved by the
+//! replicates: read it as "converged" or add replicates. With n pairs t has n − 1
+//! degrees of freedom: 12.7 for 2 pairs, 3.2 for 4, 2.4 for 8, 2.1 for 16 (95 %).
 //! It reads only per-point values, so it makes no memory estimate
 //! ([`Stage::estimate_memory`]).
 use crate::error::InvalidParam;
@@ -32,7 +34,7 @@ use crate::archive::data::Output;
 use crate::archive::hdf;
 use crate::params::{ParamSet, ParamSpec};
 use anyhow::Result;
-use ndarray::{Array1, Array2, Axis};
+use ndarray::{Array1, Array2};
 
 pub struct AccuracyStage;
 
@@ -82,36 +84,51 @@ fn metric(input: &Input, metric: &str, points: usize) -> Result<Vec<f64>> {
     Ok(values.iter().copied().collect())
 }
 
-/// Per-unit values of `metric` at sweep point `point` of an input version of `points`
-/// points: the dataset `<metric>` with the point first (replicates, realisations or
-/// fibres after it), NaN where a unit does not enter `<metric>_mean` (`used`, else
-/// `valid`, when recorded with the same shape). None when the input records none.
-fn units(input: &Input, metric: &str, points: usize, point: usize) -> Result<Option<Vec<f64>>> {
+/// Per-unit values of `metric` in an input version of `points` points, one row per point:
+/// the dataset `<metric>` with the point first (replicates or realisations after it), NaN
+/// where a unit does not enter `<metric>_mean` (`used`, else `valid`). A laid web's fibres
+/// are averaged per web (fibres of one web can be correlated: fibre contact, coherent
+/// turbulence), so its units are webs. None when the input records no such dataset, or
+/// when it has axes its flags do not cover (not one value per unit).
+fn units(input: &Input, metric: &str, points: usize) -> Result<Option<Vec<Vec<f64>>>> {
     if !input.has(metric) {
         return Ok(None);
     }
-    let values = input.read_f64(metric)?;
+    let mut values = input.read_f64(metric)?;
     if values.ndim() < 2 || values.shape()[0] != points {
         return Ok(None);
     }
-    let mut row: Vec<f64> = values.index_axis(Axis(0), point).iter().copied().collect();
-    if let Some(mask) = ["used", "valid"].iter().filter(|m| input.has(m)).map(|m| input.read_u8(m)).find(|m| m.as_ref().is_ok_and(|m| m.shape() == values.shape())) {
-        for (x, keep) in row.iter_mut().zip(mask?.index_axis(Axis(0), point).iter()) {
+    let flags: Vec<_> = ["used", "valid"].iter().filter(|m| input.has(m)).map(|m| input.read_u8(m)).collect::<Result<_>>()?;
+    if !flags.is_empty() {
+        let Some(mask) = flags.iter().find(|m| m.shape() == values.shape()) else { return Ok(None) };
+        values.zip_mut_with(mask, |x, keep| {
             if *keep == 0 {
                 *x = f64::NAN;
             }
-        }
+        });
     }
-    Ok(Some(row))
+    let per_web = input.kind == "laid_web" && values.ndim() == 3;
+    Ok(Some(
+        values
+            .outer_iter()
+            .map(|row| {
+                if per_web {
+                    row.outer_iter().map(|web| crate::stages::mean_std(&web.iter().copied().filter(|x| x.is_finite()).collect::<Vec<_>>()).0).collect()
+                } else {
+                    row.iter().copied().collect()
+                }
+            })
+            .collect(),
+    ))
 }
 
 /// Standard error of the candidate's mean minus the reference's, from their per-unit
-/// values (NaN: unit left out), and the pairs it used. With as many units in both, unit i
-/// is paired with unit i over the units present in both: the standard error of the mean
-/// difference. Otherwise (0 pairs) √(s_r²/n_r + s_c²/n_c). NaN with fewer than two units
-/// (pairs) on a side.
-fn difference_standard_error(reference: &[f64], candidate: &[f64]) -> (f64, usize) {
-    fn mean_variance(v: impl Iterator<Item = f64>) -> (f64, usize) {
+/// values (NaN: unit left out), and the pairs it used. Paired (`pair`, and the same units
+/// present in both, so that the error of the means is the mean of the differences): the
+/// standard error of the mean difference. Otherwise (0 pairs) √(s_r²/n_r + s_c²/n_c). NaN
+/// with fewer than two units (pairs) on a side.
+fn difference_standard_error(reference: &[f64], candidate: &[f64], pair: bool) -> (f64, usize) {
+    fn variance_of_mean(v: impl Iterator<Item = f64>) -> (f64, usize) {
         let v: Vec<f64> = v.collect();
         if v.len() < 2 {
             return (f64::NAN, v.len());
@@ -119,12 +136,13 @@ fn difference_standard_error(reference: &[f64], candidate: &[f64]) -> (f64, usiz
         let (_, sd) = super::mean_std(&v);
         (sd * sd / v.len() as f64, v.len())
     }
-    if reference.len() == candidate.len() {
-        let (var, n) = mean_variance(reference.iter().zip(candidate).filter(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| b - a));
+    let same_units = reference.len() == candidate.len() && reference.iter().zip(candidate).all(|(a, b)| a.is_finite() == b.is_finite());
+    if pair && same_units {
+        let (var, n) = variance_of_mean(reference.iter().zip(candidate).filter(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| b - a));
         return (var.sqrt(), n);
     }
-    let (var_r, _) = mean_variance(reference.iter().copied().filter(|x| x.is_finite()));
-    let (var_c, _) = mean_variance(candidate.iter().copied().filter(|x| x.is_finite()));
+    let (var_r, _) = variance_of_mean(reference.iter().copied().filter(|x| x.is_finite()));
+    let (var_c, _) = variance_of_mean(candidate.iter().copied().filter(|x| x.is_finite()));
     ((var_r + var_c).sqrt(), 0)
 }
 
@@ -307,7 +325,7 @@ impl Stage for AccuracyStage {
         let ref_values: Vec<Vec<f64>> = reference_metrics.iter().map(|m| metric(reference, m, 1)).collect::<Result<_>>()?;
         let reference_values: Vec<f64> = ref_values.iter().map(|v| v[0]).collect();
         let reference_wall = wall_per_point(reference, 1)?[0];
-        let reference_units: Vec<Option<Vec<f64>>> = reference_metrics.iter().map(|m| units(reference, m, 1, 0)).collect::<Result<_>>()?;
+        let reference_units: Vec<Option<Vec<f64>>> = reference_metrics.iter().map(|m| Ok(units(reference, m, 1)?.map(|mut rows| rows.remove(0)))).collect::<Result<_>>()?;
 
         let mut cands = vec![];
         for input in &ctx.inputs[1..] {
@@ -317,14 +335,17 @@ impl Stage for AccuracyStage {
             let swept = hdf::swept_coordinates(&input.version.open()?);
             // An unswept candidate is named by the parameters it changes from the reference.
             let unswept = if swept.is_empty() { differing_params(reference, input) } else { String::new() };
+            // units pair one to one only between inputs of the same kind (the same
+            // replicates, realisations or webs)
+            let pair = input.kind == reference.kind;
+            let candidate_units: Vec<Option<Vec<Vec<f64>>>> = metrics.iter().map(|m| units(input, m, points)).collect::<Result<_>>()?;
             for p in 0..points {
-                let mut standard_errors = vec![];
-                for (m, name) in metrics.iter().enumerate() {
-                    standard_errors.push(match (&reference_units[m], units(input, name, points, p)?) {
-                        (Some(r), Some(c)) => difference_standard_error(r, &c),
+                let standard_errors = (0..metrics.len())
+                    .map(|m| match (&reference_units[m], &candidate_units[m]) {
+                        (Some(r), Some(c)) => difference_standard_error(r, &c[p], pair),
                         _ => (f64::NAN, 0),
-                    });
-                }
+                    })
+                    .collect();
                 cands.push(Candidate {
                     stage: input.name.clone(),
                     point: p,
@@ -385,25 +406,33 @@ mod tests {
         assert!(t.contains("| fast | elements = 250 | 0.500 | 10.0 | 1.100 | +10.00 ± 5.00 % | 2.000 | +0.00 % |"), "{t}");
     }
 
-    /// Paired: the standard error of the mean difference over units present in both
-    /// (a shared offset cancels); unpaired: √(s_r²/n_r + s_c²/n_c); too few units: NaN.
+    /// Paired (the same units present in both): the standard error of the mean difference
+    /// (a shared offset cancels); otherwise √(s_r²/n_r + s_c²/n_c); too few units: NaN.
     #[test]
     fn standard_error_of_the_difference() {
         let reference = [1.0, 2.0, 3.0, 4.0, f64::NAN];
         // the candidate is the reference + 0.5 with ±0.1 jitter; unit 4 is left out in
         // the reference, unit 0 in the candidate
         let candidate = [f64::NAN, 2.6, 3.4, 4.6, 9.0];
-        let (se, pairs) = difference_standard_error(&reference, &candidate);
+        let shared = [f64::NAN, 2.6, 3.4, 4.6, f64::NAN];
+        let (se, pairs) = difference_standard_error(&[f64::NAN, 2.0, 3.0, 4.0, f64::NAN], &shared, true);
         // differences 0.6, 0.4, 0.6: sd = 0.11547, se = sd/√3
         assert_eq!(pairs, 3);
         assert!((se - 0.115_470_053_8 / 3f64.sqrt()).abs() < 1e-9, "{se}");
-        let (se, pairs) = difference_standard_error(&reference[..4], &[2.0, 3.0, 4.0]);
-        // s_r² = 5/3 over 4, s_c² = 1 over 3
+        // the units present differ (and so do the means'): unpaired, s_r² over 4 units
+        // (1, 2, 3, 4) and s_c² over 4 (2.6, 3.4, 4.6, 9)
+        let (se, pairs) = difference_standard_error(&reference, &candidate, true);
+        let (_, s_c) = crate::stages::mean_std(&[2.6, 3.4, 4.6, 9.0]);
+        assert_eq!(pairs, 0);
+        assert!((se - (5.0 / 3.0 / 4.0 + s_c * s_c / 4.0).sqrt()).abs() < 1e-12, "{se}");
+        // different lengths, or inputs of different kinds: unpaired
+        let (se, pairs) = difference_standard_error(&reference[..4], &[2.0, 3.0, 4.0], true);
         assert_eq!(pairs, 0);
         assert!((se - (5.0 / 3.0 / 4.0 + 1.0 / 3.0f64).sqrt()).abs() < 1e-12, "{se}");
+        assert_eq!(difference_standard_error(&shared, &shared, false).1, 0);
         // identical ensembles: exactly 0
-        assert_eq!(difference_standard_error(&reference, &reference), (0.0, 4));
-        assert!(difference_standard_error(&[1.0, f64::NAN], &[2.0, 3.0]).0.is_nan());
+        assert_eq!(difference_standard_error(&reference, &reference, true), (0.0, 4));
+        assert!(difference_standard_error(&[1.0, f64::NAN], &[2.0, f64::NAN], true).0.is_nan());
     }
 
     #[test]

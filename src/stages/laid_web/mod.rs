@@ -30,7 +30,7 @@
 //!   creeps (`pipelines/studies/PHYSICAL_WEBS.md`); without contact a fibre's start-up
 //!   end keeps sliding and, since only a leading run of nodes freezes, held up the rest
 //!   (`pipelines/studies/FIBRE_SPEED.md`). With contact the front is the web's (any
-//!   fibre's touchdown); without, each fibre's own, and only nodes on the belt freeze.
+//!   fibre's touchdown); without, each fibre's own, and only nodes on the belt freeze by the front.
 //! - **Random streams.** Fibre j of replicate r draws from stream (seed, r, j + 1)
 //!   (phase, jitter, then imperfections); the coherent turbulence draws from (seed, r, 0).
 //!   Without contact the fibres are independent and computed in parallel; with contact

@@ -98,10 +98,18 @@ fn units(input: &Input, metric: &str, points: usize) -> Result<Option<Vec<Vec<f6
     if values.ndim() < 2 || values.shape()[0] != points {
         return Ok(None);
     }
-    let flags: Vec<_> = ["used", "valid"].iter().filter(|m| input.has(m)).map(|m| input.read_u8(m)).collect::<Result<_>>()?;
-    if !flags.is_empty() {
-        let Some(mask) = flags.iter().find(|m| m.shape() == values.shape()) else { return Ok(None) };
-        values.zip_mut_with(mask, |x, keep| {
+    let flagged: Vec<&str> = ["used", "valid"].into_iter().filter(|m| input.has(m)).collect();
+    if !flagged.is_empty() {
+        let mut mask = None;
+        for name in flagged {
+            let flags = input.read_u8(name)?;
+            if flags.shape() == values.shape() {
+                mask = Some(flags);
+                break;
+            }
+        }
+        let Some(mask) = mask else { return Ok(None) };
+        values.zip_mut_with(&mask, |x, keep| {
             if *keep == 0 {
                 *x = f64::NAN;
             }
@@ -372,9 +380,9 @@ impl Stage for AccuracyStage {
         out.f64("relative_error", &["candidate", "metric"], error, "1", "(candidate - reference) / |reference|");
         let standard_error = Array2::from_shape_fn((n, metrics.len()), |(c, m)| cands[c].standard_errors[m].0 / reference_values[m].abs());
         out.f64("relative_error_standard_error", &["candidate", "metric"], standard_error, "1", "standard error of relative_error")
-            .describe("standard error of relative_error from the per-unit values: of the paired differences when paired_units > 0, else of the two means' difference; NaN without per-unit values");
+            .describe("standard error of relative_error from the per-unit values (a laid web's fibres averaged per web): of the paired differences when paired_units > 0, else of the two means' difference; NaN without per-unit values or with fewer than two units");
         out.i64("paired_units", &["candidate", "metric"], Array2::from_shape_fn((n, metrics.len()), |(c, m)| cands[c].standard_errors[m].1 as i64), "1", "units paired for the standard error")
-            .describe("units (replicates, realisations, fibres) paired with the reference's for the standard error, used in both; 0: unpaired");
+            .describe("units (replicates, realisations, webs) paired one to one with the reference's for the standard error (inputs of one kind, the same units in both means); 0: unpaired");
         out.f64("wall_seconds", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.wall_seconds)), "s", "wall time per unit of work").describe("wall time per unit of work (replicate, realisation)");
         out.f64("speedup", &["candidate"], Array1::from_iter(cands.iter().map(|c| reference_wall / c.wall_seconds)), "1", "reference wall time / candidate wall time");
 

@@ -26,6 +26,15 @@ stages:
   - name: cost
     kind: accuracy
     input: [reference, schemes, mesh]
+  - name: reference_seed8
+    kind: laydown
+    seed: 8
+    params: {integrator: explicit, length: 0.08, elements: 80}
+    replicates: 3
+  - name: pooled
+    kind: accuracy
+    input: [reference, reference_seed8, schemes]
+    params: {references: 2}
 ";
 
 #[test]
@@ -75,6 +84,62 @@ fn accuracy_stage_records_error_and_time_per_candidate() {
     // And it plots.
     let o = run_in(dir.path(), &["plot", "acc.h5", "cost"]);
     assert!(o.status.success(), "{:?}", text(&o));
+}
+
+/// `references: 2` pools the explicit runs on seeds 7 and 8: the reference is the mean over
+/// all five replicates, the candidates are the schemes only, and nothing pairs with it.
+#[test]
+fn pooled_reference_is_the_mean_over_every_replicate() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", PIPELINE);
+    let o = run_in(dir.path(), &["run", "p.yaml", "--only", "reference,schemes,reference_seed8,pooled"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let a = Archive::open_read(&dir.path().join("acc.h5")).unwrap();
+    let g = a.version("pooled", None).unwrap().open().unwrap();
+    assert_eq!(hdf::read_strings(&g, "reference_stage").unwrap(), ["reference", "reference_seed8"]);
+    assert_eq!(hdf::read_strings(&g, "candidate_stage").unwrap(), ["schemes", "schemes"]);
+    // every valid replicate of both stages, each counted once
+    let (mut values, mut valid_units) = (vec![], 0);
+    for stage in ["reference", "reference_seed8"] {
+        let s = a.version(stage, None).unwrap().open().unwrap();
+        let s_values = hdf::read_f64(&s, "radius_of_gyration").unwrap();
+        let valid = hdf::read_u8(&s, "valid").unwrap();
+        for (v, ok) in s_values.iter().zip(valid.iter()) {
+            if *ok == 1 {
+                values.push(*v);
+                valid_units += 1;
+            }
+        }
+    }
+    assert!(valid_units >= 4, "{valid_units} valid replicates of 5");
+    let pooled_mean = values.iter().sum::<f64>() / values.len() as f64;
+    let reference = hdf::read_f64(&g, "reference_value").unwrap();
+    assert!((reference[[0]] - pooled_mean).abs() <= 1e-12 * pooled_mean, "{} against {pooled_mean}", reference[[0]]);
+    assert_eq!(hdf::read_i64(&g, "reference_units").unwrap()[[0]], valid_units as i64);
+    let pairs = hdf::read_i64(&g, "paired_units").unwrap();
+    assert!(pairs.iter().all(|&p| p == 0), "a pooled reference pairs with nothing: {pairs:?}");
+    let standard_error = hdf::read_f64(&g, "relative_error_standard_error").unwrap();
+    assert!(standard_error.iter().all(|s| s.is_finite() && *s > 0.0), "{standard_error:?}");
+    // the explicit candidate is the seed-7 reference alone: its error is that run's
+    // distance from the pooled mean
+    let seed7 = a.version("reference", None).unwrap().open().unwrap();
+    let seed7_mean = hdf::read_f64(&seed7, "radius_of_gyration_mean").unwrap();
+    let error = hdf::read_f64(&g, "relative_error").unwrap();
+    let expected = (seed7_mean.iter().next().unwrap() - pooled_mean) / pooled_mean;
+    assert!((error[[0, 0]] - expected).abs() < 1e-12, "{} against {expected}", error[[0, 0]]);
+    assert_ne!(error[[0, 0]], 0.0);
+    let md = std::fs::read_to_string(dir.path().join("acc_figures/pooled/v1/accuracy_cost.md")).unwrap();
+    assert!(md.contains("against `reference` + `reference_seed8`") && md.contains("| reference | reference + reference_seed8 |"), "{md}");
+}
+
+#[test]
+fn pooling_every_input_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(dir.path(), "p.yaml", &PIPELINE.replace("input: [reference, reference_seed8, schemes]", "input: [reference, reference_seed8]"));
+    let o = run_in(dir.path(), &["run", "p.yaml", "--only", "reference,reference_seed8,pooled"]);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("references = 2 pools every one of the 2 inputs and leaves no candidate; allowed: 1 to 1"), "{err}");
 }
 
 #[test]

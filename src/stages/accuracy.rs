@@ -2,7 +2,12 @@
 //!
 //! The first input is the reference (a converged run with one sweep point); every
 //! further input is a set of candidates (each of its sweep points is one candidate,
-//! e.g. an element-count sweep of the fast scheme). For each candidate and metric the
+//! e.g. an element-count sweep of the fast scheme). With `references: k` the first k
+//! inputs (one sweep point each, of one kind) are pooled as the reference: its value is
+//! the mean over all their units (Σ n_j m_j / Σ n_j of their means), so that runs of a
+//! reference on several seeds, or at two steps that agree, measure it more closely than
+//! one; its wall time is the first's. A candidate is never paired with a pooled
+//! reference. For each candidate and metric the
 //! stage records the value, its relative error against the reference, and the wall
 //! time per unit of work (replicate or realisation), so a researcher can pick a
 //! resolution with both numbers in view. It writes a markdown table beside the
@@ -84,13 +89,21 @@ fn metric(input: &Input, metric: &str, points: usize) -> Result<Vec<f64>> {
     Ok(values.iter().copied().collect())
 }
 
+/// Per-unit values of a metric at each sweep point ([`units`]).
+struct Units {
+    /// One row per point: a value per unit, NaN where the unit is not in the mean.
+    rows: Vec<Vec<f64>>,
+    /// Values that enter `<metric>_mean` at each point (a laid web's fibres, not its webs).
+    counts: Vec<usize>,
+}
+
 /// Per-unit values of `metric` in an input version of `points` points, one row per point:
 /// the dataset `<metric>` with the point first (replicates or realisations after it), NaN
 /// where a unit does not enter `<metric>_mean` (`used`, else `valid`). A laid web's fibres
 /// are averaged per web (fibres of one web can be correlated: fibre contact, coherent
 /// turbulence), so its units are webs. None when the input records no such dataset, or
 /// when it has axes its flags do not cover (not one value per unit).
-fn units(input: &Input, metric: &str, points: usize) -> Result<Option<Vec<Vec<f64>>>> {
+fn units(input: &Input, metric: &str, points: usize) -> Result<Option<Units>> {
     if !input.has(metric) {
         return Ok(None);
     }
@@ -116,18 +129,77 @@ fn units(input: &Input, metric: &str, points: usize) -> Result<Option<Vec<Vec<f6
         });
     }
     let per_web = input.kind == "laid_web" && values.ndim() == 3;
-    Ok(Some(
-        values
+    let finite = |v: ndarray::ArrayViewD<f64>| v.iter().copied().filter(|x| x.is_finite()).collect::<Vec<_>>();
+    Ok(Some(Units {
+        counts: values.outer_iter().map(|row| finite(row).len()).collect(),
+        rows: values
             .outer_iter()
-            .map(|row| {
-                if per_web {
-                    row.outer_iter().map(|web| crate::stages::mean_std(&web.iter().copied().filter(|x| x.is_finite()).collect::<Vec<_>>()).0).collect()
-                } else {
-                    row.iter().copied().collect()
-                }
-            })
+            .map(|row| if per_web { row.outer_iter().map(|web| crate::stages::mean_std(&finite(web)).0).collect() } else { row.iter().copied().collect() })
             .collect(),
-    ))
+    }))
+}
+
+/// The reference: the first `references` inputs pooled, each one sweep point of one kind.
+struct Reference {
+    stages: Vec<String>,
+    /// Per metric: the mean over every unit of the pooled inputs (with one input, its
+    /// `<metric>_mean`), and the pooled per-unit values (None where an input records none).
+    values: Vec<f64>,
+    units: Vec<Option<Vec<f64>>>,
+    /// Wall time per unit of the first input (pooled inputs may differ in cost, e.g. a
+    /// run at half the step).
+    wall_seconds: f64,
+}
+
+/// Pool `inputs` (the first `references` of a stage) as the reference for
+/// `reference_metrics`. Each value is Σ n_j m_j / Σ n_j over the inputs' recorded means
+/// m_j of n_j units, so one input gives its own mean exactly; pooling several needs
+/// their per-unit values.
+fn pooled_reference(inputs: &[Input], reference_metrics: &[String]) -> Result<Reference> {
+    let first = &inputs[0];
+    for input in inputs {
+        let points = points_of(input)?;
+        if points != 1 {
+            return Err(bad(format!(
+                "the reference `{}` has {points} sweep points; it must be one converged run (each of the first `references` inputs)",
+                input.name
+            )));
+        }
+        if input.kind != first.kind {
+            return Err(bad(format!(
+                "the pooled references must be of one kind: `{}` is {}, `{}` is {}",
+                first.name, first.kind, input.name, input.kind
+            )));
+        }
+    }
+    let mut values = vec![];
+    let mut pooled_units = vec![];
+    for m in reference_metrics {
+        let means: Vec<f64> = inputs.iter().map(|i| Ok(metric(i, m, 1)?[0])).collect::<Result<_>>()?;
+        let units: Vec<Option<Units>> = inputs.iter().map(|i| units(i, m, 1)).collect::<Result<_>>()?;
+        if inputs.len() == 1 {
+            values.push(means[0]);
+            pooled_units.push(units.into_iter().next().flatten().map(|mut u| u.rows.remove(0)));
+            continue;
+        }
+        let (mut sum, mut count, mut all) = (0.0, 0usize, vec![]);
+        for ((input, mean), u) in inputs.iter().zip(&means).zip(units) {
+            let Some(mut u) = u else {
+                return Err(bad(format!(
+                    "input `{}` records no per-unit `{m}` (one value per replicate or realisation); pooled references need them to weigh each input's mean",
+                    input.name
+                )));
+            };
+            if u.counts[0] > 0 {
+                sum += u.counts[0] as f64 * mean;
+                count += u.counts[0];
+            }
+            all.append(&mut u.rows[0]);
+        }
+        values.push(sum / count as f64);
+        pooled_units.push(Some(all));
+    }
+    Ok(Reference { stages: inputs.iter().map(|i| i.name.clone()).collect(), values, units: pooled_units, wall_seconds: wall_per_point(first, 1)?[0] })
 }
 
 /// Standard error of the candidate's mean minus the reference's, from their per-unit
@@ -216,7 +288,7 @@ fn default_metrics(kind: &str) -> Vec<String> {
 
 /// The markdown table of a run; `against[i]` is what metric `i` is compared with in
 /// the reference. An error reads "± its standard error" where there is one.
-fn table(metrics: &[String], against: &[String], reference: &[f64], reference_wall: f64, cands: &[Candidate]) -> String {
+fn table(metrics: &[String], against: &[String], reference: &[f64], reference_wall: f64, cands: &[Candidate], reference_name: &str) -> String {
     let mut t = String::from("| candidate | setting | wall per unit (s) | speed-up |");
     for (m, r) in metrics.iter().zip(against) {
         if m == r {
@@ -229,7 +301,7 @@ fn table(metrics: &[String], against: &[String], reference: &[f64], reference_wa
     for _ in metrics {
         t += "---:|---:|";
     }
-    t += &format!("\n| reference | | {reference_wall:.3} | 1 |");
+    t += &format!("\n| reference | {reference_name} | {reference_wall:.3} | 1 |");
     for r in reference {
         t += &format!(" {} | |", sig(*r));
     }
@@ -269,6 +341,14 @@ const PARAMS: &[ParamSpec] = &[
         "reference_metrics",
         "what each metric is compared with in the reference (`<name>_mean`; same length as metrics), e.g. an image stage's cv_web, the known truth of its rendered webs; empty: the metrics themselves",
     ),
+    ParamSpec::int(
+        "references",
+        "1",
+        1,
+        1,
+        63,
+        "the first `references` inputs (one sweep point each, one kind: e.g. converged runs on several seeds or steps) pooled as the reference, its value the mean over all their units; the rest are candidates",
+    ),
 ];
 
 /// The accuracy stage's parameters ([`ParamSet::to_typed`] of [`PARAMS`]).
@@ -276,6 +356,7 @@ const PARAMS: &[ParamSpec] = &[
 struct AccuracyParams {
     metrics: Vec<String>,
     reference_metrics: Vec<String>,
+    references: usize,
 }
 
 impl AccuracyParams {
@@ -301,7 +382,7 @@ impl Stage for AccuracyStage {
         InputRule { kinds: &["laydown", "laid_web", "grid", "spectra", "web", "image"], min: 2, max: 64 }
     }
     fn check(&self, p: &ParamSet) -> std::result::Result<(), InvalidParam> {
-        let AccuracyParams { metrics: m, reference_metrics: r } = AccuracyParams::of(p);
+        let AccuracyParams { metrics: m, reference_metrics: r, .. } = AccuracyParams::of(p);
         if !r.is_empty() && r.len() != m.len() {
             return Err(InvalidParam::new(
                 "reference_metrics".into(),
@@ -314,29 +395,28 @@ impl Stage for AccuracyStage {
         if ctx.points.len() != 1 || ctx.replicates != 1 {
             return Err(bad("an accuracy stage compares its inputs; it takes no sweep and no replicates".into()));
         }
+        let AccuracyParams { mut metrics, reference_metrics: given, references } = AccuracyParams::of(&ctx.points[0]);
+        if references >= ctx.inputs.len() {
+            return Err(bad(format!(
+                "references = {references} pools every one of the {} inputs and leaves no candidate; allowed: 1 to {}",
+                ctx.inputs.len(),
+                ctx.inputs.len() - 1
+            )));
+        }
         let reference = ctx.input(0);
-        let AccuracyParams { mut metrics, reference_metrics: given } = AccuracyParams::of(&ctx.points[0]);
         if metrics.is_empty() {
             metrics = default_metrics(&reference.kind);
         }
         if metrics.is_empty() {
             return Err(bad(format!("give `metrics`: there is no default for a reference of kind {}", reference.kind)));
         }
-        let ref_points = points_of(reference)?;
-        if ref_points != 1 {
-            return Err(bad(format!(
-                "the reference `{}` has {ref_points} sweep points; it must be one converged run (the first input)",
-                reference.name
-            )));
-        }
         let reference_metrics: Vec<String> = if given.is_empty() { metrics.clone() } else { given };
-        let ref_values: Vec<Vec<f64>> = reference_metrics.iter().map(|m| metric(reference, m, 1)).collect::<Result<_>>()?;
-        let reference_values: Vec<f64> = ref_values.iter().map(|v| v[0]).collect();
-        let reference_wall = wall_per_point(reference, 1)?[0];
-        let reference_units: Vec<Option<Vec<f64>>> = reference_metrics.iter().map(|m| Ok(units(reference, m, 1)?.map(|mut rows| rows.remove(0)))).collect::<Result<_>>()?;
+        let pooled = pooled_reference(&ctx.inputs[..references], &reference_metrics)?;
+        let reference_values = pooled.values.clone();
+        let reference_wall = pooled.wall_seconds;
 
         let mut cands = vec![];
-        for input in &ctx.inputs[1..] {
+        for input in &ctx.inputs[references..] {
             let points = points_of(input)?;
             let values: Vec<Vec<f64>> = metrics.iter().map(|m| metric(input, m, points)).collect::<Result<_>>()?;
             let wall = wall_per_point(input, points)?;
@@ -344,13 +424,13 @@ impl Stage for AccuracyStage {
             // An unswept candidate is named by the parameters it changes from the reference.
             let unswept = if swept.is_empty() { differing_params(reference, input) } else { String::new() };
             // units pair one to one only between inputs of the same kind (the same
-            // replicates, realisations or webs)
-            let pair = input.kind == reference.kind;
-            let candidate_units: Vec<Option<Vec<Vec<f64>>>> = metrics.iter().map(|m| units(input, m, points)).collect::<Result<_>>()?;
+            // replicates, realisations or webs), never with a pooled reference
+            let pair = input.kind == reference.kind && references == 1;
+            let candidate_units: Vec<Option<Units>> = metrics.iter().map(|m| units(input, m, points)).collect::<Result<_>>()?;
             for p in 0..points {
                 let standard_errors = (0..metrics.len())
-                    .map(|m| match (&reference_units[m], &candidate_units[m]) {
-                        (Some(r), Some(c)) => difference_standard_error(r, &c[p], pair),
+                    .map(|m| match (&pooled.units[m], &candidate_units[m]) {
+                        (Some(r), Some(c)) => difference_standard_error(r, &c.rows[p], pair),
                         _ => (f64::NAN, 0),
                     })
                     .collect();
@@ -372,7 +452,12 @@ impl Stage for AccuracyStage {
         out.strings("candidate_stage", "candidate", cands.iter().map(|c| c.stage.clone()).collect(), "input stage of the candidate");
         out.i64("candidate_point", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.point as i64)), "1", "sweep point of the candidate in its stage");
         out.strings("candidate_label", "candidate", cands.iter().map(|c| c.label.clone()).collect(), "swept parameters of the candidate");
-        out.f64("reference_value", &["metric"], Array1::from(reference_values.clone()), "", "value of the reference");
+        out.strings("reference_stage", "reference", pooled.stages.clone(), "input stage pooled as the reference")
+            .describe("the input stages pooled as the reference (the first `references` inputs); the first names unswept candidates and gives the wall time");
+        out.f64("reference_value", &["metric"], Array1::from(reference_values.clone()), "", "value of the reference")
+            .describe("value of the reference: its `<metric>_mean`, or over pooled references the mean over all their units");
+        out.i64("reference_units", &["metric"], Array1::from_iter(pooled.units.iter().map(|u| u.as_ref().map_or(0, |u| u.iter().filter(|x| x.is_finite()).count()) as i64)), "1", "units of the reference in its standard error")
+            .describe("units of the (pooled) reference that enter the standard errors (replicates, realisations, webs); 0: it records no per-unit values");
         out.f64("reference_wall_seconds", &[], ndarray::arr0(reference_wall), "s", "wall time per unit of the reference");
         let value = Array2::from_shape_fn((n, metrics.len()), |(c, m)| cands[c].values[m]);
         let error = Array2::from_shape_fn((n, metrics.len()), |(c, m)| (cands[c].values[m] - reference_values[m]) / reference_values[m].abs());
@@ -386,13 +471,14 @@ impl Stage for AccuracyStage {
         out.f64("wall_seconds", &["candidate"], Array1::from_iter(cands.iter().map(|c| c.wall_seconds)), "s", "wall time per unit of work").describe("wall time per unit of work (replicate, realisation)");
         out.f64("speedup", &["candidate"], Array1::from_iter(cands.iter().map(|c| reference_wall / c.wall_seconds)), "1", "reference wall time / candidate wall time");
 
-        let md = table(&metrics, &reference_metrics, &reference_values, reference_wall, &cands);
+        let reference_name = pooled.stages.join(" + ");
+        let md = table(&metrics, &reference_metrics, &reference_values, reference_wall, &cands, &reference_name);
         for line in md.lines() {
             crate::info!("{}: {line}", ctx.stage_name);
         }
-        out.file("accuracy_cost.md", format!("# What accuracy costs: `{}` against `{}`\n\n{md}", ctx.stage_name, reference.name).into_bytes());
+        out.file("accuracy_cost.md", format!("# What accuracy costs: `{}` against `{}`\n\n{md}", ctx.stage_name, pooled.stages.join("` + `")).into_bytes());
         out.set_attr("table_markdown", md);
-        out.set_attr("reference", reference.name.clone());
+        out.set_attr("reference", reference_name);
         Ok(out)
     }
 }
@@ -403,15 +489,16 @@ mod tests {
 
     #[test]
     fn table_is_its_typed_parameters() {
-        crate::params::assert_table_matches(PARAMS, &AccuracyParams { metrics: vec![], reference_metrics: vec![] });
+        crate::params::assert_table_matches(PARAMS, &AccuracyParams { metrics: vec![], reference_metrics: vec![], references: 1 });
     }
 
     #[test]
     fn table_has_errors_and_speedups() {
         let c = Candidate { stage: "fast".into(), point: 0, label: "elements = 250".into(), values: vec![1.1, 2.0], standard_errors: vec![(0.05, 4), (f64::NAN, 0)], wall_seconds: 0.5 };
         let names = ["s".to_string(), "e".to_string()];
-        let t = table(&names, &names, &[1.0, 2.0], 5.0, &[c]);
+        let t = table(&names, &names, &[1.0, 2.0], 5.0, &[c], "exact");
         assert!(t.contains("| fast | elements = 250 | 0.500 | 10.0 | 1.100 | +10.00 ± 5.00 % | 2.000 | +0.00 % |"), "{t}");
+        assert!(t.contains("| reference | exact | 5.000 | 1 |"), "{t}");
     }
 
     /// Paired (the same units present in both): the standard error of the mean difference

@@ -131,7 +131,7 @@ fn units(input: &Input, metric: &str, points: usize) -> Result<Option<Units>> {
     let per_web = input.kind == "laid_web" && values.ndim() == 3;
     let finite = |v: ndarray::ArrayViewD<f64>| v.iter().copied().filter(|x| x.is_finite()).collect::<Vec<_>>();
     Ok(Some(Units {
-        counts: values.outer_iter().map(|row| finite(row).len()).collect(),
+        counts: values.outer_iter().map(|row| row.iter().filter(|x| x.is_finite()).count()).collect(),
         rows: values
             .outer_iter()
             .map(|row| if per_web { row.outer_iter().map(|web| crate::stages::mean_std(&finite(web)).0).collect() } else { row.iter().copied().collect() })
@@ -412,8 +412,7 @@ impl Stage for AccuracyStage {
         }
         let reference_metrics: Vec<String> = if given.is_empty() { metrics.clone() } else { given };
         let pooled = pooled_reference(&ctx.inputs[..references], &reference_metrics)?;
-        let reference_values = pooled.values.clone();
-        let reference_wall = pooled.wall_seconds;
+        let (reference_values, reference_wall) = (&pooled.values, pooled.wall_seconds);
 
         let mut cands = vec![];
         for input in &ctx.inputs[references..] {
@@ -472,7 +471,7 @@ impl Stage for AccuracyStage {
         out.f64("speedup", &["candidate"], Array1::from_iter(cands.iter().map(|c| reference_wall / c.wall_seconds)), "1", "reference wall time / candidate wall time");
 
         let reference_name = pooled.stages.join(" + ");
-        let md = table(&metrics, &reference_metrics, &reference_values, reference_wall, &cands, &reference_name);
+        let md = table(&metrics, &reference_metrics, reference_values, reference_wall, &cands, &reference_name);
         for line in md.lines() {
             crate::info!("{}: {line}", ctx.stage_name);
         }

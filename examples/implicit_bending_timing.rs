@@ -57,18 +57,19 @@ fn main() {
         base.end_time()
     );
     let mut results: Vec<Vec<LaydownResult>> = vec![Vec::new(); schemes.len()];
-    println!("replicate | scheme | S (mm) | e | S belt removed (mm) | steps | rejected | min dt (s) | wall (s) | valid");
+    println!("replicate | scheme | S (mm) | e | S belt removed (mm) | steps | rejected | projection iterations per step | min dt (s) | wall (s) | valid");
     for r in 0..n {
         for (k, p) in params.iter().enumerate() {
             let x = simulate(p, &mut replicate_rng(seed, r));
             println!(
-                "{r} | {} | {:.3} | {:.0} | {:.3} | {} | {} | {:.2e} | {:.2} | {}{}",
+                "{r} | {} | {:.3} | {:.0} | {:.3} | {} | {} | {:.2} | {:.2e} | {:.2} | {}{}",
                 schemes[k],
                 x.radius_of_gyration * 1e3,
                 x.bending_energy,
                 x.radius_of_gyration_belt_removed * 1e3,
                 x.steps,
                 x.rejected_steps,
+                x.projection_iterations as f64 / x.steps.max(1) as f64,
                 x.min_time_step,
                 x.wall_seconds,
                 x.valid,

@@ -123,6 +123,8 @@ pub struct FedFibre {
     pub element_length: f64,
     pub steps: u64,
     pub rejected_steps: u64,
+    /// Newton iterations of the length projection, summed over its calls.
+    pub projection_iterations: u64,
     /// Largest allowed step (s) and the smallest step taken (s).
     pub time_step: f64,
     pub min_time_step: f64,
@@ -232,6 +234,7 @@ pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSett
         time_step: fed.time_step,
         min_time_step: fed.min_time_step,
         rejected_steps: fed.rejected_steps,
+        projection_iterations: fed.projection_iterations,
         end_time: fed.end_time,
         elements,
         wall_seconds: fed.wall_seconds,
@@ -444,6 +447,7 @@ impl Feeder {
             element_length: self.element_length,
             steps: sim.steps,
             rejected_steps: self.control.rejected,
+            projection_iterations: sim.projection_iterations,
             time_step: self.control.dt_max,
             min_time_step: self.control.min_dt,
             node_steps: self.node_steps,

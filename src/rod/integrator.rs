@@ -1090,6 +1090,54 @@ fn spring_forces_lanes(rod: &Rod, inv_ea: f64, p: &mut [f64]) {
     }
 }
 
+/// The unit tangent t_k (`ws.seg_e`) and the constraint value −C_k (`ws.cons`, see
+/// [`project_run`]) of segments k in `range`, [`SPRING_LANES`] segments at a time (their
+/// square roots and divisions vectorise; the same IEEE operations as one at a time).
+fn segment_constraints(rod: &Rod, ws: &mut Workspace, p_old: &[f64], range: std::ops::Range<usize>, compliance: f64, old_weight: f64) {
+    crate::simd::widest_isa!(
+        generic: segment_constraints_lanes(rod, ws, p_old, range, compliance, old_weight),
+        avx2: segment_constraints_avx2(rod, ws, p_old, range, compliance, old_weight),
+        avx512: segment_constraints_avx512(rod, ws, p_old, range, compliance, old_weight),
+    )
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn segment_constraints_avx512(rod: &Rod, ws: &mut Workspace, p_old: &[f64], range: std::ops::Range<usize>, compliance: f64, old_weight: f64) {
+    segment_constraints_lanes(rod, ws, p_old, range, compliance, old_weight)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn segment_constraints_avx2(rod: &Rod, ws: &mut Workspace, p_old: &[f64], range: std::ops::Range<usize>, compliance: f64, old_weight: f64) {
+    segment_constraints_lanes(rod, ws, p_old, range, compliance, old_weight)
+}
+
+#[inline(always)]
+fn segment_constraints_lanes(rod: &Rod, ws: &mut Workspace, p_old: &[f64], range: std::ops::Range<usize>, compliance: f64, old_weight: f64) {
+    let end = range.end;
+    for first in range.step_by(SPRING_LANES) {
+        let m = SPRING_LANES.min(end - first);
+        let (mut e, mut l2) = ([[0.0; 3]; SPRING_LANES], [1.0; SPRING_LANES]);
+        for j in 0..m {
+            let (p, q) = (rod.x[first + j], rod.x[first + j + 1]);
+            e[j] = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            l2[j] = e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2];
+        }
+        let (mut l, mut il) = ([0.0; SPRING_LANES], [0.0; SPRING_LANES]);
+        for j in 0..SPRING_LANES {
+            l[j] = l2[j].sqrt();
+            il[j] = 1.0 / l[j];
+        }
+        for j in 0..m {
+            let k = first + j;
+            let l0 = rod.rest[k];
+            ws.seg_e[k] = [e[j][0] * il[j], e[j][1] * il[j], e[j][2] * il[j]];
+            ws.cons[k] = -(l[j] - l0 + compliance * l0 * ws.lambda_acc[k] - old_weight * l0 * p_old[k]);
+        }
+    }
+}
+
 /// Newton iterations of the length projection on segments a..b (nodes a..=b), which
 /// are coupled to no other segment. Returns (relative residual, iterations, worst segment).
 ///
@@ -1120,15 +1168,9 @@ fn project_run(
         // bound = (1 − 4ε) residual: |C_k| ≤ bound l0_k cannot make |C_k|/l0_k exceed
         // the residual, so most segments skip the division
         let mut bound = 0.0;
+        segment_constraints(rod, ws, p_old, a..b, compliance, old_weight);
         for k in a..b {
-            let (p, q) = (rod.x[k], rod.x[k + 1]);
-            let e = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-            let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-            let il = 1.0 / l;
-            let l0 = rod.rest[k];
-            ws.seg_e[k] = [e[0] * il, e[1] * il, e[2] * il];
-            let c = l - l0 + compliance * l0 * ws.lambda_acc[k] - old_weight * l0 * p_old[k];
-            ws.cons[k] = -c;
+            let (c, l0) = (ws.cons[k], rod.rest[k]);
             if !(c.abs() <= bound * l0) {
                 let r = c.abs() / l0;
                 if r > residual {

@@ -8,6 +8,7 @@
 //! `cargo run --release --example laid_web_contact -- [fibres spacing_mm travel_mm seed] [name=value ...]`
 //! with `name` a laydown scene parameter, or `interval=` (s, contact preparation interval),
 //! `ramp=` (s, oscillation soft start), `mu_ff=` (fibre friction), `contact=0|1`,
+//! `self=1` (a fibre also meets its own laid loops that are not yet frozen: `self_contact`),
 //! `coherent=1` (every fibre the same oscillation phase), `check=1`
 //! (after every interval, the true least distance between fibres from their positions,
 //! instead of what each rod saw in its own steps, and each landed node that rises above
@@ -218,7 +219,7 @@ fn main() {
     let travel: f64 = num.get(2).map_or(10.0, |s| s.parse().expect("travel (mm)")) * 1e-3;
     let seed: u64 = num.get(3).map_or(7, |s| s.parse().expect("seed"));
     let mut scene = LaydownParams::default();
-    let (mut interval, mut ramp, mut mu_ff, mut contact, mut check, mut coherent) = (2e-4, 0.01, 0.3, true, false, false);
+    let (mut interval, mut ramp, mut mu_ff, mut contact, mut check, mut coherent, mut self_contact) = (2e-4, 0.01, 0.3, true, false, false, false);
     let mut age_limit: Option<f64> = None;
     let mut front_margin: Option<f64> = None;
     for kv in args.iter().filter(|a| a.contains('=')) {
@@ -228,6 +229,7 @@ fn main() {
             "ramp" => ramp = v.parse().unwrap(),
             "mu_ff" => mu_ff = v.parse().unwrap(),
             "contact" => contact = v != "0",
+            "self" => self_contact = v != "0",
             "check" => check = v != "0",
             "coherent" => coherent = v != "0",
             "drag" => scene.effects.drag = v != "0",
@@ -237,7 +239,7 @@ fn main() {
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
         }
     }
-    let settings = FibreContactSettings { friction: mu_ff, interval };
+    let settings = FibreContactSettings { friction: mu_ff, interval, self_contact };
     let turbulence = if coherent { Turbulence::Coherent } else { Turbulence::Independent };
     let mut p = LaidWebParams { scene, fibres_across: fibres, fibre_spacing: spacing, belt_travel: travel, turbulence, fibre_contact: contact.then(|| settings.clone()), ..LaidWebParams::default() };
     p.feed.oscillation_ramp = ramp;
@@ -427,6 +429,23 @@ fn main() {
             (0..f.positions.len().saturating_sub(1)).filter(|&i| f.landing_time[i].is_finite() && f.landing_time[i + 1].is_finite()).map(|i| (at(i), at(i + 1))).collect()
         })
         .collect();
+    // the same within each fibre: laid segments three or more apart along it (a coil
+    // laid across the fibre's own loops)
+    let (mut self_crossed, mut self_close) = (0usize, 0usize);
+    for f in &laid {
+        let laid_at: Vec<usize> = (0..f.positions.len().saturating_sub(1)).filter(|&i| f.landing_time[i].is_finite() && f.landing_time[i + 1].is_finite()).collect();
+        for (a, &i) in laid_at.iter().enumerate() {
+            for &k in laid_at[a + 1..].iter().filter(|&&k| k >= i + 3) {
+                let (_, _, gap) = closest_points(f.positions[i], f.positions[i + 1], f.positions[k], f.positions[k + 1]);
+                let g = (gap[0] * gap[0] + gap[1] * gap[1] + gap[2] * gap[2]).sqrt();
+                if g < 0.5 * d {
+                    self_crossed += 1;
+                } else if g < 0.95 * d {
+                    self_close += 1;
+                }
+            }
+        }
+    }
     let (mut least, mut crossed, mut close) = (f64::INFINITY, 0usize, 0usize);
     for a in 0..laid_segments.len() {
         for b in a + 1..laid_segments.len() {
@@ -482,13 +501,15 @@ fn main() {
         );
     }
     println!(
-        "contact {contact}: wall {wall:.1} s, clusters per interval {:.2}, lock steps {}, broad phase {:.1} s, candidates per simulated segment {:.1}; laid pairs of segments of different fibres: least distance {:.3} d, {} crossed (< d/2), {} closer than 0.95 d",
+        "contact {contact}: wall {wall:.1} s, clusters per interval {:.2}, lock steps {}, broad phase {:.1} s, candidates per simulated segment {:.1}; laid pairs of segments of different fibres: least distance {:.3} d, {} crossed (< d/2), {} closer than 0.95 d; of one fibre (3 or more segments apart): {} crossed, {} closer than 0.95 d",
         stats.clusters as f64 / stats.preparations.max(1) as f64,
         stats.lock_steps,
         stats.wall_seconds,
         stats.candidate_pairs as f64 / stats.active_segments.max(1) as f64,
         least / d,
         crossed,
-        close
+        close,
+        self_crossed,
+        self_close
     );
 }

@@ -36,9 +36,13 @@
 //! height z0: above it eq 7's oscillator prescribes where each fibre is, and two
 //! prescribed positions cannot give way to each other).
 //!
-//! A rod's simulated part does not collide with itself (its segments are adjacent or
-//! bend smoothly over a few elements); it does collide with its own frozen stretch,
-//! except the two frozen segments next to the simulated part.
+//! A rod collides with its own frozen stretch, except the two frozen segments next to
+//! the simulated part ([`SELF_GAP`]). With [`ContactWorld::self_contact`] (opt-in) it also
+//! collides with its own simulated segments [`SELF_GAP`] or more apart along it, as with
+//! another fibre: a coil landing on the fibre's own laid loops that are not yet frozen
+//! rests on them. Without it the fibre goes through those loops (the crossed pairs within
+//! fibres that `examples/laid_web_contact.rs` counts; `pipelines/studies/PHYSICAL_WEBS.md`,
+//! "A fibre against its own laid loops", measures both).
 
 use super::fibre_contact::{FibreContact, ObstacleSegment};
 use super::integrator::Simulator;
@@ -89,6 +93,9 @@ pub struct ContactWorld {
     /// prescribes each fibre's position (z > z0), two prescribed positions cannot give
     /// way to each other. Infinite by default.
     pub contact_top: f64,
+    /// Whether a rod collides with its own simulated segments (module docs); off by
+    /// default.
+    pub self_contact: bool,
     /// Grid cell side h (m).
     cell: f64,
     /// CD cells per period (when periodic) and their side.
@@ -224,6 +231,7 @@ impl ContactWorld {
             last_frozen: vec![None; fibres],
             cd_offsets: vec![0.0; fibres],
             contact_top: f64::INFINITY,
+            self_contact: false,
         }
     }
 
@@ -356,7 +364,8 @@ impl ContactWorld {
                     for key in self.cells_3d(lo, hi) {
                         for o in in_cell(key) {
                             let other = &active[o as usize];
-                            if other.fibre as usize != f && self.overlap(lo, hi, other.a, other.b, add(other.reach, half_d)) {
+                            let apart = other.fibre as usize != f || (self.self_contact && apart_along_rod(row as usize, other.segment));
+                            if apart && self.overlap(lo, hi, other.a, other.b, add(other.reach, half_d)) {
                                 seen.push(o);
                             }
                         }
@@ -370,7 +379,7 @@ impl ContactWorld {
                             if let Some(ids) = self.frozen_grid.get(&key) {
                                 for &o in ids {
                                     let z = &self.frozen[o as usize];
-                                    let adjacent = z.fibre as usize == f && z.index as usize + 3 >= own_frozen;
+                                    let adjacent = z.fibre as usize == f && z.index as usize + SELF_GAP >= own_frozen;
                                     if !adjacent && self.overlap(flo, fhi, z.a, z.b, [half_d; 3]) {
                                         seen.push(active.len() as u32 + o);
                                     }
@@ -570,6 +579,8 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
     // the obstacle lists the refreshes fill, swapped with the rods' own: no allocation
     // per step once they have grown
     let mut spare: Vec<Vec<ObstacleSegment>> = vec![Vec::new(); group.len()];
+    // simulated obstacles (of other rods, or a rod's own far along it) follow their rods
+    let refreshed = group.iter().any(|b| b.simulator().fibre_contact.as_ref().is_some_and(|c| c.obstacles.iter().any(|o| o.source.is_some())));
     while now < t_next - t_next.abs() * 1e-12 {
         let dt = group.iter().filter(|b| b.running()).map(|b| b.next_step()).fold(f64::INFINITY, f64::min);
         if !dt.is_finite() {
@@ -581,7 +592,7 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
                 b.predict(until)
             }
         });
-        if group.len() > 1 {
+        if refreshed {
             refresh(group, local, now, parallel, &mut spare);
         }
         each(group, &|b: &mut B| b.advance_to(until));
@@ -635,6 +646,18 @@ fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parall
             std::mem::swap(&mut c.obstacles, fresh);
         }
     }
+}
+
+/// Fewest segments from one of a rod's own segments to another it can touch: the two
+/// next to it on either side (they share a node with it, or bend away from it over a
+/// node) are left out, simulated or frozen.
+const SELF_GAP: usize = 3;
+
+/// Whether own segment `k` and own simulated segment `segment` (`u32::MAX`: the link
+/// from the last frozen node, just before segment 0) are [`SELF_GAP`] or more apart.
+fn apart_along_rod(k: usize, segment: u32) -> bool {
+    let q = if segment == u32::MAX { -1 } else { segment as i64 };
+    (k as i64 - q).unsigned_abs() >= SELF_GAP as u64
 }
 
 /// Bounding box of segment a-b grown by `grow` per axis.

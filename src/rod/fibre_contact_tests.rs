@@ -120,6 +120,70 @@ fn fibres_dropped_across_each_other_stay_one_diameter_apart() {
     }
 }
 
+/// One rod folded over itself: its first 20 elements lie on the belt along x, a
+/// connecting stretch rises to 3 mm and its last 20 elements cross the first ones along
+/// y, falling at `speed`: a coil landing on the fibre's own laid loop. Returns (least
+/// distance between the two stretches over all intervals, the upper one's height above
+/// the lower at the crossing at the end, the distance there, impulses applied).
+fn drop_onto_itself(speed: f64, self_contact: bool) -> (f64, f64, f64, u64) {
+    let p = scene();
+    let (d, ds) = (p.diameter, 1e-3);
+    let lower: Vec<[f64; 3]> = (0..=20).map(|i| [(i as f64 - 10.0) * ds, 0.0, 0.0]).collect();
+    let (from, to) = ([10.0 * ds, 0.0, 0.0], [0.0, -10.0 * ds, 3e-3]);
+    let rise: Vec<[f64; 3]> = (1..14).map(|i| lerp(from, to, i as f64 / 14.0)).collect();
+    let upper: Vec<[f64; 3]> = (0..=20).map(|i| [0.0, (i as f64 - 10.0) * ds, 3e-3]).collect();
+    let mut velocities = vec![[0.0; 3]; lower.len()];
+    velocities.extend((1..14).map(|i| [0.0, 0.0, -speed * i as f64 / 14.0]));
+    velocities.extend(vec![[0.0, 0.0, -speed]; upper.len()]);
+    let positions = [lower, rise, upper].concat();
+    let (first_upper, segments) = (34, positions.len() - 1);
+    let start = CustomStart { velocities, positions, driven_top: false, clamped: 0, rest_length: None };
+    let mut rods = [FreeRod::new(build(&p, start), p.mass_per_length())];
+    let mut world = ContactWorld::new(1, d, Some(0.3), 0.0, None, 1e-3);
+    world.self_contact = self_contact;
+    let mut stats = ContactStats::default();
+    let interval = 1e-4;
+    let mut least = f64::INFINITY;
+    let mut crossing = (f64::INFINITY, 0.0);
+    for n in 0..200 {
+        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
+        let r = &rods[0];
+        assert!(r.error.is_none(), "{:?}", r.error);
+        let x = &r.sim.rod.x;
+        crossing = (f64::INFINITY, 0.0);
+        for k in 0..20 {
+            for l in first_upper..segments {
+                let (_, _, c) = closest_points(x[l], x[l + 1], x[k], x[k + 1]);
+                least = least.min(norm(c));
+                if norm(c) < crossing.0 {
+                    crossing = (norm(c), c[2]);
+                }
+            }
+        }
+    }
+    (least, crossing.1, crossing.0, rods[0].sim.fibre_contact.as_ref().unwrap().impulses)
+}
+
+/// With `self_contact` a fibre meets its own simulated laid stretch as another fibre's;
+/// without, it falls through it to the belt.
+#[test]
+fn fibre_dropped_onto_its_own_laid_stretch_rests_on_it() {
+    let d = scene().diameter;
+    let (through, _, _, none) = drop_onto_itself(0.5, false);
+    println!("drop onto itself without self_contact: least distance {:.4} d, {none} impulses", through / d);
+    assert!(through < 0.5 * d && none == 0, "without self_contact the stretches met: {through:.3e} m, {none} impulses");
+    for speed in [0.5, 4.0] {
+        let (least, height, gap, impulses) = drop_onto_itself(speed, true);
+        println!("drop onto itself at {speed} m/s: least distance {:.4} d, above by {:.4} d at the end (gap {:.4} d), {impulses} impulses", least / d, height / d, gap / d);
+        assert!(impulses > 0, "the stretches never met");
+        assert!(least >= 0.95 * d, "closer than 0.95 d: {least:.3e} m");
+        if speed < 1.0 {
+            // (at 4 m/s the impact swings the upper stretch off the lower one)
+            assert!(height > 0.95 * d && gap < 1.05 * d, "the upper stretch is {height:.3e} m above the lower at a gap {gap:.3e} m");
+        }
+    }
+}
+
 #[test]
 fn fibre_lands_on_a_frozen_fibre_and_rests_on_it() {
     let p = scene();

@@ -113,6 +113,9 @@ pub struct FibreContactSettings {
     /// overlap at its start. Shortened for fast fibres
     /// ([`LaidWebParams::broad_phase_interval`]).
     pub interval: f64,
+    /// Whether a fibre also collides with its own laid loops that are still simulated
+    /// ([`ContactWorld::self_contact`]); its frozen stretch it always meets.
+    pub self_contact: bool,
 }
 
 /// Length of the hanging fibre in feed heights, for the work estimate (the fibre swings
@@ -144,7 +147,7 @@ pub const BROAD_PHASE_TRAVEL: f64 = 4.0;
 
 impl Default for FibreContactSettings {
     fn default() -> Self {
-        FibreContactSettings { friction: 0.3, interval: 2e-4 }
+        FibreContactSettings { friction: 0.3, interval: 2e-4, self_contact: false }
     }
 }
 
@@ -478,6 +481,7 @@ impl ContactWeb {
             .collect();
         let mut world = ContactWorld::new(p.fibres_across, d, friction, p.scene.belt_speed, Some(p.cd_period()), p.resolved_element_length());
         world.contact_top = p.scene.laydown_height;
+        world.self_contact = c.self_contact;
         for (j, offset) in world.cd_offsets.iter_mut().enumerate() {
             *offset = p.feed_cd(j);
         }

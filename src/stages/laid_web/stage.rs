@@ -66,6 +66,7 @@ pub struct LaidWebStageParams {
     pub fibre_contact: bool,
     pub fibre_friction: f64,
     pub contact_interval: f64,
+    pub self_contact: bool,
 }
 
 /// The typed parameters of one sweep point (its rows were checked against the table).
@@ -82,7 +83,7 @@ pub fn laid_web_params(p: &ParamSet) -> LaidWebParams {
         amplitude_jitter: p.amplitude_jitter,
         edge_margin_spreads: p.edge_margin_spreads,
         feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, oscillation_ramp: p.oscillation_ramp, front_margin: p.freeze_front_margin, ..FeedSettings::default() },
-        fibre_contact: p.fibre_contact.then_some(FibreContactSettings { friction: p.fibre_friction, interval: p.contact_interval }),
+        fibre_contact: p.fibre_contact.then_some(FibreContactSettings { friction: p.fibre_friction, interval: p.contact_interval, self_contact: p.self_contact }),
     }
 }
 
@@ -130,6 +131,7 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::flag("fibre_contact", false, "fibre-fibre contact: centrelines stay a diameter apart, with friction fibre_friction; fibres that can touch advance in lock step (off: fibres pass through one another, at no cost)"));
         v.push(ParamSpec::float("fibre_friction", "1", contact.friction, 0.0, 10.0, "μ_ff, Coulomb friction coefficient between fibres (with fibre_contact)"));
         v.push(ParamSpec::float("contact_interval", "s", contact.interval, 1e-7, 1.0, "Δt_c, longest time between two broad-phase searches for fibre contact candidates; shortened so that a node at the largest imposed speed travels at most 4 elements in it (output broad_phase_interval)"));
+        v.push(ParamSpec::flag("self_contact", contact.self_contact, "with fibre_contact, a fibre also rests on its own laid loops that are not yet frozen (off: it passes through them; its frozen stretch it always meets). Cuts the crossed pairs within fibres 6-60x, costs 1.0-1.6x; pipelines/studies/PHYSICAL_WEBS.md"));
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {

@@ -186,7 +186,7 @@ stages:
 
 /// Laid webs at the hard corners (pipelines/stability/laid_webs.yaml at reduced size):
 /// fast fibres with strong and weak air, no air, and a dense web, the last two also with
-/// fibre contact. Positions stay finite; a fibre is valid or invalid with a stated reason.
+/// fibre contact, the dense one also with self-contact. Positions stay finite; a fibre is valid or invalid with a stated reason.
 #[test]
 fn laid_web_hard_cases_stay_finite() {
     let dir = tempfile::tempdir().unwrap();
@@ -198,11 +198,12 @@ fn laid_web_hard_cases_stay_finite() {
          - {name: no_air, kind: laid_web, params: {air_speed: 0.0, fibres_across: 2, belt_travel: 0.03}}\n  \
          - {name: dense, kind: laid_web, params: {diameter: 16.2e-6, belt_speed: 0.25, fibres_across: 6, fibre_spacing: 2.3e-4, belt_travel: 0.03}}\n  \
          - {name: dense_contact, kind: laid_web, params: {diameter: 16.2e-6, belt_speed: 0.25, fibres_across: 2, fibre_spacing: 2.3e-4, belt_travel: 0.006, fibre_contact: true, oscillation_ramp: 0.01}}\n  \
-         - {name: fast_contact, kind: laid_web, params: {fibre_speed: 20.0, air_speed: 60.0, belt_speed: 0.8, oscillation_frequency: 40.0, fibres_across: 2, belt_travel: 0.006, fibre_contact: true, oscillation_ramp: 0.005}}\n",
+         - {name: fast_contact, kind: laid_web, params: {fibre_speed: 20.0, air_speed: 60.0, belt_speed: 0.8, oscillation_frequency: 40.0, fibres_across: 2, belt_travel: 0.006, fibre_contact: true, oscillation_ramp: 0.005}}\n  \
+         - {name: dense_self_contact, kind: laid_web, params: {diameter: 16.2e-6, belt_speed: 0.25, fibres_across: 2, fibre_spacing: 2.3e-4, belt_travel: 0.006, fibre_contact: true, self_contact: true, oscillation_ramp: 0.01}}\n",
     );
     assert!(o.status.success(), "{:?}", text(&o));
     let a = Archive::open_read(&dir.path().join("hard.h5")).unwrap();
-    for stage in ["fast", "fast_weak_air", "no_air", "dense", "dense_contact", "fast_contact"] {
+    for stage in ["fast", "fast_weak_air", "no_air", "dense", "dense_contact", "fast_contact", "dense_self_contact"] {
         let g = a.version(stage, None).unwrap().open().unwrap();
         let laid = hdf::read_f64(&g, "laid_positions").unwrap();
         let count = hdf::read_i64(&g, "fibre_laid_nodes").unwrap();

@@ -24,7 +24,7 @@
 //! (with `contact=0`, of where each fibre itself has landed, and only nodes on the belt).
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
-use laydown::rod::fibre_contact::closest_points;
+use laydown::rod::fibre_contact::{closest_points, laid_self_gaps};
 use laydown::rod::LaydownParams;
 use laydown::stages::laid_web::{fibre_setup, ContactWeb, FibreContactSettings, LaidWebParams, Turbulence};
 use std::time::Instant;
@@ -432,18 +432,11 @@ fn main() {
     // the same within each fibre: laid segments three or more apart along it (a coil
     // laid across the fibre's own loops)
     let (mut self_crossed, mut self_close) = (0usize, 0usize);
-    for f in &laid {
-        let laid_at: Vec<usize> = (0..f.positions.len().saturating_sub(1)).filter(|&i| f.landing_time[i].is_finite() && f.landing_time[i + 1].is_finite()).collect();
-        for (a, &i) in laid_at.iter().enumerate() {
-            for &k in laid_at[a + 1..].iter().filter(|&&k| k >= i + 3) {
-                let (_, _, gap) = closest_points(f.positions[i], f.positions[i + 1], f.positions[k], f.positions[k + 1]);
-                let g = (gap[0] * gap[0] + gap[1] * gap[1] + gap[2] * gap[2]).sqrt();
-                if g < 0.5 * d {
-                    self_crossed += 1;
-                } else if g < 0.95 * d {
-                    self_close += 1;
-                }
-            }
+    for g in laid.iter().flat_map(|f| laid_self_gaps(&f.positions, &f.landing_time)) {
+        if g < 0.5 * d {
+            self_crossed += 1;
+        } else if g < 0.95 * d {
+            self_close += 1;
         }
     }
     let (mut least, mut crossed, mut close) = (f64::INFINITY, 0usize, 0usize);

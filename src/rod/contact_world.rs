@@ -44,7 +44,7 @@
 //! fibres that `examples/laid_web_contact.rs` counts; `pipelines/studies/PHYSICAL_WEBS.md`,
 //! "A fibre against its own laid loops", measures both).
 
-use super::fibre_contact::{FibreContact, ObstacleSegment};
+use super::fibre_contact::{FibreContact, ObstacleSegment, SELF_GAP};
 use super::integrator::Simulator;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -647,11 +647,6 @@ fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parall
         }
     }
 }
-
-/// Fewest segments from one of a rod's own segments to another it can touch: the two
-/// next to it on either side (they share a node with it, or bend away from it over a
-/// node) are left out, simulated or frozen.
-const SELF_GAP: usize = 3;
 
 /// Whether own segment `k` and own simulated segment `segment` (`u32::MAX`: the link
 /// from the last frozen node, just before segment 0) are [`SELF_GAP`] or more apart.

@@ -83,6 +83,23 @@ pub const CROSSED: f64 = 0.5;
 /// push moves a pair by at most [`MAX_SEPARATION_SPEED`]·Δt/`POSITION_ROUNDS`.
 pub const POSITION_ROUNDS: usize = 8;
 
+/// Fewest segments from one of a rod's own segments to another it can touch: the two
+/// next to it on either side (they share a node with it, or bend away from it over a
+/// node) are left out, simulated or frozen.
+pub const SELF_GAP: usize = 3;
+
+/// Centreline distances between the laid segments (both end nodes landed) of one fibre
+/// that lie [`SELF_GAP`] or more apart along it: below d/2 the fibre was laid across its
+/// own loop ([`CROSSED`]).
+pub fn laid_self_gaps<'a>(positions: &'a [[f64; 3]], landing_time: &'a [f64]) -> impl Iterator<Item = f64> + 'a {
+    let laid: Vec<usize> = (0..positions.len().saturating_sub(1)).filter(|&i| landing_time[i].is_finite() && landing_time[i + 1].is_finite()).collect();
+    (0..laid.len()).flat_map(move |a| {
+        let i = laid[a];
+        let later: Vec<usize> = laid[a + 1..].iter().copied().filter(|&k| k >= i + SELF_GAP).collect();
+        later.into_iter().map(move |k| norm(closest_points(positions[i], positions[i + 1], positions[k], positions[k + 1]).2))
+    })
+}
+
 /// A segment of another fibre: end points and velocities at time `t_ref`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObstacleSegment {

@@ -103,6 +103,8 @@ fn exit_2(yaml: &str, command: &str, expect: &[&str]) {
 fn bad_laid_webs_are_refused_before_computing() {
     // a stationary belt has no belt travel to lay
     exit_2(&pipeline("belt_speed: 0.0", "", 1), "validate", &["belt_speed", "moving belt"]);
+    // a flag that acts only with fibre contact is not silently ignored without it
+    exit_2(&pipeline("self_contact: true", "", 1), "validate", &["self_contact", "needs fibre_contact: true"]);
     // a request too big for the machine is refused by validate, naming the estimate
     exit_2(&pipeline("fibres_across: 1000000, belt_travel: 100.0", "", 1), "validate", &["GiB", "fibres_across"]);
     // nothing is laid when the feed is shorter than the hanging part

@@ -135,6 +135,11 @@ impl Stage for LaidWebStage {
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
+        let own: LaidWebStageParams = p.to_typed().expect("the laid_web table and LaidWebStageParams agree (tested)");
+        // a flag that only acts with fibre contact would otherwise be silently ignored
+        if own.self_contact && !own.fibre_contact {
+            return Err(InvalidParam::new("self_contact".into(), "self_contact: true needs fibre_contact: true (a fibre can only rest on its own loops when fibres touch at all)".into()));
+        }
         laid_web_params(p).validate()
     }
     /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it

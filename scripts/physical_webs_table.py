@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Tables and the Fig 8 comparison of pipelines/studies/PHYSICAL_WEBS.md, read from the
-archives of pipelines/studies/physical_vs_surrogate.yaml and table4_physical.yaml.
+archives of pipelines/studies/physical_vs_surrogate.yaml, table4_physical.yaml and
+uniformity_drivers.yaml.
 
 Usage (from the repository root, after running the pipelines):
-    .venv/bin/python scripts/physical_webs_table.py [--figure]
+    .venv/bin/python scripts/physical_webs_table.py [--figure] [--drivers]
 Needs h5py and numpy (tests/python/requirements.txt); --figure also needs matplotlib.
 """
 import os
@@ -14,6 +15,7 @@ import numpy as np
 
 STUDY = "results/physical_vs_surrogate.h5"
 TABLE4 = "results/table4_physical.h5"
+DRIVERS = "results/uniformity_drivers.h5"
 FIGURES = "pipelines/studies/figures"
 
 
@@ -188,7 +190,42 @@ def figure():
     print(f"\nfigure: {out}")
 
 
+def drivers_rows(f, laid_stage, grid_stage, note=""):
+    """Rows of uniformity_drivers.yaml's table: each point's change from the base (the
+    first stage's point 0)."""
+    laid, g = current(f, laid_stage), current(f, grid_stage)
+    base = current(f, "laid")
+    names = ["air_speed", "friction_coefficient", "oscillation_frequency", "fibre_speed"]
+    for p in range(laid["valid"].shape[0]):
+        # a parameter the stage does not sweep is stored only where it is swept: the base's then
+        value = lambda n: swept(laid, n)[p] if (n in laid or f"sweep_{n}" in laid) else swept(base, n)[0]
+        changed = [f"{n} {value(n):g}" for n in names if value(n) != swept(base, n)[0]]
+        valid = laid["valid"][p].astype(bool)
+        row, zones = grid_row(g, p)
+        s_laid = laid["radius_of_gyration_belt_removed"][p][valid]
+        e_laid = laid["bending_energy"][p][valid]
+        cpu = np.nansum(laid["wall_seconds"][p], axis=-1)
+        print(f"| {', '.join(changed) or 'base'}{note} | {valid.sum()} of {valid.size} | {ms(s_laid, 1e3)} | {ms(e_laid, 1, 0)} | "
+              + " | ".join(row) + f" | {ms(cpu, 1, 0)} |")
+    return zones
+
+
+def drivers_table():
+    """uniformity_drivers.yaml: each point against the base (point 0), one parameter changed."""
+    f = h5py.File(DRIVERS, "r")
+    print("| change from the base | valid fibres | S belt removed (mm) | e | ρ_av (g/m²) | CV (%) | n_f 1 mm | n_f 11 mm | CPU per web (s) |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    zones = drivers_rows(f, "laid", "grid")
+    if "laid_implicit_axial" in f:
+        drivers_rows(f, "laid_implicit_axial", "grid_implicit_axial", " (implicit_axial)")
+    print(f"\nzone sizes used: {zones[0] * 1e3:g} mm and {zones[1] * 1e3:g} mm; interior density expected: "
+          + ", ".join(f"{v:.2f}" for v in current(f, "grid")["expected_interior_density"][...]) + " g/m²")
+
+
 if __name__ == "__main__":
+    if "--drivers" in sys.argv:
+        drivers_table()
+        sys.exit(0)
     if os.path.exists(STUDY):
         study_table()
         print()

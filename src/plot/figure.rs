@@ -509,6 +509,9 @@ struct LineLayout {
     caption: Vec<String>,
     caption_h: f64,
     legend: Vec<Vec<(usize, f64)>>,
+    /// Each series' label in the lines it is drawn in (more than one where it is wider
+    /// than the panel).
+    legend_labels: Vec<Vec<String>>,
     legend_h: f64,
     x: Option<Axis>,
     y: Option<Axis>,
@@ -525,13 +528,26 @@ impl LineLayout {
         let height = row.map(|r| r.height);
         let caption = wrap(&p.title, sc.font, cw - 2.0 * sc.m);
         let caption_h = row.map_or(caption.len() as f64 * 1.25 * sc.font + 0.3 * sc.font, |r| r.caption_h);
-        let entries: Vec<(usize, f64)> = p
+        // a label wider than the panel wraps under its own sample, so that it never runs
+        // into the next panel
+        let width = cw - 2.0 * sc.m;
+        let sample = 2.4 * sc.font;
+        let legend_labels: Vec<Vec<String>> = p
             .series
             .iter()
-            .enumerate()
-            .filter_map(|(i, s)| s.label.as_ref().map(|l| (i, 2.4 * sc.font + text_width(l, sc.font) + 1.2 * sc.font)))
+            .map(|s| match &s.label {
+                Some(l) if sample + text_width(l, sc.font) > width => wrap(l, sc.font, width - sample),
+                Some(l) => vec![l.clone()],
+                None => vec![],
+            })
             .collect();
-        let legend = flow(&entries, cw - 2.0 * sc.m);
+        let entries: Vec<(usize, f64, usize)> = legend_labels
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| !l.is_empty())
+            .map(|(i, l)| (i, sample + l.iter().map(|t| text_width(t, sc.font)).fold(0.0, f64::max) + 1.2 * sc.font, l.len()))
+            .collect();
+        let legend = flow(&entries, width);
         // with the space under the panel
         let legend_h = row.map_or(legend.len() as f64 * 1.35 * sc.font + sc.bottom(), |r| r.legend_h);
         let (xr, yr) = data_ranges(p);
@@ -544,7 +560,7 @@ impl LineLayout {
         };
         let (Some(mut xr), Some(mut yr)) = (xr, yr) else {
             let height = height.unwrap_or(caption_h + 4.0 * sc.font);
-            return LineLayout { caption, caption_h, legend, legend_h, x: None, y: None, y_area: 0.0, plot: (0.0, 0.0), height };
+            return LineLayout { caption, caption_h, legend, legend_labels, legend_h, x: None, y: None, y_area: 0.0, plot: (0.0, 0.0), height };
         };
         let y0 = Axis::new(yr, p.log_y, false, provisional_h, false, sc);
         let y_area = sc.y_area(y0.widest(sc));
@@ -567,7 +583,7 @@ impl LineLayout {
         let y = Axis::new(yr, p.log_y, false, plot_h, false, sc);
         let y_area = sc.y_area(y.widest(sc)).max(y_area);
         let height = height.unwrap_or(caption_h + chart_h(plot_h) + legend_h);
-        LineLayout { caption, caption_h, legend, legend_h, x: Some(x), y: Some(y), y_area, plot: (plot_w, plot_h), height }
+        LineLayout { caption, caption_h, legend, legend_labels, legend_h, x: Some(x), y: Some(y), y_area, plot: (plot_w, plot_h), height }
     }
 }
 
@@ -599,17 +615,24 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> Option<(f64, f64)
     Some((lo - pad, hi + pad))
 }
 
-/// Group legend entries `(index, width)` into lines no wider than `width`.
-fn flow(entries: &[(usize, f64)], width: f64) -> Vec<Vec<(usize, f64)>> {
+/// Group legend entries `(index, width, text lines)` into lines no wider than `width`;
+/// an entry of several text lines stands alone, followed by a blank line for each further
+/// text line.
+fn flow(entries: &[(usize, f64, usize)], width: f64) -> Vec<Vec<(usize, f64)>> {
     let mut lines: Vec<Vec<(usize, f64)>> = vec![];
     let mut x = 0.0;
-    for &(i, w) in entries {
-        if lines.is_empty() || (x + w > width && x > 0.0) {
+    for &(i, w, text_lines) in entries {
+        if lines.is_empty() || (x + w > width && x > 0.0) || text_lines > 1 {
             lines.push(vec![]);
             x = 0.0;
         }
         lines.last_mut().unwrap().push((i, x));
         x += w;
+        if text_lines > 1 {
+            lines.extend(std::iter::repeat_with(Vec::new).take(text_lines - 1));
+            // nothing may follow on the entry's last text line
+            x = f64::INFINITY;
+        }
     }
     lines
 }
@@ -873,6 +896,14 @@ where
     Ok(())
 }
 
+/// A legend label's text lines beside its sample at (x, y), one under the other.
+fn draw_label<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, lines: &[String], sc: &Scale, x: f64, y: f64) -> Result<()> {
+    for (j, line) in lines.iter().enumerate() {
+        draw_text(area, line, sc.font, (x + 2.4 * sc.font, y + j as f64 * 1.35 * sc.font), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
+    }
+    Ok(())
+}
+
 /// The legend under a plot: a sample of each labelled series and its label, in lines.
 fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &LinePanel, l: &LineLayout, sc: &Scale) -> Result<()> {
     for (k, line) in l.legend.iter().enumerate() {
@@ -889,7 +920,7 @@ fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &LinePanel,
                     Style::Dashed => area.draw(&Circle::new(((a + b) / 2, yi), radius + 1, style)).map_err(plot_err)?,
                     _ => area.draw(&Circle::new(((a + b) / 2, yi), radius, c.filled())).map_err(plot_err)?,
                 }
-                draw_text(area, s.label.as_deref().unwrap_or(""), sc.font, (x + 2.4 * sc.font, y), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
+                draw_label(area, &l.legend_labels[i], sc, x, y)?;
                 continue;
             }
             match s.style {
@@ -904,7 +935,7 @@ fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &LinePanel,
             if matches!(s.style, Style::Markers | Style::LineMarkers) {
                 area.draw(&Circle::new(((a + b) / 2, yi), (1.8 * sc.u).round().max(1.0) as u32, c.filled())).map_err(plot_err)?;
             }
-            draw_text(area, s.label.as_deref().unwrap_or(""), sc.font, (x + 2.4 * sc.font, y), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
+            draw_label(area, &l.legend_labels[i], sc, x, y)?;
         }
     }
     Ok(())
@@ -1165,6 +1196,32 @@ mod tests {
         // too short for two labels apart: one tick
         let b = Axis::new((-0.255, 0.245), false, false, 3.0 * sc.font, true, &sc);
         assert_eq!(b.ticks.len(), 1, "{:?}", b.labels);
+    }
+
+    /// A legend label wider than its panel wraps under its sample instead of running into
+    /// the next panel, and the legend grows by its extra lines; short labels still share a
+    /// line.
+    #[test]
+    fn long_legend_labels_wrap_within_their_panel() {
+        ensure_font_for_tests();
+        let sc = Scale::new(&RenderOptions::default(), Format::Png, TWO_COLUMNS_MM);
+        let long = "air speed = 10 m/s, v_b = 0.25 m/s, belt travel = 130 mm, v_f = 5 m/s, friction μ = 1";
+        let series = |labels: &[&str]| labels.iter().enumerate().map(|(i, l)| Series::new(Some(l), vec![(0.0, 1.0), (1.0, 2.0)], Style::LineMarkers, i)).collect();
+        let panel = |labels: &[&str]| LinePanel { title: "CV".into(), x_label: "f (Hz)".into(), y_label: "CV".into(), log_x: false, log_y: false, equal_aspect: false, integer_x: false, categories: vec![], series: series(labels) };
+        let cw = 600.0;
+        let l = LineLayout::new(&panel(&[long, "short", long]), &sc, cw, None);
+        let inside = cw - 2.0 * sc.m;
+        for (i, labels) in l.legend_labels.iter().enumerate() {
+            assert!(labels.iter().all(|t| 2.4 * sc.font + text_width(t, sc.font) <= inside), "label {i} runs out of the panel: {labels:?}");
+        }
+        let wrapped = l.legend_labels[0].len();
+        assert!(wrapped > 1, "{:?}", l.legend_labels[0]);
+        // each long label its own rows, the short one a row of its own between them
+        assert_eq!(l.legend.len(), 2 * wrapped + 1);
+        assert_eq!(l.legend[0], vec![(0, 0.0)]);
+        assert_eq!(l.legend[wrapped], vec![(1, 0.0)]);
+        let short = LineLayout::new(&panel(&["a", "b", "c"]), &sc, cw, None);
+        assert_eq!(short.legend.len(), 1, "three short labels share one line");
     }
 
     #[test]

@@ -285,7 +285,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     int("elements", 1000, 2, 1_000_000, "rod segments N (N+1 nodes), raised if coil_resolution asks for more"),
     real("fibre_speed", "m/s", 5.0, 1e-3, 200.0, "feed speed v_f of the fibre, downward (Table 1: 5)"),
     real("belt_speed", "m/s", 0.2, 0.0, 200.0, "belt speed along +x, machine direction (Table 1: 0.2)"),
-    real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1)"),
+    real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1); above 1 prefer integrator implicit_axial: the default scheme loses fibres to unstable steps (laid webs at mu = 3: 19 of 100, single fibres at mu = 10: 6 of 20; FIBRE_SPEED.md, PHYSICAL_WEBS.md)"),
     real("diameter", "m", 50e-6, 1e-7, 1e-2, "fibre diameter d (Table 1: 50 um)"),
     real("air_speed", "m/s", 10.0, 0.0, 500.0, "downward air speed in the laydown zone (Table 1: 10)"),
     real("belt_permeability", "1", 0.0, 0.0, 1.0, "air_field impinging*: fraction phi of the air passing through the belt (0 = impermeable, 1 = the uniform field)"),

@@ -504,6 +504,11 @@ impl Ranged for Ticked {
     }
 }
 
+/// A legend entry's sample and the gap after it, before its label (in font sizes).
+const LEGEND_SAMPLE: f64 = 2.4;
+/// Distance between two legend lines (in font sizes).
+const LEGEND_LINE: f64 = 1.35;
+
 /// Where the parts of a line panel go inside its cell.
 struct LineLayout {
     caption: Vec<String>,
@@ -531,7 +536,7 @@ impl LineLayout {
         // a label wider than the panel wraps under its own sample, so that it never runs
         // into the next panel
         let width = cw - 2.0 * sc.m;
-        let sample = 2.4 * sc.font;
+        let sample = LEGEND_SAMPLE * sc.font;
         let legend_labels: Vec<Vec<String>> = p
             .series
             .iter()
@@ -549,7 +554,7 @@ impl LineLayout {
             .collect();
         let legend = flow(&entries, width);
         // with the space under the panel
-        let legend_h = row.map_or(legend.len() as f64 * 1.35 * sc.font + sc.bottom(), |r| r.legend_h);
+        let legend_h = row.map_or(legend.len() as f64 * LEGEND_LINE * sc.font + sc.bottom(), |r| r.legend_h);
         let (xr, yr) = data_ranges(p);
         let x_area = sc.x_area();
         let chart_h = |plot_h: f64| plot_h + x_area + sc.m;
@@ -899,7 +904,7 @@ where
 /// A legend label's text lines beside its sample at (x, y), one under the other.
 fn draw_label<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, lines: &[String], sc: &Scale, x: f64, y: f64) -> Result<()> {
     for (j, line) in lines.iter().enumerate() {
-        draw_text(area, line, sc.font, (x + 2.4 * sc.font, y + j as f64 * 1.35 * sc.font), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
+        draw_text(area, line, sc.font, (x + LEGEND_SAMPLE * sc.font, y + j as f64 * LEGEND_LINE * sc.font), Pos::new(HPos::Left, VPos::Center), FontTransform::None)?;
     }
     Ok(())
 }
@@ -907,7 +912,7 @@ fn draw_label<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, lines: &[String
 /// The legend under a plot: a sample of each labelled series and its label, in lines.
 fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &LinePanel, l: &LineLayout, sc: &Scale) -> Result<()> {
     for (k, line) in l.legend.iter().enumerate() {
-        let y = 0.3 * sc.font + (k as f64 + 0.5) * 1.35 * sc.font;
+        let y = 0.3 * sc.font + (k as f64 + 0.5) * LEGEND_LINE * sc.font;
         for &(i, x) in line {
             let s = &p.series[i];
             let x = sc.m + x;
@@ -1212,7 +1217,7 @@ mod tests {
         let l = LineLayout::new(&panel(&[long, "short", long]), &sc, cw, None);
         let inside = cw - 2.0 * sc.m;
         for (i, labels) in l.legend_labels.iter().enumerate() {
-            assert!(labels.iter().all(|t| 2.4 * sc.font + text_width(t, sc.font) <= inside), "label {i} runs out of the panel: {labels:?}");
+            assert!(labels.iter().all(|t| LEGEND_SAMPLE * sc.font + text_width(t, sc.font) <= inside), "label {i} runs out of the panel: {labels:?}");
         }
         let wrapped = l.legend_labels[0].len();
         assert!(wrapped > 1, "{:?}", l.legend_labels[0]);

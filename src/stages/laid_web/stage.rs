@@ -71,19 +71,29 @@ pub struct LaidWebStageParams {
 
 /// The typed parameters of one sweep point (its rows were checked against the table).
 pub fn laid_web_params(p: &ParamSet) -> LaidWebParams {
-    let p: LaidWebStageParams = p.to_typed().expect("the laid_web table and LaidWebStageParams agree (tested)");
-    LaidWebParams {
-        scene: p.scene,
-        fibres_across: p.fibres_across,
-        fibre_spacing: p.fibre_spacing,
-        belt_travel: p.belt_travel,
-        element_length: p.element_length,
-        turbulence: p.turbulence,
-        frequency_jitter: p.frequency_jitter,
-        amplitude_jitter: p.amplitude_jitter,
-        edge_margin_spreads: p.edge_margin_spreads,
-        feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, oscillation_ramp: p.oscillation_ramp, front_margin: p.freeze_front_margin, ..FeedSettings::default() },
-        fibre_contact: p.fibre_contact.then_some(FibreContactSettings { friction: p.fibre_friction, interval: p.contact_interval, self_contact: p.self_contact }),
+    stage_params(p).into()
+}
+
+/// The stage's rows of one sweep point, typed.
+fn stage_params(p: &ParamSet) -> LaidWebStageParams {
+    p.to_typed().expect("the laid_web table and LaidWebStageParams agree (tested)")
+}
+
+impl From<LaidWebStageParams> for LaidWebParams {
+    fn from(p: LaidWebStageParams) -> Self {
+        LaidWebParams {
+            scene: p.scene,
+            fibres_across: p.fibres_across,
+            fibre_spacing: p.fibre_spacing,
+            belt_travel: p.belt_travel,
+            element_length: p.element_length,
+            turbulence: p.turbulence,
+            frequency_jitter: p.frequency_jitter,
+            amplitude_jitter: p.amplitude_jitter,
+            edge_margin_spreads: p.edge_margin_spreads,
+            feed: FeedSettings { freeze: p.freeze, settle_time: p.settle_time, oscillation_ramp: p.oscillation_ramp, front_margin: p.freeze_front_margin, ..FeedSettings::default() },
+            fibre_contact: p.fibre_contact.then_some(FibreContactSettings { friction: p.fibre_friction, interval: p.contact_interval, self_contact: p.self_contact }),
+        }
     }
 }
 
@@ -135,12 +145,12 @@ impl Stage for LaidWebStage {
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
-        let own: LaidWebStageParams = p.to_typed().expect("the laid_web table and LaidWebStageParams agree (tested)");
+        let own = stage_params(p);
         // a flag that only acts with fibre contact would otherwise be silently ignored
         if own.self_contact && !own.fibre_contact {
             return Err(InvalidParam::new("self_contact".into(), "self_contact: true needs fibre_contact: true (a fibre can only rest on its own loops when fibres touch at all)".into()));
         }
-        laid_web_params(p).validate()
+        LaidWebParams::from(own).validate()
     }
     /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it
     /// costs at least (a dense web's contact work grows with its pile, which the

@@ -241,6 +241,7 @@ pub fn main_with(cli: Cli) -> i32 {
                     return 2;
                 }
             };
+            print_warnings(&p);
             if over_cpu_limit(&p, &crate::run_time::estimates(&p), &path, max_cpu_time) {
                 return 2;
             }
@@ -304,6 +305,7 @@ pub fn main_with(cli: Cli) -> i32 {
         },
         Command::Validate { pipeline: path, max_memory, max_cpu_time } => match pipeline::load_with(&path, memory_limit(max_memory)) {
             Ok(p) => {
+                print_warnings(&p);
                 let estimates = crate::run_time::estimates(&p);
                 if over_cpu_limit(&p, &estimates, &path, max_cpu_time) {
                     return 2;
@@ -356,6 +358,13 @@ fn over_cpu_limit(p: &pipeline::Pipeline, estimates: &[crate::run_time::CpuEstim
         eprintln!("{}", over.join("\n"));
     }
     !over.is_empty()
+}
+
+/// The pipeline's cautions ([`pipeline::Pipeline::warnings`]) on stderr, also under `-q`.
+fn print_warnings(p: &pipeline::Pipeline) {
+    for w in &p.warnings {
+        eprintln!("warning: {w}");
+    }
 }
 
 /// `--max-memory`, or the machine's available memory.

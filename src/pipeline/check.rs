@@ -2,7 +2,7 @@
 //! sweep against the stage kinds' parameter tables, and collects [`Diagnostic`]s with
 //! file, line, column and key (all of them, not just the first). [`super::parse`] runs it.
 
-use crate::error::InvalidParam;
+use crate::error::{InvalidParam, ParamCaution};
 use super::yaml::{self, Kind, Node, Pos, Scalar};
 use super::*;
 
@@ -12,7 +12,7 @@ pub(super) fn check(text: &str, path: &Path, limit: Limit) -> Result<Pipeline, D
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut c = Checker { file: path.display().to_string(), dir, limit, diags: vec![] };
+    let mut c = Checker { file: path.display().to_string(), dir, limit, diags: vec![], warnings: vec![] };
     let root = match yaml::parse(text) {
         Ok(r) => r,
         Err((pos, msg)) => {
@@ -22,7 +22,9 @@ pub(super) fn check(text: &str, path: &Path, limit: Limit) -> Result<Pipeline, D
     };
     let pipeline = c.pipeline(&root, path);
     if c.diags.is_empty() {
-        Ok(pipeline.expect("no diagnostics means a pipeline"))
+        let mut pipeline = pipeline.expect("no diagnostics means a pipeline");
+        pipeline.warnings = c.warnings;
+        Ok(pipeline)
     } else {
         Err(Diagnostics(c.diags))
     }
@@ -34,6 +36,8 @@ struct Checker {
     dir: PathBuf,
     limit: Limit,
     diags: Vec<Diagnostic>,
+    /// Valid settings cautioned against ([`Stage::cautions`]), once per stage and key.
+    warnings: Vec<Diagnostic>,
 }
 
 const TOP_KEYS: &[&str] = &["pipeline", "archive", "seed", "description", "executor", "stages"];
@@ -157,6 +161,7 @@ impl Checker {
             description,
             stages: stages?,
             executor: executor?,
+            warnings: vec![],
         })
     }
 
@@ -467,6 +472,23 @@ impl Checker {
                 return None;
             }
         }
+        // Valid settings known to give poor results: one warning per parameter (at the
+        // first sweep point that draws it), at its value as written under params or sweep.
+        let mut cautioned: Vec<String> = vec![];
+        for p in &points {
+            for ParamCaution { key: param, message } in stage.cautions(p) {
+                if cautioned.contains(&param) {
+                    continue;
+                }
+                let swept = decl.sweep.iter().find(|(n, _)| *n == param).and_then(|(_, values)| values.iter().position(|v| Some(v) == p.0.get(&param)));
+                let (full, pos) = match swept {
+                    Some(i) => (format!("{key}.sweep.{param}[{i}]"), find_sweep_pos(entries, &format!("{param}[{i}]"))),
+                    None => (format!("{key}.params.{param}"), find_param_pos(entries, &param)),
+                };
+                self.warnings.push(Diagnostic { file: self.file.clone(), pos: pos.unwrap_or(node.pos), key: full, message });
+                cautioned.push(param);
+            }
+        }
         Some(decl)
     }
 
@@ -647,6 +669,13 @@ fn find_param_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option
     let (_, _, params) = stage_entries.iter().find(|(k, _, _)| k == "params")?;
     let parts: Vec<&str> = dotted.split('.').collect();
     find_in(params, &parts)
+}
+
+/// The position of a parameter's value list under the stage's `sweep`.
+fn find_sweep_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option<Pos> {
+    let (_, _, sweep) = stage_entries.iter().find(|(k, _, _)| k == "sweep")?;
+    let parts: Vec<&str> = dotted.split('.').collect();
+    find_in(sweep, &parts)
 }
 
 /// The position of a dotted parameter below `node`, written nested (`synthetic: {rows: 1}`)

@@ -157,6 +157,9 @@ pub struct Pipeline {
     pub stages: Vec<StageDecl>,
     /// Where stages run (`executor:`; local by default).
     pub executor: ExecutorConfig,
+    /// Valid settings that are known to give poor results ([`crate::stages::Stage::cautions`]),
+    /// with their place in the file: `validate` and `run` print them as warnings.
+    pub warnings: Vec<Diagnostic>,
 }
 
 impl Pipeline {

@@ -4,7 +4,7 @@
 //! inputs it takes, and turns a [`RunContext`] (resolved parameters of every sweep
 //! point, replicate count, seed, input versions) into an [`Output`]. It knows nothing
 //! of YAML, files or versions: the pipeline runner and the archive do that.
-use crate::error::InvalidParam;
+use crate::error::{InvalidParam, ParamCaution};
 use crate::archive::data::{Attr, Output};
 use crate::archive::{hdf, VersionInfo};
 use crate::memory::Estimate;
@@ -123,6 +123,12 @@ pub trait Stage: Send + Sync {
     /// `Err(InvalidParam::new(parameter, message))`.
     fn check(&self, _params: &ParamSet) -> std::result::Result<(), InvalidParam> {
         Ok(())
+    }
+    /// Valid settings of one resolved point known to give poor results, each a parameter
+    /// and what to do instead: `validate` and `run` print them as warnings with the
+    /// parameter's place in the file, and the stage still runs.
+    fn cautions(&self, _params: &ParamSet) -> Vec<ParamCaution> {
+        Vec::new()
     }
     /// The peak memory of a run of `stage` (its resolved sweep points and replicates,
     /// and its inputs as declared), with the parameters that drive it; `None` when the

@@ -276,6 +276,10 @@ impl Stage for LaydownStage {
         })
     }
 
+    fn cautions(&self, p: &ParamSet) -> Vec<crate::error::ParamCaution> {
+        LaydownStageParams::of(p).scene.cautions()
+    }
+
     /// [`estimated_cpu_seconds`]: about, for the vertical start; at most, for the fed
     /// start (frozen laid fibre costs nothing); at least, with a `valid_replicates_target`
     /// (invalid replicates are redrawn), unless the start is fed too (then about).

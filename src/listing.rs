@@ -65,11 +65,13 @@ pub fn list(path: &Path) -> Result<Listing> {
 impl Listing {
     /// One line per version; `*` marks the current ones.
     pub fn text(&self) -> String {
-        let mut lines = vec![format!("{:<16} {:>5} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)")];
+        // the stage column as wide as the longest name, so that the columns stay aligned
+        let w = self.stages.iter().map(|(s, _, _)| s.chars().count()).max().unwrap_or(0).max(16);
+        let mut lines = vec![format!("{:<w$} {:>5} {:<10} {:<10} {:<17} {:>10}  {}", "stage", "ver", "kind", "status", "params hash", "wall (s)", "finished (UTC)")];
         for (stage, _, rows) in &self.stages {
             for v in rows {
                 lines.push(format!(
-                    "{:<16} {:>5} {:<10} {:<10} {:<17} {:>10.2}  {}",
+                    "{:<w$} {:>5} {:<10} {:<10} {:<17} {:>10.2}  {}",
                     stage,
                     format!("v{}{}", v.version, if v.current { "*" } else { " " }),
                     v.kind.as_deref().unwrap_or("?"),
@@ -197,5 +199,24 @@ fn value_json(v: &ParamValue) -> Value {
         ParamValue::Text(t) => json!(t),
         ParamValue::List(l) => json!(l),
         ParamValue::Auto => Value::Null,
+    }
+}
+
+#[cfg(test)]
+mod text_tests {
+    use super::*;
+
+    /// A stage name longer than the default column (`grid_implicit_axial`) widens it: every
+    /// line's kind and status start where their headings do.
+    #[test]
+    fn long_stage_names_keep_the_columns_aligned() {
+        let row = |version| VersionRow { version, current: version == 2, kind: Some("grid".into()), status: Some("complete".into()), params_hash: Some("54cf8b505a1f60f5".into()), wall_seconds: Some(1.2), end_utc: Some("2026-12-03T08:35:27Z".into()) };
+        let listing = Listing { archive: "a.h5".into(), stages: vec![("grid".into(), Some(2), vec![row(1), row(2)]), ("grid_implicit_axial".into(), Some(2), vec![row(1), row(2)])] };
+        let text = listing.text();
+        let lines: Vec<&str> = text.lines().take(5).collect();
+        let (kind, status) = (lines[0].find("kind").unwrap(), lines[0].find("status").unwrap());
+        for l in &lines[1..] {
+            assert_eq!((&l[kind..kind + 4], &l[status..status + 8]), ("grid", "complete"), "columns moved:\n{text}");
+        }
     }
 }

@@ -121,6 +121,19 @@ impl Series {
     }
 }
 
+/// Drop the legend labels of `later` that `shown` (a panel before it in the same figure)
+/// already gives with the same colour and style, so that one legend serves panels that
+/// plot the same lines (ρ_av beside CV): a label repeated under every panel is read once
+/// and takes room from the plots. Labels of its own (measured values only one panel has)
+/// stay.
+pub fn drop_repeated_labels(shown: &[Series], later: &mut [Series]) {
+    for s in later.iter_mut() {
+        if shown.iter().any(|f| f.label.is_some() && f.label == s.label && f.colour == s.colour && f.style == s.style) {
+            s.label = None;
+        }
+    }
+}
+
 /// A 2-D line or scatter plot.
 #[derive(Debug, Clone, Default)]
 pub struct LinePanel {
@@ -1206,6 +1219,22 @@ mod tests {
     /// A legend label wider than its panel wraps under its sample instead of running into
     /// the next panel, and the legend grows by its extra lines; short labels still share a
     /// line.
+    #[test]
+    fn a_label_another_panel_shows_alike_is_dropped() {
+        let line = |label: &str, style, colour| Series::new(Some(label), vec![(0.0, 1.0), (1.0, 2.0)], style, colour);
+        let shown = vec![line("c = 0.05", Style::LineMarkers, 0), line("c = 0.1", Style::LineMarkers, 1), line("measured (Table 4)", Style::Markers, 3)];
+        let mut later = vec![
+            line("c = 0.05", Style::LineMarkers, 0),
+            line("c = 0.1", Style::LineMarkers, 2),
+            line("measured CV_corr (Table 4)", Style::Markers, 3),
+            line("c = 0.05", Style::Dashed, 0),
+        ];
+        drop_repeated_labels(&shown, &mut later);
+        let labels: Vec<Option<&str>> = later.iter().map(|s| s.label.as_deref()).collect();
+        // only the exact repeat goes: another colour, another style or another text stays
+        assert_eq!(labels, [None, Some("c = 0.1"), Some("measured CV_corr (Table 4)"), Some("c = 0.05")]);
+    }
+
     #[test]
     fn long_legend_labels_wrap_within_their_panel() {
         ensure_font_for_tests();

@@ -1,7 +1,7 @@
 //! Grid figures: density maps (Fig 9), CV and formation number against zone size with
 //! the random-line reference, ρ_av and CV against the swept parameters (Fig 10d,e) and,
 //! with `compare_with: table4`, against the paper's measured values (Fig 13).
-use super::figure::{Figure, LinePanel, MapPanel, Panel, Series, Style};
+use super::figure::{drop_repeated_labels, Figure, LinePanel, MapPanel, Panel, Series, Style};
 use super::{lines_along, sweep_axis, StageData};
 use anyhow::Result;
 use ndarray::{Array2, ArrayD, Axis, Ix1, Ix3, Ix4};
@@ -67,6 +67,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
         nf_series.push(Series::new(Some(&name), xs.iter().copied().zip(f).collect(), Style::LineMarkers, p).with_error(fs));
     }
     nf_series.push(Series::new(Some("random lines (n_f = 1)"), zone.iter().map(|z| (z * 1e3, 1.0)).collect(), Style::Dashed, 7));
+    drop_repeated_labels(&cv_series, &mut nf_series);
     figs.push(Figure::new(
         "zone_size",
         "Uniformity against zone size (mean ± std over realisations)",
@@ -133,6 +134,7 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             cv.push(Series::new(Some("measured CV_corr (Table 4)"), pts(&cv_corr, 0.01), Style::Markers, 3));
             cv.push(Series::new(Some("measured CV raw (Table 4)"), pts(&cv_raw, 0.01), Style::Markers, 1));
         }
+        drop_repeated_labels(&rho, &mut cv);
         figs.push(Figure::new(
             &format!("uniformity_vs_{}", s.name),
             &format!("Areal density and CV against {} (mean ± std over realisations)", x.symbol),

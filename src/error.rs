@@ -24,14 +24,3 @@ impl InvalidParam {
         InvalidParam { key, message }
     }
 }
-
-/// A valid parameter setting known to give poor results (e.g. a scheme that loses
-/// replicates in that range): its key as written in the pipeline file and what to do
-/// instead. `validate` and `run` print it as a warning with the key's file, line and
-/// column; the pipeline still runs.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{key}: {message}")]
-pub struct ParamCaution {
-    pub key: String,
-    pub message: String,
-}

@@ -362,6 +362,16 @@ pub struct TypedParamsError {
     pub message: String,
 }
 
+/// A valid parameter setting known to give poor results (e.g. a scheme that loses
+/// replicates in that range): its key as written in the pipeline file and what to do
+/// instead. `validate` and `run` print it as a warning with the key's file, line and
+/// column; the pipeline still runs (see `Stage::cautions`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamCaution {
+    pub key: String,
+    pub message: String,
+}
+
 /// Resolved parameters of one stage (or one sweep point): every parameter of the
 /// table present, defaults filled in, keyed by dotted name.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -43,7 +43,7 @@ fn high_friction_with_the_default_integrator_warns_where_it_is_written() {
         let w = warnings(&e);
         assert_eq!(w.len(), 2, "{args:?}: one warning per stage and parameter, none for implicit_axial:\n{e}");
         assert!(w[0].starts_with("warning: p.yaml:8:29: stages[0].params.friction_coefficient: 3 is above 2"), "{}", w[0]);
-        // the sweep's first value above 1 (3.0, item 1), not the list
+        // the sweep's first value above 2 (3.0, item 1), not the list
         assert!(w[1].starts_with("warning: p.yaml:16:35: stages[1].sweep.friction_coefficient[1]: 3 is above 2"), "{}", w[1]);
         assert!(w.iter().all(|l| l.contains("integrator: implicit_axial")), "says what to do instead: {e}");
         assert!(!e.contains("error"), "{e}");
@@ -60,4 +60,34 @@ fn defaults_and_friction_up_to_2_draw_no_warning() {
     let (_, e) = text(&out);
     assert_eq!(out.status.code(), Some(0), "{e}");
     assert!(warnings(&e).is_empty(), "{e}");
+}
+
+/// In a zip sweep the warning names the item of the point that draws it, even where an
+/// earlier item has the same value; a small enough step draws none.
+#[test]
+fn a_zip_sweep_warns_at_the_item_of_the_point() {
+    let tmp = tempfile::tempdir().unwrap();
+    let yaml = "pipeline: zip\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    sweep_mode: zip\n    sweep:\n      friction_coefficient: [3.0, 3.0, 3.0]\n      integrator: [implicit_axial, trapezoidal_axial, trapezoidal_axial]\n      time_step_factor: [0.8, 0.2, 0.8]\n";
+    write_pipeline(tmp.path(), "p.yaml", yaml);
+    let out = run_in(tmp.path(), &["validate", "p.yaml"]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let w = warnings(&e);
+    assert_eq!(w.len(), 1, "{e}");
+    assert!(w[0].starts_with("warning: p.yaml:8:40: stages[0].sweep.friction_coefficient[2]: 3 is above 2"), "{}", w[0]);
+}
+
+/// In a cartesian sweep the item is found from the point's place in the grid (the last
+/// list varies fastest).
+#[test]
+fn a_cartesian_sweep_warns_at_the_item_of_the_point() {
+    let tmp = tempfile::tempdir().unwrap();
+    let yaml = "pipeline: grid\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    sweep:\n      friction_coefficient: [1.0, 3.0]\n      integrator: [implicit_axial, trapezoidal_axial]\n";
+    write_pipeline(tmp.path(), "p.yaml", yaml);
+    let out = run_in(tmp.path(), &["validate", "p.yaml"]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let w = warnings(&e);
+    assert_eq!(w.len(), 1, "{e}");
+    assert!(w[0].starts_with("warning: p.yaml:7:35: stages[0].sweep.friction_coefficient[1]: 3 is above 2"), "{}", w[0]);
 }

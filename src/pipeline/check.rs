@@ -2,7 +2,8 @@
 //! sweep against the stage kinds' parameter tables, and collects [`Diagnostic`]s with
 //! file, line, column and key (all of them, not just the first). [`super::parse`] runs it.
 
-use crate::error::{InvalidParam, ParamCaution};
+use crate::error::InvalidParam;
+use crate::params::ParamCaution;
 use super::yaml::{self, Kind, Node, Pos, Scalar};
 use super::*;
 
@@ -475,14 +476,13 @@ impl Checker {
         // Valid settings known to give poor results: one warning per parameter (at the
         // first sweep point that draws it), at its value as written under params or sweep.
         let mut cautioned: Vec<String> = vec![];
-        for p in &points {
+        for (i, p) in points.iter().enumerate() {
             for ParamCaution { key: param, message } in stage.cautions(p) {
                 if cautioned.contains(&param) {
                     continue;
                 }
-                let swept = decl.sweep.iter().find(|(n, _)| *n == param).and_then(|(_, values)| values.iter().position(|v| Some(v) == p.0.get(&param)));
-                let (full, pos) = match swept {
-                    Some(i) => (format!("{key}.sweep.{param}[{i}]"), find_sweep_pos(entries, &format!("{param}[{i}]"))),
+                let (full, pos) = match decl.sweep_item(i, &param) {
+                    Some(item) => (format!("{key}.sweep.{param}[{item}]"), find_section_pos(entries, "sweep", &format!("{param}[{item}]"))),
                     None => (format!("{key}.params.{param}"), find_param_pos(entries, &param)),
                 };
                 self.warnings.push(Diagnostic { file: self.file.clone(), pos: pos.unwrap_or(node.pos), key: full, message });
@@ -666,16 +666,15 @@ fn param_or_key_pos(stage: &Node, name: &str) -> Option<(Pos, String)> {
 }
 
 fn find_param_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option<Pos> {
-    let (_, _, params) = stage_entries.iter().find(|(k, _, _)| k == "params")?;
-    let parts: Vec<&str> = dotted.split('.').collect();
-    find_in(params, &parts)
+    find_section_pos(stage_entries, "params", dotted)
 }
 
-/// The position of a parameter's value list under the stage's `sweep`.
-fn find_sweep_pos(stage_entries: &[(String, Pos, Node)], dotted: &str) -> Option<Pos> {
-    let (_, _, sweep) = stage_entries.iter().find(|(k, _, _)| k == "sweep")?;
+/// The position of a dotted parameter (or list item, `name[i]`) under the stage's
+/// `section` (`params` or `sweep`).
+fn find_section_pos(stage_entries: &[(String, Pos, Node)], section: &str, dotted: &str) -> Option<Pos> {
+    let (_, _, node) = stage_entries.iter().find(|(k, _, _)| k == section)?;
     let parts: Vec<&str> = dotted.split('.').collect();
-    find_in(sweep, &parts)
+    find_in(node, &parts)
 }
 
 /// The position of a dotted parameter below `node`, written nested (`synthetic: {rows: 1}`)

@@ -95,6 +95,17 @@ pub struct StageDecl {
 impl StageDecl {
     /// The parameter sets of all sweep points, in sweep order (last parameter fastest
     /// for cartesian products), with each point's swept values.
+    /// Which item of `param`'s sweep list point `point` of [`StageDecl::points`] takes, or
+    /// `None` when `param` is not swept.
+    pub fn sweep_item(&self, point: usize, param: &str) -> Option<usize> {
+        let k = self.sweep.iter().position(|(n, _)| n == param)?;
+        Some(match self.sweep_mode {
+            SweepMode::Zip => point,
+            // the last list varies fastest
+            SweepMode::Cartesian => point / self.sweep[k + 1..].iter().map(|(_, v)| v.len()).product::<usize>() % self.sweep[k].1.len(),
+        })
+    }
+
     pub fn points(&self) -> (Vec<ParamSet>, Vec<(String, Vec<ParamValue>)>) {
         if self.sweep.is_empty() {
             return (vec![self.params.clone()], vec![]);

@@ -1216,9 +1216,8 @@ mod tests {
         assert_eq!(b.ticks.len(), 1, "{:?}", b.labels);
     }
 
-    /// A legend label wider than its panel wraps under its sample instead of running into
-    /// the next panel, and the legend grows by its extra lines; short labels still share a
-    /// line.
+    /// Only an exact repeat (same text, colour and style) of an earlier panel's label
+    /// leaves the legend.
     #[test]
     fn a_label_another_panel_shows_alike_is_dropped() {
         let line = |label: &str, style, colour| Series::new(Some(label), vec![(0.0, 1.0), (1.0, 2.0)], style, colour);
@@ -1235,6 +1234,9 @@ mod tests {
         assert_eq!(labels, [None, Some("c = 0.1"), Some("measured CV_corr (Table 4)"), Some("c = 0.05")]);
     }
 
+    /// A legend label wider than its panel wraps under its sample instead of running into
+    /// the next panel, and the legend grows by its extra lines; short labels still share a
+    /// line.
     #[test]
     fn long_legend_labels_wrap_within_their_panel() {
         ensure_font_for_tests();

@@ -4,7 +4,8 @@
 //! inputs it takes, and turns a [`RunContext`] (resolved parameters of every sweep
 //! point, replicate count, seed, input versions) into an [`Output`]. It knows nothing
 //! of YAML, files or versions: the pipeline runner and the archive do that.
-use crate::error::{InvalidParam, ParamCaution};
+use crate::error::InvalidParam;
+use crate::params::ParamCaution;
 use crate::archive::data::{Attr, Output};
 use crate::archive::{hdf, VersionInfo};
 use crate::memory::Estimate;

@@ -152,8 +152,8 @@ impl Stage for LaidWebStage {
         }
         LaidWebParams::from(own).validate()
     }
-    fn cautions(&self, p: &ParamSet) -> Vec<crate::error::ParamCaution> {
-        LaidWebParams::from(stage_params(p)).scene.cautions()
+    fn cautions(&self, p: &ParamSet) -> Vec<crate::params::ParamCaution> {
+        stage_params(p).scene.cautions()
     }
     /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it
     /// costs at least (a dense web's contact work grows with its pile, which the

@@ -276,8 +276,8 @@ impl Stage for LaydownStage {
         })
     }
 
-    fn cautions(&self, p: &ParamSet) -> Vec<crate::error::ParamCaution> {
-        LaydownStageParams::of(p).scene.cautions()
+    fn cautions(&self, p: &ParamSet) -> Vec<crate::params::ParamCaution> {
+        scene(p).cautions()
     }
 
     /// [`estimated_cpu_seconds`]: about, for the vertical start; at most, for the fed

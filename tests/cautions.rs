@@ -32,6 +32,18 @@ fn warnings(stderr: &str) -> Vec<&str> {
     stderr.lines().filter(|l| l.starts_with("warning:")).collect()
 }
 
+/// `validate` of `yaml` as p.yaml: exit 0 and exactly one warning, returned.
+fn only_warning(yaml: &str) -> String {
+    let tmp = tempfile::tempdir().unwrap();
+    write_pipeline(tmp.path(), "p.yaml", yaml);
+    let out = run_in(tmp.path(), &["validate", "p.yaml"]);
+    let (_, e) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{e}");
+    let w = warnings(&e);
+    assert_eq!(w.len(), 1, "{e}");
+    w[0].to_string()
+}
+
 #[test]
 fn high_friction_with_the_default_integrator_warns_where_it_is_written() {
     let tmp = tempfile::tempdir().unwrap();
@@ -66,28 +78,14 @@ fn defaults_and_friction_up_to_2_draw_no_warning() {
 /// earlier item has the same value; a small enough step draws none.
 #[test]
 fn a_zip_sweep_warns_at_the_item_of_the_point() {
-    let tmp = tempfile::tempdir().unwrap();
-    let yaml = "pipeline: zip\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    sweep_mode: zip\n    sweep:\n      friction_coefficient: [3.0, 3.0, 3.0]\n      integrator: [implicit_axial, trapezoidal_axial, trapezoidal_axial]\n      time_step_factor: [0.8, 0.2, 0.8]\n";
-    write_pipeline(tmp.path(), "p.yaml", yaml);
-    let out = run_in(tmp.path(), &["validate", "p.yaml"]);
-    let (_, e) = text(&out);
-    assert_eq!(out.status.code(), Some(0), "{e}");
-    let w = warnings(&e);
-    assert_eq!(w.len(), 1, "{e}");
-    assert!(w[0].starts_with("warning: p.yaml:8:40: stages[0].sweep.friction_coefficient[2]: 3 is above 2"), "{}", w[0]);
+    let w = only_warning("pipeline: zip\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    sweep_mode: zip\n    sweep:\n      friction_coefficient: [3.0, 3.0, 3.0]\n      integrator: [implicit_axial, trapezoidal_axial, trapezoidal_axial]\n      time_step_factor: [0.8, 0.2, 0.8]\n");
+    assert!(w.starts_with("warning: p.yaml:8:40: stages[0].sweep.friction_coefficient[2]: 3 is above 2"), "{w}");
 }
 
 /// In a cartesian sweep the item is found from the point's place in the grid (the last
 /// list varies fastest).
 #[test]
 fn a_cartesian_sweep_warns_at_the_item_of_the_point() {
-    let tmp = tempfile::tempdir().unwrap();
-    let yaml = "pipeline: grid\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    sweep:\n      friction_coefficient: [1.0, 3.0]\n      integrator: [implicit_axial, trapezoidal_axial]\n";
-    write_pipeline(tmp.path(), "p.yaml", yaml);
-    let out = run_in(tmp.path(), &["validate", "p.yaml"]);
-    let (_, e) = text(&out);
-    assert_eq!(out.status.code(), Some(0), "{e}");
-    let w = warnings(&e);
-    assert_eq!(w.len(), 1, "{e}");
-    assert!(w[0].starts_with("warning: p.yaml:7:35: stages[0].sweep.friction_coefficient[1]: 3 is above 2"), "{}", w[0]);
+    let w = only_warning("pipeline: grid\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    sweep:\n      friction_coefficient: [1.0, 3.0]\n      integrator: [implicit_axial, trapezoidal_axial]\n");
+    assert!(w.starts_with("warning: p.yaml:7:35: stages[0].sweep.friction_coefficient[1]: 3 is above 2"), "{w}");
 }

@@ -93,8 +93,6 @@ pub struct StageDecl {
 }
 
 impl StageDecl {
-    /// The parameter sets of all sweep points, in sweep order (last parameter fastest
-    /// for cartesian products), with each point's swept values.
     /// Which item of `param`'s sweep list point `point` of [`StageDecl::points`] takes, or
     /// `None` when `param` is not swept.
     pub fn sweep_item(&self, point: usize, param: &str) -> Option<usize> {
@@ -106,6 +104,8 @@ impl StageDecl {
         })
     }
 
+    /// The parameter sets of all sweep points, in sweep order (last parameter fastest
+    /// for cartesian products), with each point's swept values.
     pub fn points(&self) -> (Vec<ParamSet>, Vec<(String, Vec<ParamValue>)>) {
         if self.sweep.is_empty() {
             return (vec![self.params.clone()], vec![]);

@@ -270,6 +270,7 @@ impl Default for LaydownParams {
 }
 
 pub use crate::params::ParamSpec;
+use crate::params::ParamCaution;
 
 /// Belt friction above which the default integrator (`trapezoidal_axial`) is cautioned
 /// against ([`LaydownParams::cautions`]).
@@ -465,10 +466,10 @@ impl LaydownParams {
 
     /// Valid settings that are known to give poor results, each with what to do instead
     /// (printed as warnings by `validate` and `run`; the scene still runs).
-    pub fn cautions(&self) -> Vec<crate::params::ParamCaution> {
+    pub fn cautions(&self) -> Vec<ParamCaution> {
         let mut out = Vec::new();
         if self.effects.contact && self.friction_coefficient > HIGH_FRICTION && self.integrator == Integrator::TrapezoidalAxial && self.time_step_factor > SAFE_HIGH_FRICTION_STEP {
-            out.push(crate::params::ParamCaution {
+            out.push(ParamCaution {
                 key: "friction_coefficient".into(),
                 message: format!(
                     "{} is above {HIGH_FRICTION} with integrator trapezoidal_axial (the default), which does not damp the axial waves and loses replicates at high belt friction \

@@ -18,7 +18,7 @@
 use crate::error::InvalidParam;
 use super::{lay_web, FibreContactSettings, LaidWeb, LaidWebParams, Turbulence};
 use crate::archive::data::Output;
-use crate::params::{ParamSet, ParamSpec};
+use crate::params::{ParamCaution, ParamSet, ParamSpec};
 use crate::rod::feed::FeedSettings;
 use crate::rod::LaydownParams;
 use crate::memory::Estimate;
@@ -152,7 +152,7 @@ impl Stage for LaidWebStage {
         }
         LaidWebParams::from(own).validate()
     }
-    fn cautions(&self, p: &ParamSet) -> Vec<crate::params::ParamCaution> {
+    fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
         stage_params(p).scene.cautions()
     }
     /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it

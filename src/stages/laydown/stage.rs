@@ -40,7 +40,7 @@ use super::metrics::ENERGY_COLUMNS;
 use super::{laid_polyline, simulate, LaydownResult};
 use crate::archive::data::Output;
 use crate::memory::Estimate;
-use crate::params::{ParamSet, ParamSpec};
+use crate::params::{ParamCaution, ParamSet, ParamSpec};
 use crate::stages::rows::place;
 use crate::stages::{concurrent, Declared, DeclaredFibres, InputRule, RunContext, Stage, Units};
 use anyhow::{bail, Result};
@@ -276,7 +276,7 @@ impl Stage for LaydownStage {
         })
     }
 
-    fn cautions(&self, p: &ParamSet) -> Vec<crate::params::ParamCaution> {
+    fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
         scene(p).cautions()
     }
 

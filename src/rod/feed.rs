@@ -40,6 +40,7 @@
 
 use super::contact_world::ContactBody;
 use super::integrator::{Simulator, StepControl};
+use super::recovery::Recovery;
 use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
 use super::params::LaydownParams;
 use crate::geometry::arc_length;
@@ -123,6 +124,9 @@ pub struct FedFibre {
     pub element_length: f64,
     pub steps: u64,
     pub rejected_steps: u64,
+    /// Times the run was rolled back to a checkpoint after a failed step and retaken
+    /// ([`super::recovery`]).
+    pub rollbacks: usize,
     /// Newton iterations of the length projection, summed over its calls.
     pub projection_iterations: u64,
     /// Largest allowed step (s) and the smallest step taken (s).
@@ -234,6 +238,7 @@ pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSett
         time_step: fed.time_step,
         min_time_step: fed.min_time_step,
         rejected_steps: fed.rejected_steps,
+        rollbacks: fed.rollbacks,
         projection_iterations: fed.projection_iterations,
         end_time: fed.end_time,
         elements,
@@ -276,12 +281,22 @@ pub struct Feeder {
     error: Option<String>,
     last_good: Vec<[f64; 3]>,
     wall_seconds: f64,
-    /// Freeze only when asked ([`ContactBody::freeze`]), not after every step: with
-    /// fibre contact, the node indices other fibres refer to must not change between
-    /// two preparations.
-    pub defer_freezing: bool,
+    /// Freeze only when asked ([`ContactBody::freeze`]): set by [`Feeder::join_contact_world`].
+    defer_freezing: bool,
     /// The farthest downstream this fibre's touchdown point has been (m, lab frame), as
     /// noted at each preparation ([`ContactBody::landing_reach`]).
+    landing_reach: f64,
+    /// Rollback after a failed step ([`super::recovery`]), with the feed's bookkeeping.
+    recovery: Recovery<FeedBook>,
+}
+
+/// The feed's bookkeeping a rollback restores with the simulator (the frozen nodes only
+/// grow, so their count is enough).
+#[derive(Clone)]
+struct FeedBook {
+    frozen: usize,
+    stuck_since: Vec<f64>,
+    anchors: Vec<[f64; 2]>,
     landing_reach: f64,
 }
 
@@ -321,6 +336,7 @@ impl Feeder {
         let control = StepControl::new(sim.limits.chosen, mpl);
         let nodes = sim.rod.nodes();
         let last_good = sim.rod.x.clone();
+        let recovery = Recovery::new(&mut sim, &control, p.rollbacks, FeedBook { frozen: 0, stuck_since: vec![f64::NAN; nodes], anchors: vec![[0.0; 2]; nodes], landing_reach: f64::NEG_INFINITY });
         Feeder {
             control,
             settings: settings.clone(),
@@ -339,6 +355,31 @@ impl Feeder {
             defer_freezing: false,
             landing_reach: f64::NEG_INFINITY,
             sim,
+            recovery,
+        }
+    }
+
+    /// Advance as one fibre of a [`ContactWorld`](super::contact_world::ContactWorld):
+    /// freeze only when asked ([`ContactBody::freeze`]), not after every step (the node
+    /// indices other fibres refer to must not change between two preparations), and
+    /// never roll back (the other fibres have seen the state).
+    pub fn join_contact_world(&mut self) {
+        self.defer_freezing = true;
+        self.recovery.disable();
+    }
+
+    /// After a failed step: roll back ([`super::recovery`]) with the feed's bookkeeping;
+    /// false when no rollback is left.
+    fn roll_back(&mut self) -> bool {
+        match self.recovery.roll_back(&mut self.sim, &mut self.control) {
+            Some(book) => {
+                self.frozen.truncate(book.frozen);
+                self.stuck_since = book.stuck_since;
+                self.anchors = book.anchors;
+                self.landing_reach = book.landing_reach;
+                true
+            }
+            None => false,
         }
     }
 
@@ -370,15 +411,20 @@ impl Feeder {
             } else {
                 f64::INFINITY
             };
-            let sim = &mut self.sim;
-            if self.settings.freeze && !self.defer_freezing && freeze_stuck(sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, self.settings.freeze_batch) {
+            if self.settings.freeze && !self.defer_freezing && freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, self.settings.freeze_batch) {
                 self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
             }
-            self.node_steps += sim.rod.nodes() as u64;
-            if let Err(f) = self.control.advance(sim, until) {
-                self.error = Some(f.to_string());
+            self.node_steps += self.sim.rod.nodes() as u64;
+            if let Err(f) = self.control.advance(&mut self.sim, until) {
+                if self.roll_back() {
+                    continue;
+                }
+                self.error = Some(self.recovery.failure(&f));
                 break;
             }
+            let (frozen, stuck_since, anchors, landing_reach) = (&self.frozen, &self.stuck_since, &self.anchors, self.landing_reach);
+            self.recovery.after_step(&mut self.sim, &mut self.control, || FeedBook { frozen: frozen.len(), stuck_since: stuck_since.clone(), anchors: anchors.clone(), landing_reach });
+            let sim = &mut self.sim;
             if sim.steps.is_multiple_of(256) {
                 self.last_good.clone_from(&sim.rod.x);
             }
@@ -447,6 +493,7 @@ impl Feeder {
             element_length: self.element_length,
             steps: sim.steps,
             rejected_steps: self.control.rejected,
+            rollbacks: self.recovery.rollbacks(),
             projection_iterations: sim.projection_iterations,
             time_step: self.control.dt_max,
             min_time_step: self.control.min_dt,

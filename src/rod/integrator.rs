@@ -38,7 +38,8 @@
 //!   growth rate of the fastest Euler-buckling mode under the largest compression P of
 //!   the last step (the start-up impact compresses the column and needs ~µs steps for
 //!   about a millisecond); a step that fails (projection not converging, blow-up) is
-//!   retaken at Δt/4.
+//!   retaken at Δt/4, and a run whose step fails even at the smallest is rolled back to a
+//!   checkpoint and the stretch retaken ([`super::recovery`]).
 //!
 //! Work ([`Work`], the energy diagnostics). Over a step node i obeys
 //! m(v' − v) = Δt F + I(v') + G/Δt + R (v, v' its start- and end-of-step velocities,
@@ -169,6 +170,7 @@ pub enum StepFailure {
 }
 
 /// The time stepper of one replicate.
+#[derive(Clone)]
 pub struct Simulator {
     pub rod: Rod,
     pub ws: Workspace,

@@ -75,6 +75,9 @@ pub struct LaydownResult {
     pub min_time_step: f64,
     /// Steps rejected and retaken with a smaller step (adaptive schemes).
     pub rejected_steps: u64,
+    /// Times the run was rolled back to a checkpoint after a failed step and the stretch
+    /// retaken ([`super::recovery`]).
+    pub rollbacks: usize,
     /// Newton iterations of the length projection (tridiagonal solves, summed over runs).
     pub projection_iterations: u64,
     pub time_step_limits: Option<TimeStepLimits>,
@@ -98,9 +101,9 @@ impl LaydownResult {
     /// test output).
     pub fn summary(&self) -> String {
         format!(
-            "err={:?} valid={} lift={:.2e} reason={:?} landed={} laid={:.4} S={:.5} e={:.1} S_rm={:.5} e_rm={:.1} steps={} rej={} dt={:.3e} mindt={:.2e} wall={:.2}s pen={:.2e} cons={:.1e}",
+            "err={:?} valid={} lift={:.2e} reason={:?} landed={} laid={:.4} S={:.5} e={:.1} S_rm={:.5} e_rm={:.1} steps={} rej={} rb={} dt={:.3e} mindt={:.2e} wall={:.2}s pen={:.2e} cons={:.1e}",
             self.error, self.valid, self.max_lift_after_landing, self.invalid_reason, self.landed_nodes, self.laid_length, self.radius_of_gyration,
-            self.bending_energy, self.radius_of_gyration_belt_removed, self.bending_energy_belt_removed, self.steps, self.rejected_steps, self.time_step,
+            self.bending_energy, self.radius_of_gyration_belt_removed, self.bending_energy_belt_removed, self.steps, self.rejected_steps, self.rollbacks, self.time_step,
             self.min_time_step, self.wall_seconds, self.max_penetration, self.max_constraint_error
         )
     }
@@ -129,6 +132,7 @@ impl LaydownResult {
             time_step: 0.0,
             min_time_step: 0.0,
             rejected_steps: 0,
+            rollbacks: 0,
             projection_iterations: 0,
             time_step_limits: None,
             end_time: 0.0,

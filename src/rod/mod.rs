@@ -6,6 +6,7 @@
 //! Layout: [`state`] (nodes, masses, workspace), [`forces`] (one opt-in [`forces::Term`]
 //! per effect: elasticity, gravity, drag, oscillation, damping), [`contact`] (belt
 //! plane, Coulomb friction), [`integrator`] (time steppers and their step control),
+//! [`recovery`] (a run whose step failed rolled back to a checkpoint and retaken),
 //! [`params`] (the scene's parameter table), [`replicate`] (one replicate by either start, batches of them), [`air`] (the opt-in air field near the belt), [`scene`] (the paper's single-fibre scene),
 //! [`feed`] (continuous feed: a fibre of any length fed through the laydown zone, the
 //! stuck part frozen), [`twist`] (opt-in rod twist), [`fibre_contact`] and [`contact_world`] (opt-in contact between
@@ -125,6 +126,7 @@ pub mod forces;
 pub mod integrator;
 pub mod metrics;
 pub mod params;
+pub mod recovery;
 pub mod replicate;
 pub mod scene;
 pub mod state;

@@ -198,6 +198,8 @@ pub struct LaydownParams {
     pub gravity: f64,
     /// Safety factor on the automatically chosen stable time step (≤ 1).
     pub time_step_factor: f64,
+    /// Rollbacks a run may take after a failed step ([`super::recovery`]); 0: none.
+    pub rollbacks: usize,
     /// Record energy diagnostics every this many steps.
     pub diagnostic_stride: usize,
     /// A landed node rising above this height later makes the replicate invalid (m).
@@ -253,6 +255,7 @@ impl Default for LaydownParams {
             imperfection_std: 1e-6,
             gravity: 9.81,
             time_step_factor: 0.8,
+            rollbacks: super::recovery::ROLLBACKS,
             diagnostic_stride: 1000,
             bounce_tolerance: 1e-3,
             penetration_tolerance: 1e-5,
@@ -314,6 +317,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("imperfection_std", "m", 1e-6, 0.0, 1e-2, "std of the initial x/y node imperfections"),
     real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
     real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step"),
+    int("rollbacks", super::recovery::ROLLBACKS as i64, 0, 1000, "adaptive-step schemes: times a run whose step failed even at the smallest step goes back to a checkpoint 64-128 steps earlier and retakes the stretch with the axial springs by backward Euler and a quarter of the step (src/rod/recovery.rs); 0 = the first failure ends the replicate or fibre"),
     int("diagnostic_stride", 1000, 1, 1_000_000_000, "record energy diagnostics every this many steps"),
     real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
@@ -362,6 +366,7 @@ impl LaydownParams {
             "gravity" => self.gravity,
             "time_step_factor" => self.time_step_factor,
             "diagnostic_stride" => self.diagnostic_stride as f64,
+            "rollbacks" => self.rollbacks as f64,
             "bounce_tolerance" => self.bounce_tolerance,
             "penetration_tolerance" => self.penetration_tolerance,
             "coil_resolution" => self.coil_resolution,
@@ -385,6 +390,10 @@ impl LaydownParams {
             }
             "diagnostic_stride" => {
                 self.diagnostic_stride = value as usize;
+                return Ok(());
+            }
+            "rollbacks" => {
+                self.rollbacks = value as usize;
                 return Ok(());
             }
             "length" => &mut self.length,

@@ -4,6 +4,7 @@ use super::air::{AirField, ImpingingAir, JetShape};
 use super::contact::BeltContact;
 use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
+use super::recovery::Recovery;
 use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
 use super::params::{BounceCheck, FeedEnd, Integrator, LaydownParams};
 use super::twist::Twist;
@@ -215,6 +216,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     let mut last_good = sim.rod.x.clone();
     let mut error = None;
     let mut rejected = 0u64;
+    let mut rollbacks = 0;
     let min_dt;
     if p.integrator == Integrator::Explicit {
         // fixed step, rounded so that the run ends exactly at end_time
@@ -246,18 +248,29 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     } else {
         // adaptive step (see StepControl): dt <= dt_stable, growth <= 25 % per step,
         // dt <= 0.5/sigma, a failed step retaken at dt/4.
+        // A step that fails even at the smallest size rolls the run back to a
+        // checkpoint (with the energy samples recorded by then) and retakes the stretch
+        // with the recovery scheme (super::recovery).
         let mut control = StepControl::new(limits.chosen, p.mass_per_length());
+        let mut recovery = Recovery::new(sim, &control, p.rollbacks, diagnostics.len());
         let tol = end_time * 1e-12;
         while sim.t < end_time - tol {
             if let Err(f) = control.advance(sim, end_time) {
-                error = Some(f.to_string());
+                if let Some(samples) = recovery.roll_back(sim, &mut control) {
+                    diagnostics.truncate(samples);
+                    continue;
+                }
+                error = Some(recovery.failure(&f));
                 break;
             }
             if sim.steps.is_multiple_of(stride) || sim.t >= end_time - tol {
                 diagnostics.push(sim.energy_sample());
                 last_good.copy_from_slice(&sim.rod.x);
             }
+            let samples = diagnostics.len();
+            recovery.after_step(sim, &mut control, || samples);
         }
+        rollbacks = recovery.rollbacks();
         rejected = control.rejected;
         min_dt = control.min_dt;
         sim.dt = limits.chosen;
@@ -329,6 +342,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         time_step: sim.dt,
         min_time_step: min_dt,
         rejected_steps: rejected,
+        rollbacks,
         projection_iterations: sim.projection_iterations,
         time_step_limits: Some(super::integrator::TimeStepLimits { chosen: sim.dt, ..limits }),
         end_time: t_end,

@@ -471,7 +471,7 @@ impl ContactWeb {
             .map(|j| {
                 let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
                 let mut feeder = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
-                feeder.defer_freezing = true;
+                feeder.join_contact_world();
                 let mut contact = FibreContact::new(d, friction);
                 contact.web_top = scene.bounce_tolerance;
                 feeder.simulator_mut().fibre_contact = Some(contact);

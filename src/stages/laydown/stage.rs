@@ -68,9 +68,11 @@ const MESH_METRICS: [(&str, &str); 4] = [
 pub struct LaydownStage;
 
 /// Bytes per node of a rod being simulated: state, workspace (forces, drag and
-/// constraint matrices, contact) and the step-rejection snapshot, about 75 f64. One
-/// replicate of 100001 nodes peaked at 71 MB resident, estimated at 90 MB.
-pub const SIM_BYTES_PER_NODE: f64 = 640.0;
+/// constraint matrices, contact) and the step-rejection snapshot, about 75 f64, and the
+/// two checkpoints of the recovery (`rollbacks`, state only: 190 B each). One replicate
+/// of 100001 nodes peaked at 71 MB resident before the checkpoints, estimated at 90 MB;
+/// the checkpoints took 20001 nodes from 26.9 to 34.4 MB.
+pub const SIM_BYTES_PER_NODE: f64 = 1024.0;
 /// Bytes per node of a finished replicate until the output is written: its positions,
 /// velocities, landing times and belt-removed laid nodes, its row (positions, laid,
 /// belt-removed, landing) and the copy placed on (point, replicate).
@@ -190,7 +192,7 @@ impl Stage for LaydownStage {
         "one fibre fed onto a moving belt: geometrically nonlinear rod with drag, oscillation, contact and friction (paper §2)"
     }
     fn cache_version(&self) -> u32 {
-        2
+        3
     }
     fn inputs(&self) -> InputRule {
         InputRule { kinds: &[], min: 0, max: 0 }
@@ -519,6 +521,7 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
     out.f64("radius_of_gyration_belt_removed", &[unit], column(&|r| ok(r, r.radius_of_gyration_belt_removed)), "m", "");
     out.f64("bending_energy_belt_removed", &[unit], column(&|r| ok(r, r.bending_energy_belt_removed)), "1", "");
     out.f64("steps", &[unit], column(&|r| r.steps as f64), "1", "");
+    out.f64("rollbacks", &[unit], column(&|r| r.rollbacks as f64), "1", "");
     out.f64("time_step", &[unit], column(&|r| r.time_step), "s", "");
     out.f64("wall_seconds", &[unit], column(&|r| r.wall_seconds), "s", "");
     out.f64("max_lift_after_landing", &[unit], column(&|r| r.max_lift_after_landing), "m", "");
@@ -630,6 +633,7 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
     let s_b = per_rep("radius_of_gyration_belt_removed")?;
     let e_b = per_rep("bending_energy_belt_removed")?;
     let steps = per_rep("steps")?;
+    let rollbacks = per_rep("rollbacks")?;
     let wall = per_rep("wall_seconds")?;
     let dt = per_rep("time_step")?;
     let lift = per_rep("max_lift_after_landing")?;
@@ -699,6 +703,7 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
         add_mesh_error(&mut out, &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name, by_landing)?;
     }
     out.f64("steps", &["point", "replicate"], steps, "1", "time steps taken");
+    out.f64("rollbacks", &["point", "replicate"], rollbacks, "1", "rollbacks after failed steps").describe("times the run went back to a checkpoint after a step failed even at the smallest size and retook the stretch with the recovery scheme (parameter rollbacks, src/rod/recovery.rs); 0: no step failed");
     out.f64("time_step", &["point", "replicate"], dt, "s", "time step").describe("time step used (largest allowed for adaptive schemes)");
     out.f64("wall_seconds", &["point", "replicate"], wall, "s", "wall time of the replicate");
     out.f64("max_lift_after_landing", &["point", "replicate"], lift, "m", "highest rise after landing").describe("highest rise of a landed node above the belt at any time after its landing (bounce_check = transient)");

@@ -403,7 +403,7 @@ impl Simulator {
     /// Continuous feed: add a node at `x` with velocity `v` above the driven top node,
     /// joined by a segment of rest length `rest`; it becomes the driven top node
     /// (its height follows z = x_z − speed (t' − t)). The per-step workspace is
-    /// reallocated (it holds nothing between steps).
+    /// resized (it holds nothing between steps).
     pub fn push_top(&mut self, x: [f64; 3], v: [f64; 3], rest: f64, mass_per_length: f64) {
         let top = self.rod.nodes() - 1;
         let k_top = 0.5 * (self.rod.v[top][0].powi(2) + self.rod.v[top][1].powi(2) + self.rod.v[top][2].powi(2));
@@ -433,7 +433,7 @@ impl Simulator {
         if let Some(speed) = self.driven_top {
             self.top_start_z = x[2] + speed * self.t;
         }
-        self.ws = Workspace::new(self.rod.nodes());
+        self.ws.resize(self.rod.nodes());
     }
 
     /// Drop the first `count` nodes (they leave the simulation, e.g. frozen on the belt)
@@ -476,7 +476,7 @@ impl Simulator {
                 [x[0] - velocity[0] * t, x[1] - velocity[1] * t, x[2] - velocity[2] * t]
             })
             .collect();
-        self.ws = Workspace::new(self.rod.nodes());
+        self.ws.resize(self.rod.nodes());
     }
 
     /// Elastic energies at the current state (refreshes the segment geometry).

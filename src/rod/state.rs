@@ -147,6 +147,27 @@ impl Workspace {
         }
     }
 
+    /// Size for `nodes` nodes, as [`Workspace::new`] but keeping the allocations (the
+    /// continuous feed changes the node count every few steps; every step writes these
+    /// arrays before it reads them).
+    pub fn resize(&mut self, nodes: usize) {
+        let s = nodes - 1;
+        for v in [&mut self.force, &mut self.rhs, &mut self.x_old, &mut self.lag_force, &mut self.v_start, &mut self.we_prev, &mut self.we_next] {
+            v.resize(nodes, [0.0; 3]);
+        }
+        for v in [&mut self.amat, &mut self.drag_g, &mut self.winv] {
+            v.resize(nodes, [0.0; 6]);
+        }
+        self.contact.resize(nodes, NodeContact::Free);
+        for v in [&mut self.tangent, &mut self.lambda_e, &mut self.seg_e] {
+            v.resize(s, [0.0; 3]);
+        }
+        for v in [&mut self.seg_len, &mut self.cons, &mut self.cprime, &mut self.lambda, &mut self.lambda_acc] {
+            v.resize(s, 0.0);
+        }
+        self.bend_first = 0;
+    }
+
     /// Segment lengths and unit tangents of the rod's current positions.
     pub fn update_geometry(&mut self, rod: &Rod) {
         for k in 0..rod.rest.len() {

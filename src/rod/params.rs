@@ -297,7 +297,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     int("elements", 1000, 2, 1_000_000, "rod segments N (N+1 nodes), raised if coil_resolution asks for more"),
     real("fibre_speed", "m/s", 5.0, 1e-3, 200.0, "feed speed v_f of the fibre, downward (Table 1: 5)"),
     real("belt_speed", "m/s", 0.2, 0.0, 200.0, "belt speed along +x, machine direction (Table 1: 0.2)"),
-    real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1); above 2 prefer integrator implicit_axial: the default scheme loses fibres to unstable steps and bounces (laid webs at mu = 3: 19 of 100, single fibres at mu = 10: 6 of 20; single fibres at 2: none; FIBRE_SPEED.md), and validate warns (unless time_step_factor <= 0.2)"),
+    real("friction_coefficient", "1", 1.0, 0.0, 100.0, "Coulomb friction coefficient mu fibre/belt (Table 1: 1); above 2 prefer integrator implicit_axial: the default scheme's steps fail often there and are rolled back and retaken (laid webs at mu = 3: 37 of 200 fibres), and fibres bounce (single fibres at mu = 10: 2 of 20, the explicit reference none; FIBRE_SPEED.md), and validate warns (unless time_step_factor <= 0.2)"),
     real("diameter", "m", 50e-6, 1e-7, 1e-2, "fibre diameter d (Table 1: 50 um)"),
     real("air_speed", "m/s", 10.0, 0.0, 500.0, "downward air speed in the laydown zone (Table 1: 10)"),
     real("belt_permeability", "1", 0.0, 0.0, 1.0, "air_field impinging*: fraction phi of the air passing through the belt (0 = impermeable, 1 = the uniform field)"),
@@ -481,10 +481,10 @@ impl LaydownParams {
             out.push(ParamCaution {
                 key: "friction_coefficient".into(),
                 message: format!(
-                    "{} is above {HIGH_FRICTION} with integrator trapezoidal_axial (the default), which does not damp the axial waves and loses replicates at high belt friction \
-                     to unstable steps and spurious bounces (measured: laid webs at 3 lost 19 of 100 fibres, single fibres at 10 lost 6 of 20 and the explicit reference none; \
-                     single fibres at 2 and at 3 none of 30); set integrator: implicit_axial, which held in every case, or time_step_factor: {SAFE_HIGH_FRICTION_STEP} \
-                     (single fibres at 10: none of 20 lost) (pipelines/studies/FIBRE_SPEED.md, \"High friction at the default step\")",
+                    "{} is above {HIGH_FRICTION} with integrator trapezoidal_axial (the default), which does not damp the axial waves: at high belt friction its steps fail \
+                     often and are rolled back and retaken, and fibres bounce (measured: laid webs at 3: 37 of 200 fibres rolled back, 2 bounced; single fibres at 10: \
+                     2 of 20 bounced, the explicit reference none); set integrator: implicit_axial, which held in every case without rollbacks, or \
+                     time_step_factor: {SAFE_HIGH_FRICTION_STEP} (single fibres at 10: none of 20 lost) (pipelines/studies/FIBRE_SPEED.md, \"High friction at the default step\")",
                     self.friction_coefficient
                 ),
             });

@@ -322,8 +322,9 @@ fn hard_cases_stay_stable() {
         ("fibre_speed 50", Box::new(|p| p.fibre_speed = 50.0)),
         ("mu 0", Box::new(|p| p.friction_coefficient = 0.0)),
         ("mu 5", Box::new(|p| p.friction_coefficient = 5.0)),
-        // at full size 6 of 20 default-scheme replicates stop with an unstable step here
-        // (pipelines/studies/scheme_offset.yaml): a clear error, never NaN
+        // at full size 3-6 of 20 default-scheme replicates stopped with an unstable step
+        // here before failed runs were rolled back and retaken (src/rod/recovery.rs; now
+        // 2 of 20 bounce): a clear error or a rescued run, never NaN
         ("mu 10", Box::new(|p| p.friction_coefficient = 10.0)),
         ("d 5 um", Box::new(|p| p.diameter = 5e-6)),
         ("d 200 um", Box::new(|p| p.diameter = 200e-6)),

@@ -422,8 +422,6 @@ impl Feeder {
                 self.error = Some(self.recovery.failure(&f));
                 break;
             }
-            let (frozen, stuck_since, anchors, landing_reach) = (&self.frozen, &self.stuck_since, &self.anchors, self.landing_reach);
-            self.recovery.after_step(&mut self.sim, &mut self.control, || FeedBook { frozen: frozen.len(), stuck_since: stuck_since.clone(), anchors: anchors.clone(), landing_reach });
             let sim = &mut self.sim;
             if sim.steps.is_multiple_of(256) {
                 self.last_good.clone_from(&sim.rod.x);
@@ -447,6 +445,9 @@ impl Feeder {
                     *anchor = here;
                 }
             }
+            // the step's bookkeeping is done: a checkpoint holds all of it
+            let (frozen, stuck_since, anchors, landing_reach) = (&self.frozen, &self.stuck_since, &self.anchors, self.landing_reach);
+            self.recovery.after_step(&mut self.sim, &mut self.control, || FeedBook { frozen: frozen.len(), stuck_since: stuck_since.clone(), anchors: anchors.clone(), landing_reach });
         }
         self.wall_seconds += clock.elapsed().as_secs_f64();
     }
@@ -466,6 +467,8 @@ impl Feeder {
 
     /// The fibre at the time reached: frozen nodes carried with the belt to it.
     pub fn finish(mut self) -> FedFibre {
+        // a run that ends inside a retaken stretch reports the scene's scheme and step
+        self.recovery.finish(&mut self.sim, &mut self.control);
         let sim = &mut self.sim;
         if self.error.is_some() && sim.rod.x.iter().any(|x| !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite())) {
             sim.rod.x.clone_from(&self.last_good);

@@ -282,6 +282,12 @@ impl StepControl {
         }
     }
 
+    /// A copy without the rejection snapshot (scratch between steps): what a checkpoint
+    /// of [`super::recovery`] keeps.
+    pub fn without_snapshot(&self) -> StepControl {
+        StepControl { snapshot: Snapshot::default(), ..*self }
+    }
+
     /// Take one accepted step of at most `until − t`, retaking failed ones with smaller
     /// steps. `Err` (the failure of the smallest step) leaves the state as before it.
     pub fn advance(&mut self, sim: &mut Simulator, until: f64) -> Result<(), StepFailure> {
@@ -346,6 +352,18 @@ impl Simulator {
         }
     }
 
+    /// Set θ of the axial springs ([`Self::axial_theta`]) mid-run. Switching to the
+    /// trapezoid (θ < 1) refreshes the segment forces to the end-of-step spring forces it
+    /// carries as P_old ([`Self::segment_force`] holds the projection's forces under
+    /// θ = 1, which are 0 on segments between held nodes).
+    pub fn set_axial_theta(&mut self, theta: f64) {
+        let to_trapezoid = theta < 1.0 && self.axial_theta >= 1.0 && self.compliance > 0.0;
+        self.axial_theta = theta;
+        if to_trapezoid {
+            spring_forces(&self.rod, self.compliance, &mut self.segment_force);
+        }
+    }
+
     /// Stop booking work (it costs about 8 % of a step at 50 m/s): for runs that record
     /// no energy diagnostics. The ledger reads NaN from then on, so a diagnostic taken
     /// anyway cannot pass for a budget.
@@ -403,7 +421,7 @@ impl Simulator {
     /// Continuous feed: add a node at `x` with velocity `v` above the driven top node,
     /// joined by a segment of rest length `rest`; it becomes the driven top node
     /// (its height follows z = x_z − speed (t' − t)). The per-step workspace is
-    /// resized (it holds nothing between steps).
+    /// resized (it holds nothing between steps but `bend_first`, reset as a new one is).
     pub fn push_top(&mut self, x: [f64; 3], v: [f64; 3], rest: f64, mass_per_length: f64) {
         let top = self.rod.nodes() - 1;
         let k_top = 0.5 * (self.rod.v[top][0].powi(2) + self.rod.v[top][1].powi(2) + self.rod.v[top][2].powi(2));

@@ -270,6 +270,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             let samples = diagnostics.len();
             recovery.after_step(sim, &mut control, || samples);
         }
+        recovery.finish(sim, &mut control);
         rollbacks = recovery.rollbacks();
         rejected = control.rejected;
         min_dt = control.min_dt;

@@ -149,7 +149,8 @@ impl Workspace {
 
     /// Size for `nodes` nodes, as [`Workspace::new`] but keeping the allocations (the
     /// continuous feed changes the node count every few steps; every step writes these
-    /// arrays before it reads them).
+    /// arrays before it reads them). `bend_first`, the one entry carried from step to
+    /// step, starts again from 0, as in a new workspace.
     pub fn resize(&mut self, nodes: usize) {
         let s = nodes - 1;
         for v in [&mut self.force, &mut self.rhs, &mut self.x_old, &mut self.lag_force, &mut self.v_start, &mut self.we_prev, &mut self.we_next] {

@@ -69,10 +69,10 @@ pub struct LaydownStage;
 
 /// Bytes per node of a rod being simulated: state, workspace (forces, drag and
 /// constraint matrices, contact) and the step-rejection snapshot, about 75 f64, and the
-/// two checkpoints of the recovery (`rollbacks`, state only: 190 B each). One replicate
-/// of 100001 nodes peaked at 71 MB resident before the checkpoints, estimated at 90 MB;
-/// the checkpoints took 20001 nodes from 26.9 to 34.4 MB.
-pub const SIM_BYTES_PER_NODE: f64 = 1024.0;
+/// two checkpoints of the recovery (`rollbacks`, state only: about 105 B each). One
+/// replicate of 100001 nodes peaked at 71 MB resident before the checkpoints, estimated
+/// at 90 MB; the checkpoints took 20001 nodes from 27.2 to 31.3 MB.
+pub const SIM_BYTES_PER_NODE: f64 = 850.0;
 /// Bytes per node of a finished replicate until the output is written: its positions,
 /// velocities, landing times and belt-removed laid nodes, its row (positions, laid,
 /// belt-removed, landing) and the copy placed on (point, replicate).

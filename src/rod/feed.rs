@@ -336,7 +336,8 @@ impl Feeder {
         let control = StepControl::new(sim.limits.chosen, mpl);
         let nodes = sim.rod.nodes();
         let last_good = sim.rod.x.clone();
-        let recovery = Recovery::new(&mut sim, &control, p.rollbacks, FeedBook { frozen: 0, stuck_since: vec![f64::NAN; nodes], anchors: vec![[0.0; 2]; nodes], landing_reach: f64::NEG_INFINITY });
+        let (stuck_since, anchors) = (vec![f64::NAN; nodes], vec![[0.0; 2]; nodes]);
+        let recovery = Recovery::new(&mut sim, &control, p.rollbacks, FeedBook { frozen: 0, stuck_since: stuck_since.clone(), anchors: anchors.clone(), landing_reach: f64::NEG_INFINITY });
         Feeder {
             control,
             settings: settings.clone(),
@@ -345,8 +346,8 @@ impl Feeder {
             element_length: ds,
             feed_height,
             frozen: Vec::new(),
-            stuck_since: vec![f64::NAN; nodes],
-            anchors: vec![[0.0; 2]; nodes],
+            stuck_since,
+            anchors,
             node_steps: 0,
             max_active: nodes,
             error: None,

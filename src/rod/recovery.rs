@@ -157,10 +157,6 @@ impl<S: Clone> Recovery<S> {
         self.set_scheme(sim, control);
     }
 
-    /// The scene's largest step (what [`StepControl::dt_max`] is outside a retaken stretch).
-    pub fn dt_max(&self) -> f64 {
-        self.dt_max
-    }
 
     fn checkpoint(&mut self, sim: &mut Simulator, control: &StepControl, extra: S) {
         if self.limit == 0 {

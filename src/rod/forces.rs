@@ -358,6 +358,15 @@ pub(super) const MIN_ONE_PLUS_COS: f64 = 1e-2;
 fn bending_forces(rod: &Rod, ws: &mut Workspace) {
     let ei = rod.bending_stiffness;
     let n = rod.x.len();
+    if n < 3 {
+        return;
+    }
+    // F_{i-1} += g dc/da, F_i += g (dc/db − dc/da), F_{i+1} −= g dc/db, in this order;
+    // node i's sum is finished at node i + 1 (`pending`: F_i before its last term, the
+    // next node's g dc/da), so each force is read and written once
+    let f = &mut ws.force;
+    let mut pending = f[0];
+    let mut db_prev = [0.0; 3];
     for i in 1..n - 1 {
         let ta = ws.tangent[i - 1];
         let tb = ws.tangent[i];
@@ -372,13 +381,21 @@ fn bending_forces(rod: &Rod, ws: &mut Workspace) {
         let gb = g / lb;
         let da = [ga * (tb[0] - c * ta[0]), ga * (tb[1] - c * ta[1]), ga * (tb[2] - c * ta[2])];
         let db = [gb * (ta[0] - c * tb[0]), gb * (ta[1] - c * tb[1]), gb * (ta[2] - c * tb[2])];
-        // F_{i-1} = g dc/da, F_i = −g (dc/da − dc/db), F_{i+1} = −g dc/db
-        let f = &mut ws.force;
+        let mut here = f[i];
         for k in 0..3 {
-            f[i - 1][k] += da[k];
-            f[i][k] += db[k] - da[k];
-            f[i + 1][k] -= db[k];
+            pending[k] += da[k];
+            if i >= 2 {
+                here[k] -= db_prev[k];
+            }
+            here[k] += db[k] - da[k];
         }
+        f[i - 1] = pending;
+        pending = here;
+        db_prev = db;
+    }
+    f[n - 2] = pending;
+    for k in 0..3 {
+        f[n - 1][k] -= db_prev[k];
     }
 }
 
@@ -526,8 +543,9 @@ unsafe fn drag_avx2(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
 /// are most of the drag's cost, and vectorise across elements).
 const DRAG_LANES: usize = 8;
 
-/// The drag (eqs 1-4) as [`drag_implicit`] applies it, element speeds first and their power
-/// laws [`DRAG_LANES`] at a time ([`pow_pos_lanes`], the same bits as one at a time).
+/// The drag (eqs 1-4) as [`drag_implicit`] applies it, element speeds first, then the
+/// normal speeds' square roots and the power laws [`DRAG_LANES`] at a time
+/// ([`pow_pos_lanes`], the same bits as one at a time).
 #[inline(always)]
 fn drag_lanes(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
     let uniform = d.air_velocity;
@@ -544,7 +562,7 @@ fn drag_lanes(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
     for first in (0..elements).step_by(DRAG_LANES) {
         // Relative air speeds along (|v_t|) and across (v_n) each element; 1 where an
         // element is outside the drag zone (not used).
-        let (mut inside, mut air, mut along, mut across) = ([false; DRAG_LANES], [[0.0; 3]; DRAG_LANES], [1.0; DRAG_LANES], [1.0; DRAG_LANES]);
+        let (mut inside, mut air, mut along, mut across2) = ([false; DRAG_LANES], [[0.0; 3]; DRAG_LANES], [1.0; DRAG_LANES], [1.0; DRAG_LANES]);
         for l in 0..DRAG_LANES.min(elements - first) {
             let k = first + l;
             let (p, q) = (rod.x[k], rod.x[k + 1]);
@@ -564,12 +582,13 @@ fn drag_lanes(d: &Drag, rod: &Rod, ws: &mut Workspace, dt: f64) {
             let vt = w[0] * t[0] + w[1] * t[1] + w[2] * t[2];
             let wn = [w[0] - vt * t[0], w[1] - vt * t[1], w[2] - vt * t[2]];
             along[l] = vt.abs();
-            across[l] = (wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]).sqrt();
+            across2[l] = wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2];
         }
         if !inside.contains(&true) {
             // all above the zone (the hanging part of the fibre): no power laws to compute
             continue;
         }
+        let across = across2.map(f64::sqrt);
         let tangential = pow_pos_lanes(&along, 1.0 - TANGENTIAL_RE_EXPONENT);
         let normal = pow_pos_lanes(&across, 1.0 - NORMAL_DRAG_B);
         for l in 0..DRAG_LANES.min(elements - first) {

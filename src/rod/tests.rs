@@ -71,6 +71,44 @@ fn term_forces(rod: &Rod, term: &Term) -> Vec<[f64; 3]> {
     ws.force
 }
 
+/// The bending forces are summed node by node, in the order a loop over the nodes that
+/// scatters each node's three terms to its neighbours adds them: the same bits as that
+/// loop (written out here as the reference).
+#[test]
+fn bending_forces_summed_node_by_node_are_the_scattered_ones_bit_for_bit() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for &nodes in &[2usize, 3, 4, 9, 40] {
+        let rod = random_rod(&mut rng, nodes, &[0.1, 1.0, 2.9]);
+        let mut ws = Workspace::new(nodes);
+        ws.update_geometry(&rod);
+        // forces already there, as other terms leave them
+        for (i, f) in ws.force.iter_mut().enumerate() {
+            *f = [1e-9 * i as f64, -3e-10, 7e-10 * (i % 3) as f64];
+        }
+        let mut scattered = ws.force.clone();
+        for i in 1..nodes.saturating_sub(1) {
+            let (ta, tb, la, lb) = (ws.tangent[i - 1], ws.tangent[i], ws.seg_len[i - 1], ws.seg_len[i]);
+            let c = ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2];
+            let opc = (1.0 + c).max(MIN_ONE_PLUS_COS);
+            let g = -4.0 * rod.bending_stiffness * rod.inv_voronoi[i] / (opc * opc);
+            let (ga, gb) = (g / la, g / lb);
+            for k in 0..3 {
+                let da = ga * (tb[k] - c * ta[k]);
+                let db = gb * (ta[k] - c * tb[k]);
+                scattered[i - 1][k] += da;
+                scattered[i][k] += db - da;
+                scattered[i + 1][k] -= db;
+            }
+        }
+        Term::Bending.accumulate(&rod, &mut ws, 0.0, 1e-7);
+        for (i, (a, b)) in ws.force.iter().zip(&scattered).enumerate() {
+            for k in 0..3 {
+                assert_eq!(a[k].to_bits(), b[k].to_bits(), "{nodes} nodes, node {i}, component {k}: {} against {}", a[k], b[k]);
+            }
+        }
+    }
+}
+
 /// Largest |F_term + ∂E/∂x| over every node and component, with ∂E/∂x by central
 /// differences of step `h`, relative to the largest force component; also that scale.
 fn gradient_mismatch(rod: &Rod, term: &Term, energy: &dyn Fn(&Rod, &Workspace) -> f64, h: f64) -> (f64, f64) {

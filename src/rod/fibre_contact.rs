@@ -44,8 +44,9 @@
 //! step can close at the current speeds is skipped in the velocity pass, and one whose
 //! bound is at least d in the position pass; a pair first tested in the position pass
 //! takes the share its start-of-step state gives, as it would have in the velocity pass.
-//! The pairs within a margin of contact are kept in a near list (a Verlet list), and the
-//! passes visit only these until the travel since the list was made uses up the margin.
+//! Each own segment also keeps the least bound of its candidates, less the travel of the
+//! obstacles since ([`FibreContact::row_gap`]), so a pass skips a segment far from every
+//! candidate in one comparison instead of visiting its candidates one by one.
 //! `pruning: false` tests every candidate (`pruning_skips_pair_tests_and_changes_nothing`).
 //!
 //! Who yields ([`yield_share`]): against a frozen or held segment the rod takes the whole
@@ -189,18 +190,29 @@ pub struct FibreContact {
     obstacle_seen_at: f64,
     /// Fastest end of each obstacle (m/s).
     obstacle_speed: Vec<f64>,
+    /// Per obstacle, for the current pass: its travel plus how far it can move in the
+    /// step (the part of a pair's skip test that depends on the obstacle alone).
+    obstacle_reach: Vec<f64>,
     gap_bound: Vec<f64>,
+    /// Per row (own segment): the least over its candidates of the gap bound less the
+    /// obstacle's travel, plus `obstacle_drift`, when the row was last visited (−∞:
+    /// never); see [`FibreContact::row_gap`].
+    row_bound: Vec<f64>,
+    /// Σ over [`FibreContact::update_travel`] calls of the farthest any obstacle moved:
+    /// no obstacle's travel grew more than this since.
+    obstacle_drift: f64,
+    /// Per row, the candidates the position rounds still visit while the obstacles stand
+    /// still and the row's nodes move less than [`ROUND_MARGIN`] d ([`RoundList`]); the
+    /// list of row r lies in `round_pairs[rows[r] ..]`.
+    round_rows: Vec<RoundList>,
+    round_pairs: Vec<u32>,
+    /// Candidates a row visits in the current position round (scratch).
+    visit: Vec<u32>,
     /// Start of the current step: positions, time, and whether each node was held
     /// (on the belt or resting on fibre), for shares settled in the position pass.
     x_start: Vec<[f64; 3]>,
     t_start: f64,
     held_start: Vec<bool>,
-    /// Pairs near contact (own segment, candidate), whether the list holds, and how far
-    /// a pair may still close before it must be made afresh (m): a Verlet list, see
-    /// [`FibreContact::pairs_to_test`].
-    near: Vec<(u32, u32)>,
-    near_valid: bool,
-    near_slack: f64,
     /// Skip the pairs the gap bound shows cannot be in contact (on by default); off,
     /// every candidate is tested in every pass: the reference the pruning is checked
     /// against (it must give the same corrections to the bit).
@@ -234,12 +246,15 @@ impl FibreContact {
         self.candidates.clear();
         self.dropped = 0;
         self.gap_bound.clear();
+        self.row_bound.clear();
+        self.round_rows.clear();
+        self.round_pairs.clear();
+        self.obstacle_drift = 0.0;
         self.travel.clear();
         self.last_x.clear();
         self.obstacle_travel.clear();
         self.obstacle_last.clear();
         self.obstacle_seen_at = f64::NAN;
-        self.near_valid = false;
     }
 
     /// The first `count` nodes left the rod (frozen): the per-node flags follow.
@@ -254,28 +269,23 @@ impl FibreContact {
     }
 
     /// Add the motion since the last call to the travel of every own node and (when `t`
-    /// is a new time, or the obstacles may have been refreshed since) of every obstacle;
-    /// a node or obstacle seen for the first time starts at 0. Returns by how much the
-    /// travel of any one pair grew at most.
-    fn update_travel(&mut self, x: &[[f64; 3]], t: f64, obstacles_refreshed: bool) -> f64 {
+    /// is a new time, or the obstacles may have been refreshed since) of every obstacle,
+    /// the farthest of them to `obstacle_drift`; a node or obstacle seen for the first
+    /// time starts at 0.
+    fn update_travel(&mut self, x: &[[f64; 3]], t: f64, obstacles_refreshed: bool) {
         let n = x.len();
         let seen = self.last_x.len().min(n);
-        let mut largest = 0.0f64;
         for ((&now, last), travel) in x[..seen].iter().zip(&mut self.last_x).zip(&mut self.travel) {
-            let step = norm(sub(now, *last));
-            *travel += step;
+            *travel += norm(sub(now, *last));
             *last = now;
-            largest = largest.max(step);
         }
         // (a node new since the last call has no candidates: rows are made at preparation)
         self.travel.truncate(n);
         self.last_x.truncate(n);
         self.travel.resize(n, 0.0);
         self.last_x.extend_from_slice(&x[seen..]);
-        // a pair's travel counts both its own nodes
-        let own = 2.0 * largest;
         if !obstacles_refreshed && self.obstacle_seen_at == t && self.obstacle_last.len() == self.obstacles.len() {
-            return own;
+            return;
         }
         self.obstacle_seen_at = t;
         self.obstacle_speed.clear();
@@ -294,7 +304,7 @@ impl FibreContact {
                 self.obstacle_last.push((a, b));
             }
         }
-        own + farthest
+        self.obstacle_drift += farthest;
     }
 
     /// Travel of own segment k's nodes plus that of obstacle q: how far the pair's gap
@@ -303,32 +313,34 @@ impl FibreContact {
         self.travel[k] + self.travel[k + 1] + self.obstacle_travel[q]
     }
 
-    /// The (own segment, candidate) pairs a pass must test, in row order, after
-    /// everything moved by at most `moved` since the last pass. The near list serves
-    /// while its slack exceeds `need`; otherwise every candidate is listed, and the pairs
-    /// whose gap bound is within `margin` of contact form the next near list, valid until
-    /// the motion uses up the margin.
-    fn pairs_to_test(&mut self, segments: usize, moved: f64, need: f64, margin: f64) -> Vec<(u32, u32)> {
-        self.near_slack -= moved;
-        let mut pairs = std::mem::take(&mut self.near);
-        if self.pruning && self.near_valid && self.near_slack > need {
-            return pairs;
+    /// A lower bound on the gap between own segment k and any of its candidates now
+    /// (+∞ for a segment without candidates): the row's least recorded bound, less the
+    /// segment's own travel and the most any obstacle can have travelled since.
+    fn row_gap(&self, k: usize) -> f64 {
+        let row = k + self.dropped;
+        if row + 1 >= self.rows.len() {
+            return f64::INFINITY;
         }
-        let d = self.diameter;
-        pairs.clear();
-        for k in 0..segments {
-            for c in self.row(k) {
-                let q = self.candidates[c] as usize;
-                let bound = self.gap_bound.get(c).map_or(f64::NEG_INFINITY, |b| b - self.pair_travel(k, q));
-                if !self.pruning || bound < d + margin {
-                    pairs.push((k as u32, c as u32));
-                }
-            }
+        self.row_bound.get(row).map_or(f64::NEG_INFINITY, |b| b - self.obstacle_drift - self.travel[k] - self.travel[k + 1])
+    }
+
+    /// Record row k's least bound after a visit (`least`: the least over its candidates
+    /// of the gap bound less the obstacle's reach; see `row_bound`).
+    fn close_row(&mut self, k: usize, least: f64) {
+        if let Some(b) = self.row_bound.get_mut(k + self.dropped) {
+            *b = least + self.obstacle_drift;
         }
-        self.pairs_skipped += (self.candidates.len() - pairs.len()) as u64;
-        self.near_valid = true;
-        self.near_slack = margin;
-        pairs
+    }
+
+    /// Whether a pass may skip own segment k whole: pruning is on and no candidate can
+    /// come within d + `reach`. Counts the skipped candidates.
+    fn skip_row(&mut self, k: usize, reach: f64) -> bool {
+        if self.pruning && self.row_gap(k) - self.diameter > reach {
+            self.pairs_skipped += self.row(k).len() as u64;
+            true
+        } else {
+            false
+        }
     }
 
     /// Whether node `k` rests on the belt's web: held by the belt ([`on_belt`], with `v`
@@ -368,7 +380,7 @@ impl FibreContact {
     /// projection pulls a node held up by a crossing fibre back into it.
     pub fn apply_impulses(&mut self, rod: &mut Rod, landing_time: &[f64], mut winv: Option<&mut [[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) {
         let d = self.diameter;
-        let mut impulses = 0;
+        let (mut impulses, mut skipped) = (0, 0);
         // NaN: not settled in this pass (see `share_at_start`)
         self.shares.clear();
         self.shares.resize(self.candidates.len(), f64::NAN);
@@ -384,9 +396,9 @@ impl FibreContact {
         self.shift.clear();
         self.shift.resize(rod.nodes(), [0.0; 3]);
         self.unconstrained.resize(rod.nodes(), [0.0; 6]);
-        self.gap_bound.resize(self.candidates.len(), f64::NEG_INFINITY);
         // the obstacles were refreshed before this step
-        let moved = self.update_travel(&rod.x, t, true);
+        self.update_travel(&rod.x, t, true);
+        self.begin_pass(dt);
         self.x_start.clone_from(&rod.x);
         self.t_start = t;
         let mut held = std::mem::take(&mut self.held_start);
@@ -395,121 +407,146 @@ impl FibreContact {
         held.extend((0..rod.nodes()).map(|k| on_belt(k, landing_time, &rod.x, v, d) || self.was_resting.get(k) == Some(&true)));
         self.held_start = held;
         let speed = |v: [f64; 3]| norm(v);
-        // what any pair can close in this step at the current speeds
-        let fastest = rod.v.iter().map(|&v| speed(v)).fold(0.0, f64::max) + self.obstacle_speed.iter().copied().fold(0.0, f64::max);
-        let closing = dt * fastest;
-        let pairs = self.pairs_to_test(rod.rest.len(), moved, closing, NEAR_MARGIN * d + 4.0 * closing);
-        let mut row = (usize::MAX, 0.0);
-        for &(k, c) in &pairs {
-            let (k, c) = (k as usize, c as usize);
+        let fastest_obstacle = self.obstacle_speed.iter().copied().fold(0.0, f64::max);
+        for k in 0..rod.rest.len() {
             let (i, j) = (k, k + 1);
-            if row.0 != k {
-                row = (k, speed(rod.v[i]).max(speed(rod.v[j])));
-            }
-            // nothing happens to a pair that cannot reach contact in this step
-            let Some(PairTest { q, s, u, gap, g, q0, q1 }) = self.test_pair(&rod.x, k, c, t, dt, row.1) else { continue };
-            let ob = &self.obstacles[q];
-            // a pair closer than d/2 has crossed (in a violent event, or before
-            // contact began): pushing it apart along a normal that flipped as they
-            // passed would drive them into each other; it is left until it parts
-            let near = if s < 0.5 { i } else { j };
-            let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, self.held_start[near]) };
-            self.shares[c] = share;
-            if share == 0.0 && g < CROSSED * d {
-                self.crossed += 1;
-            }
-            if share == 0.0 || !(g > 0.0) {
+            let mut row_speed = speed(rod.v[i]).max(speed(rod.v[j]));
+            // nothing happens to a segment that cannot reach any candidate in this step
+            if self.skip_row(k, dt * (row_speed + fastest_obstacle)) {
                 continue;
             }
-            let n = scale(gap, 1.0 / g);
-            let vrel = sub(lerp(rod.v[i], rod.v[j], s), lerp(ob.va, ob.vb, u));
-            let vn = dot(vrel, n);
-            // approach: only up to contact at the end of the step; in contact or
-            // overlapping: no approach, and separation no faster than the position
-            // pass's (which would otherwise add up, step after step, while an
-            // overlap persists)
-            let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
-            if g >= d && vn >= target {
-                continue;
-            }
-            // in contact (or reaching it in this step): the node nearer the contact
-            // point is held along n in the projection, with or without an impulse (a
-            // resting contact needs none, and the projection would otherwise pull the
-            // node back into the other fibre)
-            // resting on the web: held up from below by fibre that takes none of
-            // the correction (frozen, held, or itself on the belt or the web); a
-            // node lying on a fibre that gives way with it is not resting
-            if gap[2] > 0.0 && share == 1.0 {
-                self.resting[near] = true;
-                // the segment lies on laid fibre: both its nodes are part of the web
-                if ob.landed[usize::from(u >= 0.5)] && q0[2] + u * (q1[2] - q0[2]) <= self.web_top {
-                    for k in [i, j] {
-                        self.on_web[k] = true;
-                        if self.web_landing_time[k].is_nan() {
-                            self.web_landing_time[k] = t;
+            let mut limit = self.pair_limit(k, dt, row_speed);
+            let mut least = f64::INFINITY;
+            for c in self.row(k) {
+                // nor to a pair that cannot reach contact in this step
+                let (skip, lower) = self.skip_pair(c, limit);
+                if skip {
+                    least = least.min(lower);
+                    skipped += 1;
+                    continue;
+                }
+                let PairTest { q, s, u, gap, g, q0, q1 } = self.test_pair(&rod.x, k, c, t);
+                least = least.min(self.skip_pair(c, limit).1);
+                let ob = &self.obstacles[q];
+                // a pair closer than d/2 has crossed (in a violent event, or before
+                // contact began): pushing it apart along a normal that flipped as they
+                // passed would drive them into each other; it is left until it parts
+                let near = if s < 0.5 { i } else { j };
+                let share = if g < CROSSED * d { 0.0 } else { yield_share(ob, u, gap[2], d, self.held_start[near]) };
+                self.shares[c] = share;
+                if share == 0.0 && g < CROSSED * d {
+                    self.crossed += 1;
+                }
+                if share == 0.0 || !(g > 0.0) {
+                    continue;
+                }
+                let n = scale(gap, 1.0 / g);
+                let vrel = sub(lerp(rod.v[i], rod.v[j], s), lerp(ob.va, ob.vb, u));
+                let vn = dot(vrel, n);
+                // approach: only up to contact at the end of the step; in contact or
+                // overlapping: no approach, and separation no faster than the position
+                // pass's (which would otherwise add up, step after step, while an
+                // overlap persists)
+                let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
+                if g >= d && vn >= target {
+                    continue;
+                }
+                // in contact (or reaching it in this step): the node nearer the contact
+                // point is held along n in the projection, with or without an impulse (a
+                // resting contact needs none, and the projection would otherwise pull the
+                // node back into the other fibre)
+                // resting on the web: held up from below by fibre that takes none of
+                // the correction (frozen, held, or itself on the belt or the web); a
+                // node lying on a fibre that gives way with it is not resting
+                if gap[2] > 0.0 && share == 1.0 {
+                    self.resting[near] = true;
+                    // the segment lies on laid fibre: both its nodes are part of the web
+                    if ob.landed[usize::from(u >= 0.5)] && q0[2] + u * (q1[2] - q0[2]) <= self.web_top {
+                        for k in [i, j] {
+                            self.on_web[k] = true;
+                            if self.web_landing_time[k].is_nan() {
+                                self.web_landing_time[k] = t;
+                            }
                         }
                     }
                 }
-            }
-            if let Some(winv) = winv.as_deref_mut() {
-                if !self.supported[near] {
-                    self.unconstrained[near] = winv[near];
+                if let Some(winv) = winv.as_deref_mut() {
+                    if !self.supported[near] {
+                        self.unconstrained[near] = winv[near];
+                    }
+                    // a node already held along (nearly) this normal keeps its other
+                    // freedoms: pinned to a line by two nearly parallel or opposite
+                    // normals (a node squeezed between two fibres that overlap it from
+                    // both sides), the projection restores the lengths by sliding it far
+                    // along that line, and the slide becomes velocity (tens of m/s in one
+                    // step in the Table 4 web)
+                    if held_fraction(&winv[near], &self.unconstrained[near], n) < HELD_ALREADY {
+                        winv[near] = without_direction(&winv[near], n);
+                    }
                 }
-                // a node already held along (nearly) this normal keeps its other
-                // freedoms: pinned to a line by two nearly parallel or opposite
-                // normals (a node squeezed between two fibres that overlap it from
-                // both sides), the projection restores the lengths by sliding it far
-                // along that line, and the slide becomes velocity (tens of m/s in one
-                // step in the Table 4 web)
-                if held_fraction(&winv[near], &self.unconstrained[near], n) < HELD_ALREADY {
-                    winv[near] = without_direction(&winv[near], n);
+                self.supported[near] = true;
+                if vn == target {
+                    continue;
                 }
-            }
-            self.supported[near] = true;
-            if vn == target {
-                continue;
-            }
-            let delta = target - vn;
-            let mobility = Mobility { winv: winv.as_deref(), supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
-            if !mobility.shift(&mut rod.v, i, j, s, scale(n, share * delta)) {
-                continue;
-            }
-            if let Some(mu) = self.friction {
-                let wt = sub(vrel, scale(n, vn));
-                let wtn = norm(wt);
-                if wtn > 0.0 {
-                    let removed = if wtn <= mu * delta { 1.0 } else { mu * delta / wtn };
-                    mobility.shift(&mut rod.v, i, j, s, scale(wt, -share * removed));
+                let delta = target - vn;
+                let mobility = Mobility { winv: winv.as_deref(), supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
+                if !mobility.shift(&mut rod.v, i, j, s, scale(n, share * delta)) {
+                    continue;
                 }
+                if let Some(mu) = self.friction {
+                    let wt = sub(vrel, scale(n, vn));
+                    let wtn = norm(wt);
+                    if wtn > 0.0 {
+                        let removed = if wtn <= mu * delta { 1.0 } else { mu * delta / wtn };
+                        mobility.shift(&mut rod.v, i, j, s, scale(wt, -share * removed));
+                    }
+                }
+                row_speed = speed(rod.v[i]).max(speed(rod.v[j]));
+                limit = self.pair_limit(k, dt, row_speed);
+                impulses += 1;
             }
-            row.1 = speed(rod.v[i]).max(speed(rod.v[j]));
-            impulses += 1;
+            self.close_row(k, least);
         }
-        self.near = pairs;
         self.impulses += impulses;
+        self.pairs_skipped += skipped;
     }
 
-    /// Test own segment k (of nodes `x`) against candidate c's obstacle at time `t`:
-    /// skipped (None) when the gap bound shows the pair cannot reach contact within `dt`,
-    /// the segment moving at `own_speed` and the obstacle at its speed (`dt` = 0: is not
-    /// in contact now); otherwise their closest points, which renew the pair's gap bound.
-    fn test_pair(&mut self, x: &[[f64; 3]], k: usize, c: usize, t: f64, dt: f64, own_speed: f64) -> Option<PairTest> {
+    /// Whether a pass may skip candidate c of a segment whose pairs have the skip limit
+    /// `limit` ([`FibreContact::pair_limit`]): the gap bound shows the pair cannot reach
+    /// contact within the pass's step (pruning on). Also returns the pair's bound less
+    /// its segment's travel, for the row's least ([`FibreContact::close_row`]).
+    #[inline(always)]
+    fn skip_pair(&self, c: usize, limit: f64) -> (bool, f64) {
+        let lower = self.gap_bound[c] - self.obstacle_reach[self.candidates[c] as usize];
+        (self.pruning && lower > limit, lower)
+    }
+
+    /// Measure own segment k (of nodes `x`) against candidate c's obstacle at time `t`:
+    /// their closest points, which renew the pair's gap bound.
+    fn test_pair(&mut self, x: &[[f64; 3]], k: usize, c: usize, t: f64) -> PairTest {
         let q = self.candidates[c] as usize;
-        let travel = self.pair_travel(k, q);
-        let bound = self.gap_bound.get(c).map_or(f64::NEG_INFINITY, |b| b - travel);
-        let reach = dt * (own_speed + self.obstacle_speed.get(q).copied().unwrap_or(f64::INFINITY));
-        if self.pruning && bound - self.diameter > reach {
-            self.pairs_skipped += 1;
-            return None;
-        }
         self.pair_tests += 1;
         let (q0, q1) = self.obstacles[q].at(t);
         let (s, u, gap) = closest_points(x[k], x[k + 1], q0, q1);
         let g = norm(gap);
-        if let Some(b) = self.gap_bound.get_mut(c) {
-            *b = g + travel;
-        }
-        Some(PairTest { q, s, u, gap, g, q0, q1 })
+        self.gap_bound[c] = g + self.pair_travel(k, q);
+        PairTest { q, s, u, gap, g, q0, q1 }
+    }
+
+    /// The skip limit of own segment k's pairs in a pass: d plus the travel of its nodes
+    /// and what they can move in the step `dt` at `speed` (see [`FibreContact::test_pair`]).
+    fn pair_limit(&self, k: usize, dt: f64, speed: f64) -> f64 {
+        self.diameter + self.travel[k] + self.travel[k + 1] + dt * speed
+    }
+
+    /// Before a pass with step `dt`: the sizes of the per-candidate and per-row bounds,
+    /// and each obstacle's reach (its travel plus what it can move in the step).
+    fn begin_pass(&mut self, dt: f64) {
+        self.gap_bound.resize(self.candidates.len(), f64::NEG_INFINITY);
+        self.row_bound.resize(self.rows.len().saturating_sub(1), f64::NEG_INFINITY);
+        let (travel, speed, reach) = (&self.obstacle_travel, &self.obstacle_speed, &mut self.obstacle_reach);
+        reach.clear();
+        reach.extend(travel.iter().enumerate().map(|(q, t)| if dt > 0.0 { t + dt * speed.get(q).copied().unwrap_or(f64::INFINITY) } else { *t }));
     }
 
     /// The share of candidate c (own segment k, obstacle q) the velocity pass skipped,
@@ -530,49 +567,113 @@ impl FibreContact {
     pub fn push_apart(&mut self, rod: &mut Rod, winv: Option<&[[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) -> (usize, f64) {
         let d = self.diameter;
         let max_push = MAX_SEPARATION_SPEED * dt / POSITION_ROUNDS as f64;
-        let mut count = 0;
+        let (mut count, mut skipped) = (0, 0);
         let mut deepest = 0.0f64;
-        let moved = self.update_travel(&rod.x, t, false);
-        let margin = NEAR_MARGIN * d;
-        let pairs = self.pairs_to_test(rod.rest.len(), moved, 0.0, margin);
-        for &(k, c) in &pairs {
-            let (k, c) = (k as usize, c as usize);
+        self.update_travel(&rod.x, t, false);
+        self.begin_pass(0.0);
+        let unset = RoundList { len: 0, own_travel: f64::NAN, drift: f64::NAN, least_left_out: f64::NEG_INFINITY };
+        self.round_rows.resize(self.rows.len().saturating_sub(1), unset);
+        self.round_pairs.resize(self.candidates.len(), 0);
+        let mut visit = std::mem::take(&mut self.visit);
+        let margin = ROUND_MARGIN * d;
+        for k in 0..rod.rest.len() {
             let (i, j) = (k, k + 1);
-            let Some(PairTest { q, s, gap, g, .. }) = self.test_pair(&rod.x, k, c, t, 0.0, 0.0) else { continue };
-            if !(g < d) {
+            if self.skip_row(k, 0.0) {
                 continue;
             }
-            deepest = deepest.max(d - g);
-            let mut share = self.shares.get(c).copied().unwrap_or(1.0);
-            if share.is_nan() {
-                share = self.share_at_start(k, q);
-                self.shares[c] = share;
+            let row = k + self.dropped;
+            let candidates = self.row(k);
+            let own_travel = self.travel[i] + self.travel[j];
+            let list = self.round_rows[row];
+            let reuse = self.pruning && list.drift == self.obstacle_drift && own_travel - list.own_travel < margin;
+            visit.clear();
+            let mut least = f64::INFINITY;
+            if reuse {
+                visit.extend_from_slice(&self.round_pairs[candidates.start..candidates.start + list.len as usize]);
+                skipped += (candidates.len() - visit.len()) as u64;
+                least = list.least_left_out;
+            } else {
+                visit.extend(candidates.clone().map(|c| c as u32));
             }
-            if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 {
-                continue;
-            }
-            let dx = scale(gap, share * (d - g).min(max_push) / g);
-            let mobility = Mobility { winv, supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
-            let (xi, xj) = (rod.x[i], rod.x[j]);
-            if mobility.shift(&mut rod.x, i, j, s, dx) {
-                count += 1;
-                if let (Some(si), Some(sj)) = (self.shift.get(i).copied(), self.shift.get(j).copied()) {
-                    self.shift[i] = add_scaled(si, sub(rod.x[i], xi), 1.0);
-                    self.shift[j] = add_scaled(sj, sub(rod.x[j], xj), 1.0);
+            let (mut kept, mut least_left_out) = (0, f64::INFINITY);
+            let mut limit = self.pair_limit(k, 0.0, 0.0);
+            for &c in &visit {
+                let c = c as usize;
+                let (skip, lower) = self.skip_pair(c, limit);
+                let test = (!skip).then(|| self.test_pair(&rod.x, k, c, t));
+                let lower = if skip { lower } else { self.skip_pair(c, limit).1 };
+                least = least.min(lower);
+                if !reuse {
+                    if lower <= limit + margin {
+                        self.round_pairs[candidates.start + kept] = c as u32;
+                        kept += 1;
+                    } else {
+                        least_left_out = least_left_out.min(lower);
+                    }
                 }
-                // the later pairs of this pass, and of the later rounds, see the move
-                for m in [i, j] {
-                    let step = norm(sub(rod.x[m], self.last_x[m]));
-                    self.travel[m] += step;
-                    self.last_x[m] = rod.x[m];
-                    self.near_slack -= step;
+                let Some(PairTest { q, s, gap, g, .. }) = test else {
+                    skipped += 1;
+                    continue;
+                };
+                if !(g < d) {
+                    continue;
+                }
+                deepest = deepest.max(d - g);
+                let mut share = self.shares.get(c).copied().unwrap_or(1.0);
+                if share.is_nan() {
+                    share = self.share_at_start(k, q);
+                    self.shares[c] = share;
+                }
+                if g >= (1.0 - SLOP) * d || !(g > 0.0) || share == 0.0 {
+                    continue;
+                }
+                let dx = scale(gap, share * (d - g).min(max_push) / g);
+                let mobility = Mobility { winv, supported: &self.supported, unconstrained: &self.unconstrained, mass: &rod.mass, free: &free };
+                let (xi, xj) = (rod.x[i], rod.x[j]);
+                if mobility.shift(&mut rod.x, i, j, s, dx) {
+                    count += 1;
+                    if let (Some(si), Some(sj)) = (self.shift.get(i).copied(), self.shift.get(j).copied()) {
+                        self.shift[i] = add_scaled(si, sub(rod.x[i], xi), 1.0);
+                        self.shift[j] = add_scaled(sj, sub(rod.x[j], xj), 1.0);
+                    }
+                    // the later pairs of this pass, and of the later rounds, see the move
+                    for m in [i, j] {
+                        let step = norm(sub(rod.x[m], self.last_x[m]));
+                        self.travel[m] += step;
+                        self.last_x[m] = rod.x[m];
+                    }
+                    limit = self.pair_limit(k, 0.0, 0.0);
                 }
             }
+            if !reuse {
+                self.round_rows[row] = RoundList { len: kept as u32, own_travel, drift: self.obstacle_drift, least_left_out };
+            }
+            self.close_row(k, least);
         }
-        self.near = pairs;
+        self.visit = visit;
         self.corrections += count as u64;
+        self.pairs_skipped += skipped;
         (count, deepest)
     }
+}
+
+/// How far, in diameters, a candidate's gap bound may lie beyond contact and still be
+/// visited by the later position rounds of a step ([`RoundList`]).
+const ROUND_MARGIN: f64 = 0.5;
+
+/// The candidates of one row that the position rounds of a step visit: those whose bound
+/// was within [`ROUND_MARGIN`] d of the skip limit when the list was made. It serves
+/// while no obstacle has moved (`drift` is still the obstacles' drift) and the row's
+/// nodes have travelled less than the margin since (`own_travel`): every candidate left
+/// out is then still skipped, so the rounds correct exactly what visiting every
+/// candidate would. `least_left_out` is the least bound among those left out, for the
+/// row's least ([`FibreContact::close_row`]).
+#[derive(Clone, Copy, Debug)]
+struct RoundList {
+    len: u32,
+    own_travel: f64,
+    drift: f64,
+    least_left_out: f64,
 }
 
 /// A pair tested by [`FibreContact::test_pair`]: obstacle q at the time of the test (end
@@ -587,10 +688,6 @@ struct PairTest {
     q0: [f64; 3],
     q1: [f64; 3],
 }
-
-/// Margin, in diameters, by which a pair may be away from contact and still be kept in
-/// the near list ([`FibreContact::pairs_to_test`]).
-const NEAR_MARGIN: f64 = 0.25;
 
 /// Whether the belt holds node `k`: it has landed and lies on the belt (within the
 /// contact tolerance [`SLOP`] d of the plane) or is not rising off it (`v` its velocity

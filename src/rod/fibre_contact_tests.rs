@@ -331,6 +331,38 @@ fn pruning_skips_pair_tests_and_changes_nothing() {
     assert!(skipped > 0 && tests < reference_tests, "pruning saved nothing: {tests} tests against {reference_tests}");
 }
 
+/// The position rounds of a step visit a segment's short list of candidates only while
+/// its nodes have moved less than the list's margin: a segment carried 0.8 d towards a
+/// frozen obstacle between two rounds (the obstacle standing still) is still pushed out of
+/// it, though the round before had left that obstacle off the list (1.6 d away) and kept
+/// another, touching, on it.
+#[test]
+fn position_rounds_revisit_a_segment_that_moved_towards_an_obstacle() {
+    let p = scene();
+    let d = p.diameter;
+    let (z, dt) = (0.01, 1e-6);
+    let mut sim = straight(&p, [0.0, 0.0, z], [1.0, 0.0, 0.0], 2, [0.0; 3]);
+    let mut contact = FibreContact::new(d, None);
+    // across segment 0 (x from -1 to 0 mm) at its middle, 1.6 d below it
+    let below = z - 1.6 * d;
+    let frozen = |x: f64, z: f64| ObstacleSegment { a: [x, -1e-3, z], b: [x, 1e-3, z], va: [0.0; 3], vb: [0.0; 3], t_ref: 0.0, simulated: false, landed: [true; 2], source: None, cd_shift: 0.0 };
+    contact.obstacles.push(frozen(-0.5e-3, below));
+    // and one touching it from above near its end, which keeps the segment in the rounds
+    contact.obstacles.push(frozen(-0.9e-3, z + d));
+    contact.rows = vec![0, 2, 2];
+    contact.candidates = vec![0, 1];
+    let free = 0..sim.rod.nodes();
+    contact.apply_impulses(&mut sim.rod, &sim.landing_time, None, 0.0, dt, free.clone());
+    let (pushed, _) = contact.push_apart(&mut sim.rod, None, dt, dt, free.clone());
+    assert_eq!(pushed, 0, "nothing is within d yet");
+    for x in &mut sim.rod.x[..2] {
+        x[2] -= 0.8 * d;
+    }
+    let (pushed, deepest) = contact.push_apart(&mut sim.rod, None, dt, dt, free);
+    assert_eq!(pushed, 1, "the segment now 0.8 d from the obstacle was not pushed");
+    assert!((deepest - 0.2 * d).abs() < 1e-9 * d, "penetration {:.4} d", deepest / d);
+}
+
 /// A fibre resting on a fibre that rests on a third: the middle one is held from below,
 /// so the top one must take every correction, and the top one must see the middle one
 /// where it is held, not where it would fall without contact. Before both rules C sank

@@ -157,7 +157,6 @@ impl<S: Clone> Recovery<S> {
         self.set_scheme(sim, control);
     }
 
-
     fn checkpoint(&mut self, sim: &mut Simulator, control: &StepControl, extra: S) {
         if self.limit == 0 {
             return;

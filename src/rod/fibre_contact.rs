@@ -419,14 +419,12 @@ impl FibreContact {
             let mut least = f64::INFINITY;
             for c in self.row(k) {
                 // nor to a pair that cannot reach contact in this step
-                let (skip, lower) = self.skip_pair(c, limit);
-                if skip {
-                    least = least.min(lower);
+                let (test, lower) = self.visit_pair(&rod.x, k, c, t, limit);
+                least = least.min(lower);
+                let Some(PairTest { q, s, u, gap, g, q0, q1 }) = test else {
                     skipped += 1;
                     continue;
-                }
-                let PairTest { q, s, u, gap, g, q0, q1 } = self.test_pair(&rod.x, k, c, t);
-                least = least.min(self.skip_pair(c, limit).1);
+                };
                 let ob = &self.obstacles[q];
                 // a pair closer than d/2 has crossed (in a violent event, or before
                 // contact began): pushing it apart along a normal that flipped as they
@@ -511,14 +509,21 @@ impl FibreContact {
         self.pairs_skipped += skipped;
     }
 
-    /// Whether a pass may skip candidate c of a segment whose pairs have the skip limit
-    /// `limit` ([`FibreContact::pair_limit`]): the gap bound shows the pair cannot reach
-    /// contact within the pass's step (pruning on). Also returns the pair's bound less
-    /// its segment's travel, for the row's least ([`FibreContact::close_row`]).
+    /// Candidate c of own segment k (nodes `x`) in a pass at time `t`, its segment's
+    /// pairs having the skip limit `limit` ([`FibreContact::pair_limit`]): skipped (None)
+    /// when pruning is on and the gap bound shows the pair cannot reach contact within
+    /// the pass's step, else measured ([`FibreContact::test_pair`]). Also returns the
+    /// pair's bound less the obstacle's reach (after the measurement, if any), for the
+    /// row's least ([`FibreContact::close_row`]).
     #[inline(always)]
-    fn skip_pair(&self, c: usize, limit: f64) -> (bool, f64) {
-        let lower = self.gap_bound[c] - self.obstacle_reach[self.candidates[c] as usize];
-        (self.pruning && lower > limit, lower)
+    fn visit_pair(&mut self, x: &[[f64; 3]], k: usize, c: usize, t: f64, limit: f64) -> (Option<PairTest>, f64) {
+        let reach = self.obstacle_reach[self.candidates[c] as usize];
+        let lower = self.gap_bound[c] - reach;
+        if self.pruning && lower > limit {
+            return (None, lower);
+        }
+        let test = self.test_pair(x, k, c, t);
+        (Some(test), self.gap_bound[c] - reach)
     }
 
     /// Measure own segment k (of nodes `x`) against candidate c's obstacle at time `t`:
@@ -599,9 +604,7 @@ impl FibreContact {
             let mut limit = self.pair_limit(k, 0.0, 0.0);
             for &c in &visit {
                 let c = c as usize;
-                let (skip, lower) = self.skip_pair(c, limit);
-                let test = (!skip).then(|| self.test_pair(&rod.x, k, c, t));
-                let lower = if skip { lower } else { self.skip_pair(c, limit).1 };
+                let (test, lower) = self.visit_pair(&rod.x, k, c, t, limit);
                 least = least.min(lower);
                 if !reuse {
                     if lower <= limit + margin {

@@ -32,6 +32,13 @@
 //! own segment, per candidate pair (a rod spanning more than a period can meet one
 //! segment in two images: each image used is an obstacle of its own).
 //!
+//! A rod whose step fails even at the smallest size takes its cluster with it: each rod
+//! of a cluster keeps a checkpoint at the start of the interval ([`ContactBody::checkpoint`]),
+//! and when one fails they all go back to it and retake the interval with the recovery
+//! scheme ([`super::recovery`]; the fibres could have touched, so none may keep a state
+//! the others no longer see). When a rod has no rollback left it stops, and the others
+//! go on.
+//!
 //! Segments above [`ContactWorld::contact_top`] take no part (set it to the laydown
 //! height z0: above it eq 7's oscillator prescribes where each fibre is, and two
 //! prescribed positions cannot give way to each other).
@@ -138,6 +145,17 @@ pub trait ContactBody: Send + Sync {
     }
     /// What must happen before each step (a fed rod adds its new top node).
     fn before_step(&mut self) {}
+    /// Keep the state now, the start of an interval, to go back to if a rod it can touch
+    /// fails in it (a rod that cannot go back keeps nothing).
+    fn checkpoint(&mut self) {}
+    /// Whether it can go back to its checkpoint ([`super::recovery`]: rollbacks left).
+    fn can_roll_back(&self) -> bool {
+        false
+    }
+    /// Go back to the checkpoint, running again if it had failed, and retake the stretch
+    /// past `failed_at` (s), where a rod it can touch failed, with the recovery scheme.
+    /// Called only when [`Self::can_roll_back`].
+    fn roll_back(&mut self, _failed_at: f64) {}
     /// The farthest downstream (m, lab frame) this body's touchdown point (its last laid
     /// node along the fibre) has been at any preparation so far; −∞ if it lays none.
     /// Called at each preparation, before [`Self::freeze`]; it notes the touchdown point then.
@@ -564,7 +582,10 @@ const PARALLEL_CLUSTER: usize = 3;
 /// Advance one cluster from t to t_next in lock step: every step is the smallest any of
 /// its rods asks for, each rod predicts its velocities before contact, and every rod's
 /// copies of the others' segments are refreshed ([`refresh`]). `local[g]` is rod g's
-/// place in its cluster. Returns the steps taken.
+/// place in its cluster. When a rod's step fails and every rod of the cluster can go
+/// back, they all go back to t (the checkpoint each took there) and retake the interval,
+/// with the recovery scheme ([`super::recovery`]) up to as far again past the failure;
+/// otherwise the failed rod stops and the others go on. Returns the steps taken.
 fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_next: f64) -> u64 {
     let parallel = group.len() >= PARALLEL_CLUSTER;
     let each = |group: &mut [&mut B], work: &(dyn Fn(&mut B) + Sync)| {
@@ -581,6 +602,13 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
     let mut spare: Vec<Vec<ObstacleSegment>> = vec![Vec::new(); group.len()];
     // simulated obstacles (of other rods, or a rod's own far along it) follow their rods
     let refreshed = group.iter().any(|b| b.simulator().fibre_contact.as_ref().is_some_and(|c| c.obstacles.iter().any(|o| o.source.is_some())));
+    // the rods running at t (a rod that has failed for good is left out) and their checkpoints
+    let mut running: Vec<bool> = group.iter().map(|b| b.running()).collect();
+    each(group, &|b: &mut B| {
+        if b.running() {
+            b.checkpoint()
+        }
+    });
     while now < t_next - t_next.abs() * 1e-12 {
         let dt = group.iter().filter(|b| b.running()).map(|b| b.next_step()).fold(f64::INFINITY, f64::min);
         if !dt.is_finite() {
@@ -598,6 +626,20 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
         each(group, &|b: &mut B| b.advance_to(until));
         now = until;
         steps += 1;
+        // a rod failed (its time is the last it reached): back together, or it stops
+        let failed_at = group.iter().zip(&running).filter(|(b, &r)| r && !b.running()).map(|(b, _)| b.simulator().t).fold(f64::INFINITY, f64::min);
+        if failed_at.is_finite() {
+            if group.iter().zip(&running).all(|(b, &r)| !r || b.can_roll_back()) {
+                for (b, _) in group.iter_mut().zip(&running).filter(|(_, &r)| r) {
+                    b.roll_back(failed_at);
+                }
+                now = t;
+            } else {
+                for (b, r) in group.iter().zip(running.iter_mut()) {
+                    *r = *r && b.running();
+                }
+            }
+        }
     }
     steps
 }

@@ -281,8 +281,9 @@ pub struct Feeder {
     error: Option<String>,
     last_good: Vec<[f64; 3]>,
     wall_seconds: f64,
-    /// Freeze only when asked ([`ContactBody::freeze`]): set by [`Feeder::join_contact_world`].
-    defer_freezing: bool,
+    /// Advanced by a contact world ([`Feeder::join_contact_world`]): freeze only when
+    /// asked ([`ContactBody::freeze`]), go back only when the world says.
+    in_world: bool,
     /// The farthest downstream this fibre's touchdown point has been (m, lab frame), as
     /// noted at each preparation ([`ContactBody::landing_reach`]).
     landing_reach: f64,
@@ -353,7 +354,7 @@ impl Feeder {
             error: None,
             last_good,
             wall_seconds: clock.elapsed().as_secs_f64(),
-            defer_freezing: false,
+            in_world: false,
             landing_reach: f64::NEG_INFINITY,
             sim,
             recovery,
@@ -362,26 +363,35 @@ impl Feeder {
 
     /// Advance as one fibre of a [`ContactWorld`](super::contact_world::ContactWorld):
     /// freeze only when asked ([`ContactBody::freeze`]), not after every step (the node
-    /// indices other fibres refer to must not change between two preparations), and
-    /// never roll back (the other fibres have seen the state).
+    /// indices other fibres refer to must not change between two preparations), and go
+    /// back only with the fibres it can touch, to the checkpoint the world has it take at
+    /// the start of each interval ([`ContactBody::checkpoint`], [`ContactBody::roll_back`]:
+    /// the other fibres have seen its state).
     pub fn join_contact_world(&mut self) {
-        self.defer_freezing = true;
-        self.recovery.disable();
+        self.in_world = true;
+        self.recovery.checkpoint_on_demand();
     }
 
-    /// After a failed step: roll back ([`super::recovery`]) with the feed's bookkeeping;
-    /// false when no rollback is left.
-    fn roll_back(&mut self) -> bool {
-        match self.recovery.roll_back(&mut self.sim, &mut self.control) {
+    /// After a step failed here (at `failed_at`, s) or in a fibre this one can touch:
+    /// roll back ([`super::recovery`]) with the feed's bookkeeping and run again; false
+    /// when no rollback is left.
+    fn roll_back_from(&mut self, failed_at: f64) -> bool {
+        match self.recovery.roll_back_from(&mut self.sim, &mut self.control, failed_at) {
             Some(book) => {
                 self.frozen.truncate(book.frozen);
                 self.stuck_since = book.stuck_since;
                 self.anchors = book.anchors;
                 self.landing_reach = book.landing_reach;
+                self.error = None;
                 true
             }
             None => false,
         }
+    }
+
+    /// The feed's bookkeeping now, as a checkpoint keeps it.
+    fn book(&self) -> FeedBook {
+        FeedBook { frozen: self.frozen.len(), stuck_since: self.stuck_since.clone(), anchors: self.anchors.clone(), landing_reach: self.landing_reach }
     }
 
     /// The simulated (hanging and not yet frozen) part.
@@ -407,17 +417,18 @@ impl Feeder {
         let tol = until * 1e-12;
         while self.sim.t < until - tol {
             self.feed_top();
-            let line = if self.settings.front_margin.is_finite() && self.settings.freeze && !self.defer_freezing {
+            let line = if self.settings.front_margin.is_finite() && self.settings.freeze && !self.in_world {
                 ContactBody::landing_reach(self) + self.settings.front_margin
             } else {
                 f64::INFINITY
             };
-            if self.settings.freeze && !self.defer_freezing && freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, self.settings.freeze_batch) {
+            if self.settings.freeze && !self.in_world && freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, self.settings.freeze_batch) {
                 self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
             }
             self.node_steps += self.sim.rod.nodes() as u64;
             if let Err(f) = self.control.advance(&mut self.sim, until) {
-                if self.roll_back() {
+                let failed_at = self.sim.t;
+                if !self.in_world && self.roll_back_from(failed_at) {
                     continue;
                 }
                 self.error = Some(self.recovery.failure(&f));
@@ -529,6 +540,17 @@ impl ContactBody for Feeder {
     }
     fn before_step(&mut self) {
         self.feed_top();
+    }
+    fn checkpoint(&mut self) {
+        let book = self.book();
+        self.recovery.checkpoint_now(&mut self.sim, &self.control, book);
+    }
+    fn can_roll_back(&self) -> bool {
+        self.recovery.can_roll_back()
+    }
+    fn roll_back(&mut self, failed_at: f64) {
+        let back = self.roll_back_from(failed_at);
+        debug_assert!(back, "roll_back after can_roll_back");
     }
     fn landing_reach(&mut self) -> f64 {
         // the touchdown point: the last node along the fibre that has been laid (a span

@@ -24,6 +24,13 @@
 //! is as reproducible as any. The number of rollbacks is the scene parameter `rollbacks`
 //! (0: the first failure ends the run, as before); each run reports how many it took.
 //!
+//! A fibre of a contact world ([`super::contact_world`]) cannot go back on its own: the
+//! other fibres have seen its state. There the checkpoints are taken on demand
+//! ([`Recovery::checkpoint_on_demand`]), one at the start of each broad-phase interval,
+//! and when a fibre's step fails every fibre that could touch it in the interval goes
+//! back to that start together ([`Recovery::roll_back_from`] with the failure's time) and
+//! retakes the stretch with the same remedy.
+//!
 //! What a rollback restores: the rod, its contact and twist state, the time, the step
 //! control, the counters of the kept trajectory (steps, projection iterations, smallest
 //! step) and the caller's state `S`. Rejected steps, and a feed's node-steps, count all
@@ -100,6 +107,9 @@ pub struct Recovery<S: Clone> {
     /// The scene's θ of the axial springs and largest step, restored after the stretch.
     axial_theta: f64,
     dt_max: f64,
+    /// Checkpoints every [`CHECKPOINT_STEPS`] accepted steps (false: only when asked,
+    /// [`Self::checkpoint_now`]).
+    periodic: bool,
 }
 
 impl<S: Clone> Recovery<S> {
@@ -107,7 +117,7 @@ impl<S: Clone> Recovery<S> {
     /// rollbacks (0: none, and no checkpoints are kept); `extra` is the caller's state
     /// now, the first checkpoint.
     pub fn new(sim: &mut Simulator, control: &StepControl, limit: usize, extra: S) -> Self {
-        let mut recovery = Recovery { checkpoints: Vec::new(), limit, rollbacks: 0, level: 0, until: f64::NEG_INFINITY, axial_theta: sim.axial_theta, dt_max: control.dt_max };
+        let mut recovery = Recovery { checkpoints: Vec::new(), limit, rollbacks: 0, level: 0, until: f64::NEG_INFINITY, axial_theta: sim.axial_theta, dt_max: control.dt_max, periodic: true };
         recovery.checkpoint(sim, control, extra);
         recovery
     }
@@ -125,11 +135,25 @@ impl<S: Clone> Recovery<S> {
         }
     }
 
-    /// Switch recovery off and drop the checkpoints (a fibre advanced in a contact world,
-    /// whose state the other fibres have seen).
-    pub fn disable(&mut self) {
-        self.limit = 0;
+    /// Take checkpoints only when asked ([`Self::checkpoint_now`]), and drop those kept (a
+    /// fibre advanced in a contact world, whose state the other fibres have seen: the
+    /// world takes them at the start of each interval and decides when to go back).
+    pub fn checkpoint_on_demand(&mut self) {
+        self.periodic = false;
         self.checkpoints.clear();
+    }
+
+    /// Keep the state now as the only checkpoint (on demand; even inside a retaken
+    /// stretch, whose remedy a failure after it still escalates).
+    pub fn checkpoint_now(&mut self, sim: &mut Simulator, control: &StepControl, extra: S) {
+        self.checkpoints.clear();
+        self.checkpoint(sim, control, extra);
+    }
+
+    /// Whether [`Self::roll_back`] would go back now: a checkpoint kept, rollbacks left,
+    /// and fewer than [`ROLLBACKS_IN_A_ROW`] to it in a row.
+    pub fn can_roll_back(&self) -> bool {
+        self.rollbacks < self.limit && !self.checkpoints.is_empty() && self.level < ROLLBACKS_IN_A_ROW
     }
 
     /// After each accepted step, once the caller's state is up to date: end a retaken
@@ -139,7 +163,7 @@ impl<S: Clone> Recovery<S> {
         if self.level > 0 && sim.t >= self.until {
             self.finish(sim, control);
         }
-        if self.limit > 0 && self.level == 0 && sim.steps.is_multiple_of(CHECKPOINT_STEPS) {
+        if self.periodic && self.limit > 0 && self.level == 0 && sim.steps.is_multiple_of(CHECKPOINT_STEPS) {
             self.checkpoint(sim, control, extra());
         }
     }
@@ -172,14 +196,18 @@ impl<S: Clone> Recovery<S> {
     /// with the retaken stretch's scheme set; None when no rollback is left (`limit`
     /// taken, or [`ROLLBACKS_IN_A_ROW`] to this checkpoint already).
     pub fn roll_back(&mut self, sim: &mut Simulator, control: &mut StepControl) -> Option<S> {
-        if self.rollbacks >= self.limit || self.checkpoints.is_empty() {
-            return None;
-        }
         let failed_at = sim.t;
-        let again = self.level > 0;
-        if again && self.level >= ROLLBACKS_IN_A_ROW {
+        self.roll_back_from(sim, control, failed_at)
+    }
+
+    /// [`Self::roll_back`] for a failure at `failed_at` (s), which may be another run's (a
+    /// contact world goes back with every fibre that could touch the one that failed):
+    /// the retaken stretch runs as far again past it.
+    pub fn roll_back_from(&mut self, sim: &mut Simulator, control: &mut StepControl, failed_at: f64) -> Option<S> {
+        if !self.can_roll_back() {
             return None;
         }
+        let again = self.level > 0;
         self.level = if again { self.level + 1 } else { 1 };
         // outside a stretch the older of the two; inside one the only one (none is taken there)
         self.checkpoints.truncate(1);

@@ -232,7 +232,7 @@ const FIBRE_COLUMNS: &[FibreColumn] = &[
     ("frozen_nodes", "1", "frozen nodes", "nodes frozen (stuck, carried with the belt at no cost) during the run", |f| f.fed.frozen_nodes as f64),
     ("final_lift_of_landed", "m", "highest landed node at the end", "highest landed node above the belt at the end", |f| f.fed.final_lift_of_landed),
     ("steps", "1", "time steps", "time steps", |f| f.fed.steps as f64),
-    ("rollbacks", "1", "rollbacks", "times the fibre was rolled back to a checkpoint after a failed step and the stretch retaken with the recovery scheme (0: none; always 0 with fibre_contact, whose fibres are not rolled back)", |f| f.fed.rollbacks as f64),
+    ("rollbacks", "1", "rollbacks", "times the fibre was rolled back to a checkpoint after a failed step and the stretch retaken with the recovery scheme (0: none; with fibre_contact every fibre that could touch the failed one goes back with it to the start of the broad-phase interval, and each counts it)", |f| f.fed.rollbacks as f64),
     ("node_steps", "1", "node steps", "sum over steps of the active nodes (the work done)", |f| f.fed.node_steps as f64),
     ("max_active_nodes", "1", "most active nodes", "most nodes integrated at once", |f| f.fed.max_active_nodes as f64),
     ("wall_seconds", "s", "wall time of the fibre", "wall time of the fibre's own steps (with fibre contact: its narrow phase included)", |f| f.fed.wall_seconds),

@@ -403,3 +403,109 @@ fn broad_phase_interval_follows_the_fastest_imposed_speed() {
     assert!((swinging.broad_phase_interval(&c) - expected.min(c.interval)).abs() <= 1e-12 * expected);
     assert!(swinging.broad_phase_interval(&c) < c.interval);
 }
+
+use crate::rod::contact_world::ContactBody;
+
+/// A fed fibre of a contact web whose state goes bad once: a NaN put into the velocity
+/// of a hanging node at its first step at or after `fault_at` (s), so that every retake
+/// of that step fails, down to the smallest. A rollback restores a time before the fault,
+/// which then does not fire again.
+struct Faulty {
+    feeder: Feeder,
+    fault_at: Option<f64>,
+}
+
+impl ContactBody for Faulty {
+    fn simulator(&self) -> &crate::rod::integrator::Simulator {
+        self.feeder.simulator()
+    }
+    fn simulator_mut(&mut self) -> &mut crate::rod::integrator::Simulator {
+        self.feeder.simulator_mut()
+    }
+    fn next_step(&self) -> f64 {
+        ContactBody::next_step(&self.feeder)
+    }
+    fn advance_to(&mut self, until: f64) {
+        if let Some(t) = self.fault_at.filter(|&t| self.feeder.simulator().t >= t) {
+            let sim = self.feeder.simulator_mut();
+            let hanging = sim.rod.nodes() - 3;
+            sim.rod.v[hanging][0] = f64::NAN;
+            println!("fault planted at t = {:.5} s (asked for {t} s)", sim.t);
+            self.fault_at = None;
+        }
+        self.feeder.advance_to(until)
+    }
+    fn running(&self) -> bool {
+        ContactBody::running(&self.feeder)
+    }
+    fn before_step(&mut self) {
+        self.feeder.before_step()
+    }
+    fn checkpoint(&mut self) {
+        self.feeder.checkpoint()
+    }
+    fn can_roll_back(&self) -> bool {
+        self.feeder.can_roll_back()
+    }
+    fn roll_back(&mut self, failed_at: f64) {
+        self.feeder.roll_back(failed_at)
+    }
+    fn landing_reach(&mut self) -> f64 {
+        self.feeder.landing_reach()
+    }
+    fn freeze(&mut self, frozen: &mut Vec<[f64; 3]>, landing_front: f64) {
+        self.feeder.freeze(frozen, landing_front)
+    }
+}
+
+/// Two fibres 4 mm apart with fibre contact (Table 1 scene, 10 mm of belt), `rollbacks`
+/// allowed, fibre 0 meeting a fault at `fault_at` (s): each fibre fed to the end.
+fn faulty_contact_web(rollbacks: usize, fault_at: Option<f64>) -> Vec<FedFibre> {
+    let scene = LaydownParams { rollbacks, ..small_scene() };
+    let mut p = laid_web_for(&scene, 0.0, 2);
+    p.belt_travel = 0.01;
+    p.fibre_spacing = 0.004;
+    p.feed.oscillation_ramp = 0.01;
+    p.fibre_contact = Some(FibreContactSettings::default());
+    let web = ContactWeb::new(&p, p.fibre_contact.as_ref().unwrap(), 7, 0);
+    let intervals = web.intervals();
+    let ContactWeb { feeders, mut world, mut stats, interval, feed_time, .. } = web;
+    let mut bodies: Vec<Faulty> = feeders.into_iter().enumerate().map(|(j, feeder)| Faulty { feeder, fault_at: fault_at.filter(|_| j == 0) }).collect();
+    for k in 0..intervals {
+        let (t0, t1) = (k as f64 * interval, ((k + 1) as f64 * interval).min(feed_time));
+        world.run_interval(&mut bodies, t0, t1, &mut stats);
+    }
+    assert!(bodies.iter().all(|b| b.fault_at.is_none()), "the fault never fired");
+    bodies.into_iter().map(|b| b.feeder.finish()).collect()
+}
+
+/// A fibre whose state goes bad in a contact web is no longer lost: the fibres it can
+/// touch go back with it to the start of the broad-phase interval and retake it with the
+/// recovery scheme (each counts the rollback), and both are laid. Without rollbacks the
+/// fault ends the fibre, as before; a web without a failure is bit-identical with and
+/// without them (the checkpoints only copy the state).
+#[test]
+fn a_contact_web_goes_back_together_when_a_fibre_fails() {
+    let clean = faulty_contact_web(crate::rod::recovery::ROLLBACKS, None);
+    let clean_without = faulty_contact_web(0, None);
+    for (a, b) in clean.iter().zip(&clean_without) {
+        assert!(a.error.is_none() && a.rollbacks == 0, "{:?}", a.error);
+        assert_eq!((&a.positions, a.steps), (&b.positions, b.steps), "the checkpoints changed the web");
+    }
+    let lost = faulty_contact_web(0, Some(0.0301));
+    let reason = lost[0].error.as_deref().expect("without rollbacks the fault ends the fibre");
+    assert!(reason.contains("unstable step"), "{reason}");
+    assert!(lost[0].end_time < 0.0302, "the fibre stops at the fault, t = {}", lost[0].end_time);
+    assert!(lost[1].error.is_none(), "{:?}", lost[1].error);
+    let saved = faulty_contact_web(crate::rod::recovery::ROLLBACKS, Some(0.0301));
+    for (j, (f, c)) in saved.iter().zip(&clean).enumerate() {
+        let laid = |f: &FedFibre| f.landing_time.iter().filter(|t| t.is_finite()).count() as f64;
+        println!("fibre {j}: rollbacks {}, end {:.4} s, laid nodes {} against {} without the fault", f.rollbacks, f.end_time, laid(f), laid(c));
+        assert!(f.error.is_none(), "fibre {j}: {:?}", f.error);
+        assert!(f.positions.iter().flatten().all(|x| x.is_finite()));
+        assert!((f.end_time - c.end_time).abs() < 1e-9);
+        // both fibres went back: they could touch when the fault fired
+        assert_eq!(f.rollbacks, 1, "fibre {j}");
+        assert!((laid(f) / laid(c) - 1.0).abs() < 0.05, "fibre {j}: laid nodes {} against {}", laid(f), laid(c));
+    }
+}

@@ -273,9 +273,8 @@ pub struct Feeder {
     feed_height: f64,
     /// Frozen nodes: position at freezing, freezing time, landing time.
     frozen: Vec<([f64; 3], f64, f64)>,
-    stuck_since: Vec<f64>,
-    /// Belt-frame position of each node when its settling started.
-    anchors: Vec<[f64; 2]>,
+    /// Per-node settling and the touchdown reach.
+    book: FeedBook,
     node_steps: u64,
     max_active: usize,
     error: Option<String>,
@@ -284,20 +283,20 @@ pub struct Feeder {
     /// Advanced by a contact world ([`Feeder::join_contact_world`]): freeze only when
     /// asked ([`ContactBody::freeze`]), go back only when the world says.
     in_world: bool,
-    /// The farthest downstream this fibre's touchdown point has been (m, lab frame), as
-    /// noted at each preparation ([`ContactBody::landing_reach`]).
-    landing_reach: f64,
-    /// Rollback after a failed step ([`super::recovery`]), with the feed's bookkeeping.
-    recovery: Recovery<FeedBook>,
+    /// Rollback after a failed step ([`super::recovery`]), with the feed's bookkeeping
+    /// and the count of frozen nodes (they only grow, so the count is enough).
+    recovery: Recovery<(usize, FeedBook)>,
 }
 
-/// The feed's bookkeeping a rollback restores with the simulator (the frozen nodes only
-/// grow, so their count is enough).
+/// The feed's bookkeeping a rollback restores with the simulator.
 #[derive(Clone)]
 struct FeedBook {
-    frozen: usize,
+    /// Per node: since when it has stuck (s; NaN: not stuck).
     stuck_since: Vec<f64>,
+    /// Belt-frame position of each node when its settling started.
     anchors: Vec<[f64; 2]>,
+    /// The farthest downstream this fibre's touchdown point has been (m, lab frame), as
+    /// noted at each preparation ([`ContactBody::landing_reach`]).
     landing_reach: f64,
 }
 
@@ -337,8 +336,8 @@ impl Feeder {
         let control = StepControl::new(sim.limits.chosen, mpl);
         let nodes = sim.rod.nodes();
         let last_good = sim.rod.x.clone();
-        let (stuck_since, anchors) = (vec![f64::NAN; nodes], vec![[0.0; 2]; nodes]);
-        let recovery = Recovery::new(&mut sim, &control, p.rollbacks, FeedBook { frozen: 0, stuck_since: stuck_since.clone(), anchors: anchors.clone(), landing_reach: f64::NEG_INFINITY });
+        let book = FeedBook { stuck_since: vec![f64::NAN; nodes], anchors: vec![[0.0; 2]; nodes], landing_reach: f64::NEG_INFINITY };
+        let recovery = Recovery::new(&mut sim, &control, p.rollbacks, (0, book.clone()));
         Feeder {
             control,
             settings: settings.clone(),
@@ -347,15 +346,13 @@ impl Feeder {
             element_length: ds,
             feed_height,
             frozen: Vec::new(),
-            stuck_since,
-            anchors,
+            book,
             node_steps: 0,
             max_active: nodes,
             error: None,
             last_good,
             wall_seconds: clock.elapsed().as_secs_f64(),
             in_world: false,
-            landing_reach: f64::NEG_INFINITY,
             sim,
             recovery,
         }
@@ -377,21 +374,14 @@ impl Feeder {
     /// when no rollback is left.
     fn roll_back_from(&mut self, failed_at: f64) -> bool {
         match self.recovery.roll_back_from(&mut self.sim, &mut self.control, failed_at) {
-            Some(book) => {
-                self.frozen.truncate(book.frozen);
-                self.stuck_since = book.stuck_since;
-                self.anchors = book.anchors;
-                self.landing_reach = book.landing_reach;
+            Some((frozen, book)) => {
+                self.frozen.truncate(frozen);
+                self.book = book;
                 self.error = None;
                 true
             }
             None => false,
         }
-    }
-
-    /// The feed's bookkeeping now, as a checkpoint keeps it.
-    fn book(&self) -> FeedBook {
-        FeedBook { frozen: self.frozen.len(), stuck_since: self.stuck_since.clone(), anchors: self.anchors.clone(), landing_reach: self.landing_reach }
     }
 
     /// The simulated (hanging and not yet frozen) part.
@@ -422,8 +412,8 @@ impl Feeder {
             } else {
                 f64::INFINITY
             };
-            if self.settings.freeze && !self.in_world && freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, self.settings.freeze_batch) {
-                self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
+            if self.settings.freeze && !self.in_world && freeze_stuck(&mut self.sim, &mut self.book.stuck_since, &mut self.frozen, &self.settings, belt, line, self.settings.freeze_batch) {
+                self.book.anchors.drain(..self.book.anchors.len() - self.book.stuck_since.len());
             }
             self.node_steps += self.sim.rod.nodes() as u64;
             if let Err(f) = self.control.advance(&mut self.sim, until) {
@@ -445,7 +435,7 @@ impl Feeder {
             let on_web = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.on_web[..]);
             // laid: landed on the belt, or (with fibre contact) on the web ([`Simulator::laid_time`])
             let web_landing = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.web_landing_time[..]);
-            for (i, (since, anchor)) in self.stuck_since.iter_mut().zip(self.anchors.iter_mut()).enumerate() {
+            for (i, (since, anchor)) in self.book.stuck_since.iter_mut().zip(self.book.anchors.iter_mut()).enumerate() {
                 let x = sim.rod.x[i];
                 let laid = sim.landing_time[i].is_finite() || web_landing.get(i).is_some_and(|t| t.is_finite());
                 let on_belt = laid && (x[2] <= self.settings.lift_tolerance || on_web.get(i) == Some(&true));
@@ -458,8 +448,8 @@ impl Feeder {
                 }
             }
             // the step's bookkeeping is done: a checkpoint holds all of it
-            let (frozen, stuck_since, anchors, landing_reach) = (&self.frozen, &self.stuck_since, &self.anchors, self.landing_reach);
-            self.recovery.after_step(&mut self.sim, &mut self.control, || FeedBook { frozen: frozen.len(), stuck_since: stuck_since.clone(), anchors: anchors.clone(), landing_reach });
+            let (frozen, book) = (&self.frozen, &self.book);
+            self.recovery.after_step(&mut self.sim, &mut self.control, || (frozen.len(), book.clone()));
         }
         self.wall_seconds += clock.elapsed().as_secs_f64();
     }
@@ -471,8 +461,8 @@ impl Feeder {
         if sim.rod.x[top][2] <= self.feed_height - ds {
             let (x, v) = (sim.rod.x[top], sim.rod.v[top]);
             sim.push_top([x[0], x[1], x[2] + ds], v, ds, self.mass_per_length);
-            self.stuck_since.push(f64::NAN);
-            self.anchors.push([0.0; 2]);
+            self.book.stuck_since.push(f64::NAN);
+            self.book.anchors.push([0.0; 2]);
             self.max_active = self.max_active.max(sim.rod.nodes());
         }
     }
@@ -542,8 +532,7 @@ impl ContactBody for Feeder {
         self.feed_top();
     }
     fn checkpoint(&mut self) {
-        let book = self.book();
-        self.recovery.checkpoint_now(&mut self.sim, &self.control, book);
+        self.recovery.checkpoint_now(&mut self.sim, &self.control, (self.frozen.len(), self.book.clone()));
     }
     fn can_roll_back(&self) -> bool {
         self.recovery.can_roll_back()
@@ -556,9 +545,9 @@ impl ContactBody for Feeder {
         // the touchdown point: the last node along the fibre that has been laid (a span
         // settling far downstream is not a landing)
         if let Some(i) = (0..self.sim.rod.nodes()).rev().find(|&i| self.sim.laid_time(i).is_finite()) {
-            self.landing_reach = self.landing_reach.max(self.sim.rod.x[i][0]);
+            self.book.landing_reach = self.book.landing_reach.max(self.sim.rod.x[i][0]);
         }
-        self.landing_reach
+        self.book.landing_reach
     }
     fn freeze(&mut self, frozen: &mut Vec<[f64; 3]>, landing_front: f64) {
         if !self.settings.freeze || self.error.is_some() {
@@ -569,8 +558,8 @@ impl ContactBody for Feeder {
         let line = landing_front + self.settings.front_margin;
         // once per preparation: any run is worth freezing (the batch spares rebuilding
         // the rod after every step, which does not happen here)
-        if freeze_stuck(&mut self.sim, &mut self.stuck_since, &mut self.frozen, &self.settings, belt, line, 1) {
-            self.anchors.drain(..self.anchors.len() - self.stuck_since.len());
+        if freeze_stuck(&mut self.sim, &mut self.book.stuck_since, &mut self.frozen, &self.settings, belt, line, 1) {
+            self.book.anchors.drain(..self.book.anchors.len() - self.book.stuck_since.len());
         }
         let vb = self.belt_speed;
         frozen.extend(self.frozen[before..].iter().map(|(x, t, _)| [x[0] - vb * t, x[1], x[2]]));

@@ -477,7 +477,7 @@ fn main() {
     }
     for (j, f) in laid.iter().enumerate() {
         println!(
-            "fibre {j}: laid {} nodes, frozen {}, top lift {:.3} mm (node {} of {}, landed at {:.4} s; {} landed nodes above 1 mm, {} of them landed after the start-up), steps {} ({} rejected, smallest {:.2e} s), max penetration {:.3} d, error {:?}",
+            "fibre {j}: laid {} nodes, frozen {}, top lift {:.3} mm (node {} of {}, landed at {:.4} s; {} landed nodes above 1 mm, {} of them landed after the start-up), steps {} ({} rejected, smallest {:.2e} s, {} rollbacks), max penetration {:.3} d, error {:?}",
             f.laid_nodes(),
             f.frozen_nodes,
             f.final_lift_of_landed * 1e3,
@@ -489,6 +489,7 @@ fn main() {
             f.steps,
             f.rejected_steps,
             f.min_time_step,
+            f.rollbacks,
             pen[j] / d,
             f.error
         );

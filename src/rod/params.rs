@@ -317,7 +317,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("imperfection_std", "m", 1e-6, 0.0, 1e-2, "std of the initial x/y node imperfections"),
     real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
     real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step"),
-    int("rollbacks", super::recovery::ROLLBACKS as i64, 0, 1000, "adaptive-step schemes: times a run whose step failed even at the smallest step goes back to a checkpoint 64-128 steps earlier and retakes the stretch with the axial springs by backward Euler (as implicit_axial has anyway) and a quarter of the step (src/rod/recovery.rs); not with fibre_contact; 0 = the first failure ends the replicate or fibre"),
+    int("rollbacks", super::recovery::ROLLBACKS as i64, 0, 1000, "adaptive-step schemes: times a run whose step failed even at the smallest step goes back to a checkpoint 64-128 steps earlier and retakes the stretch with the axial springs by backward Euler (as implicit_axial has anyway) and a quarter of the step (src/rod/recovery.rs); with fibre_contact the fibres that can touch go back together to the start of the broad-phase interval; 0 = the first failure ends the replicate or fibre"),
     int("diagnostic_stride", 1000, 1, 1_000_000_000, "record energy diagnostics every this many steps"),
     real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),

@@ -22,7 +22,10 @@
 //!   web advance under one [`ContactWorld`], those that can touch in lock step
 //!   ([`ContactWeb`]; centrelines at least d apart,
 //!   Coulomb friction μ_ff, spatial hashing; [`crate::rod::fibre_contact`]), and a node
-//!   that comes to rest on laid fibre has landed (on the web instead of the belt).
+//!   that comes to rest on laid fibre has landed (on the web instead of the belt). A
+//!   fibre whose step fails takes the fibres it can touch back with it to the start of
+//!   the broad-phase interval, and they retake it with the recovery scheme (`rollbacks`;
+//!   without contact each fibre goes back alone, [`crate::rod::recovery`]).
 //! - **Freezing.** Besides the settle rule and the 0.2 s age limit a **freezing front**
 //!   freezes laid fibre: a node laid at least `settle_time` ago that lies
 //!   `freeze_front_margin` downstream of the farthest touchdown point reached so far,

@@ -38,7 +38,7 @@ impl BandSym {
         self.band.resize(n * (p + 1), 0.0);
     }
 
-    /// A[i][j] (either triangle); zero outside the band.
+    /// `A[i][j]` (either triangle); zero outside the band.
     #[inline]
     pub fn get(&self, i: usize, j: usize) -> f64 {
         let (i, j) = if i >= j { (i, j) } else { (j, i) };
@@ -49,7 +49,7 @@ impl BandSym {
         }
     }
 
-    /// A[i][j] += a and, by symmetry, A[j][i]; (i, j) must lie in the band.
+    /// `A[i][j] += a` and, by symmetry, `A[j][i]`; (i, j) must lie in the band.
     #[inline]
     pub fn add(&mut self, i: usize, j: usize, a: f64) {
         let (i, j) = if i >= j { (i, j) } else { (j, i) };
@@ -76,7 +76,7 @@ impl BandSym {
 
     /// Replace row and column `i` by those of the identity and move the column's
     /// contribution x_i = `value` to the right-hand side `b` (a Dirichlet condition that
-    /// keeps the matrix symmetric); b[i] = value.
+    /// keeps the matrix symmetric); `b[i] = value`.
     pub fn fix(&mut self, i: usize, value: f64, b: &mut [f64]) {
         let (n, p) = (self.n, self.p);
         for j in i.saturating_sub(p)..(i + p + 1).min(n) {

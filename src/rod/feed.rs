@@ -188,7 +188,7 @@ const FED_SETTLE_LENGTH: f64 = 0.1;
 const FED_AGE_LENGTH: f64 = 1.0;
 
 /// The freezing settings of `start: fed` for the scene `p`: the settle time and age
-/// limit as the time [`FED_SETTLE_LENGTH`] and [`FED_AGE_LENGTH`] take to feed, the
+/// limit as the time `FED_SETTLE_LENGTH` and `FED_AGE_LENGTH` take to feed, the
 /// front at [`FeedSettings::FRONT_MARGIN`].
 pub fn fed_settings(p: &LaydownParams) -> FeedSettings {
     FeedSettings { settle_time: FED_SETTLE_LENGTH / p.fibre_speed, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin: FeedSettings::FRONT_MARGIN, ..FeedSettings::default() }

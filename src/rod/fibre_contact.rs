@@ -45,7 +45,7 @@
 //! bound is at least d in the position pass; a pair first tested in the position pass
 //! takes the share its start-of-step state gives, as it would have in the velocity pass.
 //! Each own segment also keeps the least bound of its candidates, less the travel of the
-//! obstacles since ([`FibreContact::row_gap`]), so a pass skips a segment far from every
+//! obstacles since (`FibreContact::row_gap`), so a pass skips a segment far from every
 //! candidate in one comparison instead of visiting its candidates one by one.
 //! `pruning: false` tests every candidate (`pruning_skips_pair_tests_and_changes_nothing`).
 //!

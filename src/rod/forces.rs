@@ -401,11 +401,11 @@ fn bending_forces(rod: &Rod, ws: &mut Workspace) {
 
 /// Curvature binormal κb = 2 t_a × t_b/(1 + t_a·t_b) at an interior node (Bergou et al.
 /// 2008; |κb| = 2 tan(φ/2)) and its Jacobians J_a = ∂κb/∂e_a, J_b = ∂κb/∂e_b with respect
-/// to the two edge vectors (row-major 3 × 3, J[r][c] = ∂κb_r/∂e_c), from the unit tangents
+/// to the two edge vectors (row-major 3 × 3, `J[r][c]` = ∂κb_r/∂e_c), from the unit tangents
 /// and lengths: with D = 1 + c, P_a = I − t_a t_aᵀ,
-/// J_a = (1/l_a) [−(2/D) [t_b]× P_a − κb (t_b − c t_a)ᵀ/D],
-/// J_b = (1/l_b) [ (2/D) [t_a]× P_b − κb (t_a − c t_b)ᵀ/D]
-/// ([t]× y = t × y). D is kept above the fold-back clamp of the energy.
+/// `J_a = (1/l_a) [−(2/D) [t_b]× P_a − κb (t_b − c t_a)ᵀ/D]`,
+/// `J_b = (1/l_b) [ (2/D) [t_a]× P_b − κb (t_a − c t_b)ᵀ/D]`
+/// (`[t]× y = t × y`). D is kept above the fold-back clamp of the energy.
 pub fn curvature_binormal_jacobian(ta: [f64; 3], tb: [f64; 3], la: f64, lb: f64) -> ([f64; 3], [[f64; 3]; 3], [[f64; 3]; 3]) {
     let c = ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2];
     let d = (1.0 + c).max(MIN_ONE_PLUS_COS);

@@ -282,7 +282,7 @@ impl Stage for LaydownStage {
         scene(p).cautions()
     }
 
-    /// [`estimated_cpu_seconds`]: about, for the vertical start; at most, for the fed
+    /// `estimated_cpu_seconds`: about, for the vertical start; at most, for the fed
     /// start (frozen laid fibre costs nothing); at least, with a `valid_replicates_target`
     /// (invalid replicates are redrawn), unless the start is fed too (then about).
     fn estimate_cpu_time(&self, p: &ParamSet) -> Option<crate::stages::CpuTime> {

@@ -544,7 +544,7 @@ impl Web {
     /// and consecutive pieces share one node (the last of one is the first of the next),
     /// so every node and every chord is in exactly one piece, counting the shared node
     /// with the piece it ends. A fibre's pieces come in order, on one thread. A
-    /// `lay_down_sde` web streams in pieces of about [`SDE_PIECE_STEPS`] steps, which
+    /// `lay_down_sde` web streams in pieces of about `SDE_PIECE_STEPS` steps, which
     /// keeps its sixteen fibres' nodes in cache for the visitor; the other generators
     /// give each fibre whole.
     ///

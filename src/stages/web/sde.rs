@@ -35,7 +35,7 @@
 //! b/2; a calibrated model coarser than b/5 is flagged. ξ_k standard normal (Box–Muller on
 //! xoshiro256++ seeded from the fibre's ChaCha8 stream). τ(α) is carried as a unit vector
 //! rotated by α̃ − α_k and then by α_{k+1} − α̃ (the same scheme, other rounding; see
-//! [`SdeLanes`]). A fibre starts in the stationary state: η_0 ~ N(0, b²I), α_0 uniform. The curvature κ = dα/ds is white noise
+//! `SdeLanes`). A fibre starts in the stationary state: η_0 ~ N(0, b²I), α_0 uniform. The curvature κ = dα/ds is white noise
 //! plus the potential's turning, so the bending energy e depends on Δs: the model is
 //! calibrated at the input's Δs and meant to be used there.
 //!

@@ -12,8 +12,11 @@
 //! `coherent=1` (every fibre the same oscillation phase), `check=1`
 //! (after every interval, the true least distance between fibres from their positions,
 //! instead of what each rod saw in its own steps, and each landed node that rises above
-//! 0.5 mm; with the environment variable `LIFT_PROFILE` set, the heights of the fibre
-//! around it, L landed, S held by a contact, R resting on a fibre). `integrator=` picks the
+//! 0.5 mm, or `LIFT_ABOVE` metres; with `LIFT_AFTER` set, only from that time (s) on,
+//! and then after every interval each fibre's highest landed node, how many landed nodes stand above 1 mm and
+//! its fastest landed node relative to the belt; with the environment variable
+//! `LIFT_PROFILE` set, the heights of the fibre around a lifted node, L landed, S held by
+//! a contact, R resting on a fibre). `integrator=` picks the
 //! scene's integrator by name; with the environment variable `DUMP_LAID=k` every k-th laid
 //! node still simulated of the first two fibres is printed at the end (height, velocity
 //! relative to the belt, flags). With `DISP_WINDOW=s` it prints how far the laid nodes
@@ -264,6 +267,9 @@ fn main() {
         let mut true_reports = 0;
         let mut lift_reports = 0;
         let mut was_lifted = vec![std::collections::HashSet::new(); fibres];
+        let lift_above: f64 = std::env::var("LIFT_ABOVE").ok().map_or(5e-4, |v| v.parse().unwrap());
+        let heights_after: Option<f64> = std::env::var("LIFT_AFTER").ok().map(|v| v.parse().unwrap());
+        let lift_after = heights_after.unwrap_or(0.0);
         let disp_window: f64 = std::env::var("DISP_WINDOW").ok().map_or(0.0, |v| v.parse().unwrap());
         let mut snapshot: Option<Vec<LaidNodes>> = None;
         let vb = p.scene.belt_speed;
@@ -287,13 +293,13 @@ fn main() {
                 }
             }
             // landed nodes that rise above 0.5 mm: where, how fast, and what is nearest
-            if check && lift_reports < 40 {
+            if check && lift_reports < 40 && t1 >= lift_after {
                 let segs: Vec<_> = feeders.iter().enumerate().map(|(j, f)| segments(f, world.cd_offsets[j], p.scene.belt_speed, t1)).collect();
                 for (j, f) in feeders.iter().enumerate() {
                     let sim = f.simulator();
                     let base = f.frozen().len();
                     for (i, x) in sim.rod.x.iter().enumerate() {
-                        let lifted = sim.landing_time[i].is_finite() && x[2] > 5e-4;
+                        let lifted = sim.landing_time[i].is_finite() && x[2] > lift_above;
                         if lifted && !was_lifted[j].contains(&(base + i)) && lift_reports < 40 {
                             lift_reports += 1;
                             let v = sim.rod.v[i];
@@ -388,6 +394,20 @@ fn main() {
                     worst[j] = worst[j].max(c.max_penetration);
                     c.max_penetration = 0.0;
                 }
+            }
+            if check && heights_after.is_some_and(|a| t1 >= a) {
+                // the highest landed node of each fibre and how many landed nodes are above 1 mm
+                let tops: Vec<String> = feeders
+                    .iter()
+                    .map(|f| {
+                        let sim = f.simulator();
+                        let landed = sim.rod.x.iter().zip(&sim.landing_time).filter(|(_, t)| t.is_finite());
+                        let (top, above) = landed.fold((0.0f64, 0), |(m, c), (x, _)| (m.max(x[2]), c + (x[2] > 1e-3) as usize));
+                        let (vmax, imax) = sim.rod.v.iter().enumerate().filter(|(i, _)| sim.landing_time[*i].is_finite()).map(|(i, v)| (((v[0] - vb).powi(2) + v[1] * v[1] + v[2] * v[2]).sqrt(), i)).fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+                        format!("{:.2}/{above} v{vmax:.2}@{imax}/{}+{}", top * 1e3, sim.rod.nodes(), f.frozen().len())
+                    })
+                    .collect();
+                eprintln!("HEIGHT t = {t1:.4} s: highest landed node (mm) / landed nodes above 1 mm, per fibre: {}", tops.join(" "));
             }
             if k % 50 == 0 {
                 let pen = worst.iter().cloned().fold(0.0, f64::max);

@@ -11,7 +11,9 @@
 //!
 //! In the projection schemes the axial force comes from the projection, after this
 //! step: the contact and stick tests then add the previous projection's force on the
-//! node (one step lag), so that fibre tension can lift or pull a laid node loose.
+//! node (one step lag), so that fibre tension can lift or pull a laid node loose. The
+//! velocities predicted for fibre contact ([`super::Simulator::predict_velocities`])
+//! leave it out.
 //!
 //! In the projection schemes the contact state also restricts the node's
 //! effective inverse mass in the length projection: a sticking node is fixed, a
@@ -31,8 +33,10 @@ impl BeltContact {
     /// and driven nodes are excluded). Their work is booked by the integrator, from the
     /// belt's whole reaction over the step ([`super::integrator`], "Work").
     /// Nodes with `supported[i]` set (held up by another fibre in this step, see
-    /// [`super::fibre_contact`]) are left alone.
-    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool, supported: &[bool]) {
+    /// [`super::fibre_contact`]) are left alone. `lagged`: the tests add the lagged
+    /// axial force `ws.lag_force` (projection schemes).
+    #[allow(clippy::too_many_arguments)]
+    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool, lagged: bool, supported: &[bool]) {
         let vb = self.belt_speed;
         let idt = 1.0 / dt;
         for i in nodes {
@@ -45,7 +49,7 @@ impl BeltContact {
             // In the projection schemes the axial force is not in v yet: the contact and
             // stick tests use the last projection's force on the node (lagged), so that
             // fibre tension can lift or pull a laid node loose.
-            let lag = if restrict_w { ws.lag_force[i] } else { [0.0; 3] };
+            let lag = if lagged { ws.lag_force[i] } else { [0.0; 3] };
             let h = dt / m;
             let vz_test = v[2] + h * lag[2];
             if z + dt * vz_test > 0.0 {

@@ -461,3 +461,34 @@ fn freezing_front_without_fibre_contact_takes_only_nodes_on_the_belt() {
     sim.laid_times(&mut spans);
     assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, Some(&spans)), 36, "with fibre contact a node above the belt may rest on the web");
 }
+
+/// The velocities other fibres see (`predict_velocities`) leave the lagged axial force
+/// out of the belt's test. A span propped above the belt at a crossing, pulled down at
+/// its kink by a tension the crossing balances: predicted with the lag, it was drawn
+/// onto the belt within the step (v_z = −z/Δt) and given the friction impulse of that
+/// landing, μ p_n (over 100 m/s for a span 18 d up in a dense web, which its neighbours
+/// met and were thrown by). The step itself still tests with the lag: a single fibre's
+/// tension pulls for real.
+#[test]
+fn predicted_velocities_do_not_land_a_propped_span_by_its_lagged_tension() {
+    let p = scene();
+    let (d, dt) = (p.diameter, 2e-5);
+    let h = 4.0 * d;
+    // a kink 4 d up between two nodes on the belt, the apex sliding sideways
+    let positions = vec![[-1e-3, 0.0, 0.0], [0.0, 0.0, h], [1e-3, 0.0, 0.0]];
+    let velocities = vec![[0.0; 3], [0.05, 0.02, 0.0], [0.0; 3]];
+    let start = CustomStart { velocities, positions, driven_top: false, clamped: 0, rest_length: None };
+    let mut sim = build(&p, start);
+    let mut free = Vec::new();
+    sim.predict_velocities(dt, &mut free).unwrap();
+    assert!(free[1][2] * dt + h > 0.0, "the apex reaches the belt on its own: {:?}", free[1]);
+    // tension P (negative: segment_force is the compression) whose pull at the apex
+    // alone would carry it 4 h down in the step, with a sideways part
+    let m = sim.rod.mass[1];
+    let along = h / (1e-3f64.powi(2) + h * h).sqrt();
+    let tension = 4.0 * h * m / (dt * dt) / along;
+    sim.segment_force = vec![-tension, -0.5 * tension];
+    let mut predicted = Vec::new();
+    sim.predict_velocities(dt, &mut predicted).unwrap();
+    assert_eq!(predicted, free, "the lagged tension moved the prediction");
+}

@@ -79,6 +79,8 @@ fn every_stage_plots_as_png_and_svg() {
         assert!(p.starts_with(dir.path().join("plots_figures")), "{}", p.display());
         assert!(colours(&p) > 20, "{} looks blank", p.display());
     }
+    // a web laid without fibre contact lies on the belt: no height figure
+    assert!(!out.contains("web_height"), "{out}");
 
     let o = run_in(dir.path(), &["plot", "plots.h5", "fibre@v1", "--format", "svg", "--out", "svg"]);
     let (out, err) = text(&o);
@@ -134,4 +136,23 @@ fn unknown_stage_or_version_is_a_clear_error() {
         assert_eq!(o.status.code(), Some(2), "{err}");
         assert!(err.contains(message), "{stage}: {err}");
     }
+}
+
+/// A web laid with fibre contact has a thickness: `laydown plot` adds the height of the
+/// laid fibre (per cell, and along the belt).
+#[test]
+fn a_contact_web_plots_its_height() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pipeline(
+        dir.path(),
+        "p.yaml",
+        "pipeline: heights\narchive: h.h5\nseed: 3\nstages:\n  - name: laid\n    kind: laid_web\n    params: {fibres_across: 2, fibre_spacing: 0.002, belt_travel: 0.01, fibre_contact: true, oscillation_ramp: 0.01}\n",
+    );
+    let o = run_in(dir.path(), &["run", "p.yaml"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = run_in(dir.path(), &["plot", "h.h5"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let p = out.lines().find(|p| p.ends_with("laid/v1/web_height.png")).unwrap_or_else(|| panic!("web_height.png missing from {out}"));
+    assert!(colours(&dir.path().join(p)) > 20, "{p} looks blank");
 }

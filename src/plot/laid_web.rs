@@ -63,6 +63,9 @@ pub fn figures(d: &StageData) -> Result<Vec<Figure>> {
             let mut highest = Array2::<f64>::zeros((cells.ny, cells.nx));
             let mut along: Vec<Vec<f64>> = vec![Vec::new(); cells.nx];
             cells.each_node(|ix, iy, z| {
+                if !z.is_finite() {
+                    return;
+                }
                 let z = z * 1e6;
                 highest[[iy, ix]] = highest[[iy, ix]].max(z);
                 along[ix].push(z);

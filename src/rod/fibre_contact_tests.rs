@@ -1,6 +1,7 @@
 //! Checks of fibre-fibre contact: the closest points of two segments against cases
 //! solved by hand, and fibres dropped across each other (simulated or frozen) that must
-//! never come closer than d (minus a stated tolerance) and never pass through.
+//! never come closer than d (minus a stated tolerance) and never pass through, and a
+//! fibre at rest across another against the beam-over-a-prop solution.
 //! `cargo test --release --lib rod::fibre_contact -- --nocapture` prints the measured gaps.
 
 use super::*;
@@ -35,7 +36,11 @@ fn closest_points_of_crossing_parallel_and_end_cases() {
 /// A straight horizontal fibre of `elements` elements of 1 mm through `centre` along
 /// `axis`, moving at `velocity`; no driven or held node.
 fn straight(p: &LaydownParams, centre: [f64; 3], axis: [f64; 3], elements: usize, velocity: [f64; 3]) -> Simulator {
-    let ds = 1e-3;
+    straight_ds(p, centre, axis, elements, velocity, 1e-3)
+}
+
+/// [`straight`] with elements of `ds`.
+fn straight_ds(p: &LaydownParams, centre: [f64; 3], axis: [f64; 3], elements: usize, velocity: [f64; 3], ds: f64) -> Simulator {
     let half = 0.5 * elements as f64 * ds;
     let positions: Vec<[f64; 3]> = (0..=elements)
         .map(|i| {
@@ -214,6 +219,67 @@ fn fibre_lands_on_a_frozen_fibre_and_rests_on_it() {
     assert!(least >= 0.95 * d);
     assert!((mid[2] - d).abs() < 0.05 * d, "middle node at z = {:.3e} m, d = {d:.3e} m", mid[2]);
     assert!(b.rod.x[0][2] < 0.05 * d && b.rod.x[20][2] < 0.05 * d, "ends on the belt");
+}
+
+/// A fibre lying across another on the belt, at rest under its weight, is a beam over a
+/// prop of height d on a rigid flat. With neither friction nor axial force, each side
+/// obeys EI w⁗ = −q (q = m g) with w = d and w′ = 0 at the prop, and w = w′ = w″ = 0
+/// where it touches down, a distance ℓ away: w = q s³ (4ℓ − 3s) / (72 EI), s = ℓ − |y|
+/// the distance from the touchdown, and ℓ = (72 EI d / q)^(1/4). Gravity is raised so
+/// that ℓ = 10 mm (20 elements of 0.5 mm), the prop is a frozen fibre, and mass damping
+/// (which leaves the statics alone) brings the fibre to rest.
+#[test]
+fn fibre_resting_across_another_sags_to_the_belt_as_a_beam_over_a_prop() {
+    let mut p = LaydownParams::with_only_effects(&["elasticity", "gravity", "contact", "damping"]);
+    p.belt_speed = 0.0;
+    p.rayleigh_damping = 500.0;
+    let (d, ei, mpl) = (p.diameter, p.bending_stiffness(), p.mass_per_length());
+    let ell: f64 = 0.01;
+    p.gravity = 72.0 * ei * d / (mpl * ell.powi(4));
+    let q = mpl * p.gravity;
+    // frozen fibre A along x on the belt (fibre 1 of the world); B along y just above it
+    let mut world = ContactWorld::new(2, d, None, 0.0, None, 1e-3);
+    let frozen: Vec<[f64; 3]> = (0..=30).map(|i| [(i as f64 - 15.0) * 1e-3, 0.0, 0.0]).collect();
+    world.add_frozen(1, &frozen);
+    let b = straight_ds(&p, [0.0, 0.0, 1.02 * d], [0.0, 1.0, 0.0], 80, [0.0; 3], 0.5e-3);
+    let mut rods = [FreeRod::new(b, mpl)];
+    let mut stats = ContactStats::default();
+    let interval = 1e-4;
+    for n in 0..1500 {
+        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
+        assert!(rods[0].error.is_none(), "{:?}", rods[0].error);
+    }
+    let b = &rods[0].sim;
+    let fastest = b.rod.v.iter().map(|v| norm(*v)).fold(0.0, f64::max);
+    let beam = |y: f64| {
+        let s = ell - y.abs();
+        if s <= 0.0 {
+            0.0
+        } else {
+            q * s.powi(3) * (4.0 * ell - 3.0 * s) / (72.0 * ei)
+        }
+    };
+    let mut worst = (0.0f64, 0usize);
+    for (i, x) in b.rod.x.iter().enumerate() {
+        let error = (x[2] - beam(x[1])).abs();
+        if error > worst.0 {
+            worst = (error, i);
+        }
+    }
+    let top = b.rod.x.iter().map(|x| x[2]).fold(0.0, f64::max);
+    let on_belt = b.rod.x.iter().filter(|x| x[2] < 0.01 * d).count();
+    println!(
+        "beam over a prop: ℓ = {:.2} mm, top {:.4} d, worst |z − w(y)| {:.4} d at node {} (y = {:.2} mm), {on_belt} of 81 nodes on the belt (beam: {}), fastest node {fastest:.2e} m/s",
+        ell * 1e3,
+        top / d,
+        worst.0 / d,
+        worst.1,
+        b.rod.x[worst.1][1] * 1e3,
+        b.rod.x.iter().filter(|x| x[1].abs() >= ell).count()
+    );
+    assert!(fastest < 1e-3, "not at rest: fastest node {fastest:.3e} m/s");
+    assert!((top - d).abs() < 0.02 * d, "the fibre is not held at d over the prop: top at {top:.4e} m");
+    assert!(worst.0 < 0.03 * d, "the profile departs from the beam by {:.3e} m (d = {d:.3e} m) at node {}", worst.0, worst.1);
 }
 
 /// Fibre B (along y) thrown down at `speed` onto fibre A (along x) falling in the air

@@ -221,36 +221,56 @@ fn fibre_lands_on_a_frozen_fibre_and_rests_on_it() {
     assert!(b.rod.x[0][2] < 0.05 * d && b.rod.x[20][2] < 0.05 * d, "ends on the belt");
 }
 
+/// The scene of the fibres at rest across one another: gravity raised so that a span
+/// over a prop of height d touches down ℓ = 10 mm away (20 elements of 0.5 mm), mass
+/// damping (which leaves the statics alone) to bring the fibres to rest, a still belt;
+/// with `friction`, Coulomb friction on the belt and μ_ff = 0.3 between fibres.
+fn resting_scene(friction: bool) -> (LaydownParams, f64) {
+    let effects: &[&str] = if friction { &["elasticity", "gravity", "contact", "damping", "friction"] } else { &["elasticity", "gravity", "contact", "damping"] };
+    let mut p = LaydownParams::with_only_effects(effects);
+    p.belt_speed = 0.0;
+    p.rayleigh_damping = 500.0;
+    let ell: f64 = 0.01;
+    p.gravity = 72.0 * p.bending_stiffness() * p.diameter / (p.mass_per_length() * ell.powi(4));
+    (p, ell)
+}
+
+/// Fibres along x and y of 0.5 mm elements through `centre`s, at rest, stepped for
+/// 0.3 s in a world of `frozen` fibres (each a polyline) and fibre friction `mu_ff`;
+/// returns the rods and each one's fastest node at the end (m/s).
+fn settle(p: &LaydownParams, rods: Vec<([f64; 3], [f64; 3], usize)>, frozen: &[Vec<[f64; 3]>], mu_ff: Option<f64>) -> (Vec<FreeRod>, Vec<f64>) {
+    let mut world = ContactWorld::new(rods.len() + frozen.len(), p.diameter, mu_ff, 0.0, None, 1e-3);
+    for (f, nodes) in frozen.iter().enumerate() {
+        world.add_frozen(rods.len() + f, nodes);
+    }
+    let mut rods: Vec<FreeRod> = rods.into_iter().map(|(centre, axis, elements)| FreeRod::new(straight_ds(p, centre, axis, elements, [0.0; 3], 0.5e-3), p.mass_per_length())).collect();
+    let mut stats = ContactStats::default();
+    let interval = 1e-4;
+    for n in 0..3000 {
+        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
+        for (i, r) in rods.iter().enumerate() {
+            assert!(r.error.is_none(), "rod {i}: {:?}", r.error);
+        }
+    }
+    let fastest = rods.iter().map(|r| r.sim.rod.v.iter().map(|v| norm(*v)).fold(0.0, f64::max)).collect();
+    (rods, fastest)
+}
+
+/// Speeds printed to three digits.
+fn speeds(v: &[f64]) -> String {
+    v.iter().map(|v| format!("{v:.2e}")).collect::<Vec<_>>().join(", ")
+}
+
 /// A fibre lying across another on the belt, at rest under its weight, is a beam over a
 /// prop of height d on a rigid flat. With neither friction nor axial force, each side
 /// obeys EI w⁗ = −q (q = m g) with w = d and w′ = 0 at the prop, and w = w′ = w″ = 0
 /// where it touches down, a distance ℓ away: w = q s³ (4ℓ − 3s) / (72 EI), s = ℓ − |y|
-/// the distance from the touchdown, and ℓ = (72 EI d / q)^(1/4). Gravity is raised so
-/// that ℓ = 10 mm (20 elements of 0.5 mm), the prop is a frozen fibre, and mass damping
-/// (which leaves the statics alone) brings the fibre to rest.
+/// the distance from the touchdown, and ℓ = (72 EI d / q)^(1/4). The prop is a frozen
+/// fibre, or a simulated one lying on the belt (the upper fibre takes every correction).
 #[test]
 fn fibre_resting_across_another_sags_to_the_belt_as_a_beam_over_a_prop() {
-    let mut p = LaydownParams::with_only_effects(&["elasticity", "gravity", "contact", "damping"]);
-    p.belt_speed = 0.0;
-    p.rayleigh_damping = 500.0;
-    let (d, ei, mpl) = (p.diameter, p.bending_stiffness(), p.mass_per_length());
-    let ell: f64 = 0.01;
-    p.gravity = 72.0 * ei * d / (mpl * ell.powi(4));
-    let q = mpl * p.gravity;
-    // frozen fibre A along x on the belt (fibre 1 of the world); B along y just above it
-    let mut world = ContactWorld::new(2, d, None, 0.0, None, 1e-3);
-    let frozen: Vec<[f64; 3]> = (0..=30).map(|i| [(i as f64 - 15.0) * 1e-3, 0.0, 0.0]).collect();
-    world.add_frozen(1, &frozen);
-    let b = straight_ds(&p, [0.0, 0.0, 1.02 * d], [0.0, 1.0, 0.0], 80, [0.0; 3], 0.5e-3);
-    let mut rods = [FreeRod::new(b, mpl)];
-    let mut stats = ContactStats::default();
-    let interval = 1e-4;
-    for n in 0..1500 {
-        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
-        assert!(rods[0].error.is_none(), "{:?}", rods[0].error);
-    }
-    let b = &rods[0].sim;
-    let fastest = b.rod.v.iter().map(|v| norm(*v)).fold(0.0, f64::max);
+    let (p, ell) = resting_scene(false);
+    let (d, ei, q) = (p.diameter, p.bending_stiffness(), p.mass_per_length() * p.gravity);
     let beam = |y: f64| {
         let s = ell - y.abs();
         if s <= 0.0 {
@@ -259,27 +279,58 @@ fn fibre_resting_across_another_sags_to_the_belt_as_a_beam_over_a_prop() {
             q * s.powi(3) * (4.0 * ell - 3.0 * s) / (72.0 * ei)
         }
     };
-    let mut worst = (0.0f64, 0usize);
-    for (i, x) in b.rod.x.iter().enumerate() {
-        let error = (x[2] - beam(x[1])).abs();
-        if error > worst.0 {
-            worst = (error, i);
+    let prop: Vec<[f64; 3]> = (0..=30).map(|i| [(i as f64 - 15.0) * 1e-3, 0.0, 0.0]).collect();
+    let upper = ([0.0, 0.0, 1.02 * d], [0.0, 1.0, 0.0], 80);
+    for simulated in [false, true] {
+        let (rods, fastest) = if simulated {
+            settle(&p, vec![([0.0; 3], [1.0, 0.0, 0.0], 60), upper], &[], None)
+        } else {
+            settle(&p, vec![upper], &[prop.clone()], None)
+        };
+        let b = &rods[rods.len() - 1].sim;
+        let mut worst = (0.0f64, 0usize);
+        for (i, x) in b.rod.x.iter().enumerate() {
+            let error = (x[2] - beam(x[1])).abs();
+            if error > worst.0 {
+                worst = (error, i);
+            }
         }
+        let top = b.rod.x.iter().map(|x| x[2]).fold(0.0, f64::max);
+        let kind = if simulated { "simulated" } else { "frozen" };
+        println!(
+            "beam over a {kind} prop: ℓ = {:.2} mm, top {:.4} d, worst |z − w(y)| {:.4} d at node {} (y = {:.2} mm), fastest nodes {} m/s",
+            ell * 1e3,
+            top / d,
+            worst.0 / d,
+            worst.1,
+            b.rod.x[worst.1][1] * 1e3,
+            speeds(&fastest)
+        );
+        assert!(fastest.iter().all(|&v| v < 1e-3), "{kind} prop: not at rest, fastest nodes {fastest:?} m/s");
+        assert!((top - d).abs() < 0.02 * d, "{kind} prop: the fibre is not held at d over it: top at {top:.4e} m");
+        assert!(worst.0 < 0.03 * d, "{kind} prop: the profile departs from the beam by {:.3e} m (d = {d:.3e} m) at node {}", worst.0, worst.1);
     }
-    let top = b.rod.x.iter().map(|x| x[2]).fold(0.0, f64::max);
-    let on_belt = b.rod.x.iter().filter(|x| x[2] < 0.01 * d).count();
-    println!(
-        "beam over a prop: ℓ = {:.2} mm, top {:.4} d, worst |z − w(y)| {:.4} d at node {} (y = {:.2} mm), {on_belt} of 81 nodes on the belt (beam: {}), fastest node {fastest:.2e} m/s",
-        ell * 1e3,
-        top / d,
-        worst.0 / d,
-        worst.1,
-        b.rod.x[worst.1][1] * 1e3,
-        b.rod.x.iter().filter(|x| x[1].abs() >= ell).count()
-    );
-    assert!(fastest < 1e-3, "not at rest: fastest node {fastest:.3e} m/s");
-    assert!((top - d).abs() < 0.02 * d, "the fibre is not held at d over the prop: top at {top:.4e} m");
-    assert!(worst.0 < 0.03 * d, "the profile departs from the beam by {:.3e} m (d = {d:.3e} m) at node {}", worst.0, worst.1);
+}
+
+/// Issue 13's open problem in its smallest form: fibre C (along x) lies across fibre B
+/// 3 mm from where B (along y) crosses fibre A on the belt, so C presses on B's span
+/// between A and the belt, where neither fibre is held and each takes half of every
+/// correction. With friction (belt and μ_ff = 0.3), mass damping of 500 1/s and a still
+/// belt, the three should come to rest as the pair above does. Measured (2026-12-04): B
+/// and C keep a grid-scale vertical jitter along their whole length, fastest nodes
+/// 0.02-0.04 m/s at the default step (`time_step_factor` 0.8), 0.006-0.01 at 0.4 and
+/// 0.001-0.003 at 0.2; with C taking every correction (a scratch rule) 0.004 m/s at 0.8
+/// and at rest at 0.4. Without friction the jitter turns sideways at 1.5-1.9 m/s.
+/// `cargo test --release --lib three_fibres -- --ignored --nocapture`.
+#[test]
+#[ignore = "issue 13: two simulated fibres sharing a contact do not come to rest (2-4 cm/s)"]
+fn three_fibres_stacked_across_one_another_come_to_rest() {
+    let (p, _) = resting_scene(true);
+    let d = p.diameter;
+    let rods = vec![([0.0; 3], [1.0, 0.0, 0.0], 60), ([0.0, 0.0, d], [0.0, 1.0, 0.0], 80), ([0.0, 3e-3, 2.0 * d], [1.0, 0.0, 0.0], 80)];
+    let (_, fastest) = settle(&p, rods, &[], Some(0.3));
+    println!("three fibres: fastest nodes of A, B, C {} m/s", speeds(&fastest));
+    assert!(fastest.iter().all(|&v| v < 1e-3), "not at rest: fastest nodes {fastest:?} m/s");
 }
 
 /// Fibre B (along y) thrown down at `speed` onto fibre A (along x) falling in the air
@@ -558,3 +609,4 @@ fn predicted_velocities_do_not_land_a_propped_span_by_its_lagged_tension() {
     sim.predict_velocities(dt, &mut predicted).unwrap();
     assert_eq!(predicted, free, "the lagged tension moved the prediction");
 }
+

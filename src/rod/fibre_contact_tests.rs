@@ -244,16 +244,23 @@ fn settle(p: &LaydownParams, rods: Vec<([f64; 3], [f64; 3], usize)>, frozen: &[V
         world.add_frozen(rods.len() + f, nodes);
     }
     let mut rods: Vec<FreeRod> = rods.into_iter().map(|(centre, axis, elements)| FreeRod::new(straight_ds(p, centre, axis, elements, [0.0; 3], 0.5e-3), p.mass_per_length())).collect();
+    run_intervals(&mut world, &mut rods, 3000, |_, _| {});
+    let fastest = rods.iter().map(|r| r.sim.rod.v.iter().map(|v| norm(*v)).fold(0.0, f64::max)).collect();
+    (rods, fastest)
+}
+
+/// Step `rods` through `count` broad-phase intervals of 0.1 ms from t = 0, failing the test
+/// if any rod fails; `each(n, rods)` after interval n.
+fn run_intervals(world: &mut ContactWorld, rods: &mut [FreeRod], count: usize, mut each: impl FnMut(usize, &[FreeRod])) {
     let mut stats = ContactStats::default();
     let interval = 1e-4;
-    for n in 0..3000 {
-        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
+    for n in 0..count {
+        world.run_interval(rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
         for (i, r) in rods.iter().enumerate() {
             assert!(r.error.is_none(), "rod {i}: {:?}", r.error);
         }
+        each(n, rods);
     }
-    let fastest = rods.iter().map(|r| r.sim.rod.v.iter().map(|v| norm(*v)).fold(0.0, f64::max)).collect();
-    (rods, fastest)
 }
 
 /// Speeds printed to three digits.
@@ -397,7 +404,7 @@ fn stack_of_three(speed: f64) -> ([f64; 3], [f64; 3], [usize; 2]) {
 
 /// The three rods of [`stack_of_three`] run for 40 ms in intervals of 0.1 ms, with the
 /// narrow phase's pruning on or off; `each(n, rods)` is called after interval n.
-fn run_stack_of_three(speed: f64, pruning: bool, mut each: impl FnMut(usize, &[FreeRod])) -> [FreeRod; 3] {
+fn run_stack_of_three(speed: f64, pruning: bool, each: impl FnMut(usize, &[FreeRod])) -> [FreeRod; 3] {
     let p = scene();
     let d = p.diameter;
     let mpl = p.mass_per_length();
@@ -412,15 +419,7 @@ fn run_stack_of_three(speed: f64, pruning: bool, mut each: impl FnMut(usize, &[F
         r.sim.fibre_contact = Some(contact);
     }
     let mut world = ContactWorld::new(3, d, Some(0.3), 0.0, None, 1e-3);
-    let mut stats = ContactStats::default();
-    let interval = 1e-4;
-    for n in 0..400 {
-        world.run_interval(&mut rods, n as f64 * interval, (n + 1) as f64 * interval, &mut stats);
-        for (i, r) in rods.iter().enumerate() {
-            assert!(r.error.is_none(), "rod {i}: {:?}", r.error);
-        }
-        each(n, &rods);
-    }
+    run_intervals(&mut world, &mut rods, 400, each);
     rods
 }
 
@@ -609,4 +608,3 @@ fn predicted_velocities_do_not_land_a_propped_span_by_its_lagged_tension() {
     sim.predict_velocities(dt, &mut predicted).unwrap();
     assert_eq!(predicted, free, "the lagged tension moved the prediction");
 }
-

@@ -59,7 +59,10 @@
 //! counted as held, the fibre above it took the whole correction and was carried up with
 //! it, and the other fibre saw it at its current velocity instead of the one it uses
 //! itself, so the pair's approach was judged two ways and never removed. Otherwise,
-//! and side by side (heights within 0.1 d), each takes ½ (equal masses per length). A pair
+//! and side by side (heights within 0.1 d), each takes ½ (equal masses per length; where
+//! one meets the other off its nodes and the other at a node the two impulses differ and
+//! the pair's momentum changes, by 6 % at a quarter of an element:
+//! `a_collision_of_two_free_fibres_conserves_their_momentum`, ignored). A pair
 //! closer than d/2 at the start of a step has crossed ([`CROSSED`]) and is left alone.
 //! Tunnelling needs a relative normal motion of more than d in one step while the pair
 //! is not yet a candidate; the candidate margins are twice the motion measured at the
@@ -710,8 +713,9 @@ pub const SIDE_BY_SIDE: f64 = 0.1;
 /// Against another simulated fibre: if the lower of the two is held at the contact
 /// (the segment end nearer the contact point, at `u` along the obstacle, lies on the belt
 /// or rests on the web: [`FibreContact::rests`]), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
-/// each takes ½ (equal masses per length: momentum is exchanged, not made). Both rods
-/// evaluate the same rule on the same data, so a contact is corrected once.
+/// each takes ½ (equal masses per length; momentum is exchanged, not made, only where the
+/// two contact points are alike, both at nodes or both mid-segment). Both rods evaluate
+/// the same rule on the same data, so a contact is shared once.
 pub fn yield_share(ob: &ObstacleSegment, u: f64, dz: f64, d: f64, own_landed: bool) -> f64 {
     let ob_landed = ob.landed[usize::from(u >= 0.5)];
     if !ob.simulated {

@@ -380,6 +380,56 @@ fn fibres_colliding_in_the_air_stay_one_diameter_apart() {
     }
 }
 
+/// Linear momentum Σ m v of the rods (kg m/s).
+fn momentum(rods: &[FreeRod]) -> [f64; 3] {
+    let mut p = [0.0; 3];
+    for r in rods {
+        for (m, v) in r.sim.rod.mass.iter().zip(&r.sim.rod.v) {
+            p = add_scaled(p, *v, *m);
+        }
+    }
+    p
+}
+
+/// Two free fibres in vacuum (elasticity only: no gravity, air, belt or damping), B
+/// thrown at 1 m/s onto A at rest, crossing it `offset` (in element lengths) along A
+/// from a node, B's node at the crossing. No external force acts, so the pair's momentum
+/// must not change in the collision, whichever points of the two segments meet: the
+/// contact's impulses on the two fibres are equal and opposite. Returns the relative
+/// change of the vertical momentum after 0.2 ms.
+fn collide_in_vacuum(offset: f64) -> f64 {
+    let p = LaydownParams::with_only_effects(&["elasticity"]);
+    let d = p.diameter;
+    let mpl = p.mass_per_length();
+    let a = straight(&p, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 20, [0.0; 3]);
+    let b = straight(&p, [offset * 1e-3, 0.0, 1.5 * d], [0.0, 1.0, 0.0], 20, [0.0, 0.0, -1.0]);
+    let mut rods = vec![FreeRod::new(a, mpl), FreeRod::new(b, mpl)];
+    let mut world = ContactWorld::new(2, d, None, 0.0, None, 1e-3);
+    let before = momentum(&rods)[2];
+    run_intervals(&mut world, &mut rods, 2, |_, _| {});
+    let impulses = rods[1].sim.fibre_contact.as_ref().map_or(0, |c| c.impulses);
+    assert!(impulses > 0, "the fibres did not meet");
+    (momentum(&rods)[2] - before) / before
+}
+
+/// Fails today (issue 13): at a quarter of an element the momentum changes by 6.1 %, at
+/// a node or mid-segment of both by 5e-16. Two causes, each measured in a scratch build
+/// (`pipelines/studies/PHYSICAL_WEBS.md`, "Each contact corrected once, momentum
+/// exchanged"): a share of ½ each, where the fibre touched off its nodes is moved more
+/// easily and so takes the larger impulse (shares by the points' mobilities: 2.0 %); and
+/// each rod correcting the contact once per pair of segments that meets it, seeing the
+/// other fibre unchanged by its share (each rod also expecting the other's share: 3e-5).
+/// `cargo test --release --lib a_collision_of_two -- --ignored --nocapture`.
+#[test]
+#[ignore = "issue 13: the shares of a contact between two simulated fibres do not conserve momentum (6 %)"]
+fn a_collision_of_two_free_fibres_conserves_their_momentum() {
+    for offset in [0.0, 0.25, 0.5] {
+        let change = collide_in_vacuum(offset);
+        println!("collision in vacuum, A touched {offset} of an element from a node: momentum changed by {change:.2e} of itself");
+        assert!(change.abs() < 1e-3, "offset {offset}: momentum changed by {change:.3e} of itself");
+    }
+}
+
 /// Three simulated fibres: A lying on the belt along x, B dropped across it along y,
 /// C dropped over both along the diagonal; returns the least distance of each pair
 /// (A-B, A-C, B-C) over the last half of the run, and at the end, and C's nodes more
@@ -608,3 +658,4 @@ fn predicted_velocities_do_not_land_a_propped_span_by_its_lagged_tension() {
     sim.predict_velocities(dt, &mut predicted).unwrap();
     assert_eq!(predicted, free, "the lagged tension moved the prediction");
 }
+

@@ -226,8 +226,11 @@ fn fibre_lands_on_a_frozen_fibre_and_rests_on_it() {
 /// damping (which leaves the statics alone) to bring the fibres to rest, a still belt;
 /// with `friction`, Coulomb friction on the belt and μ_ff = 0.3 between fibres.
 fn resting_scene(friction: bool) -> (LaydownParams, f64) {
-    let effects: &[&str] = if friction { &["elasticity", "gravity", "contact", "damping", "friction"] } else { &["elasticity", "gravity", "contact", "damping"] };
-    let mut p = LaydownParams::with_only_effects(effects);
+    let mut effects = vec!["elasticity", "gravity", "contact", "damping"];
+    if friction {
+        effects.push("friction");
+    }
+    let mut p = LaydownParams::with_only_effects(&effects);
     p.belt_speed = 0.0;
     p.rayleigh_damping = 500.0;
     let ell: f64 = 0.01;
@@ -658,4 +661,3 @@ fn predicted_velocities_do_not_land_a_propped_span_by_its_lagged_tension() {
     sim.predict_velocities(dt, &mut predicted).unwrap();
     assert_eq!(predicted, free, "the lagged tension moved the prediction");
 }
-

@@ -10,7 +10,10 @@
 //! `... -- 16 0.002 fibre_speed=50 air_speed=150 belt_speed=2 oscillation_frequency=100`.
 //! A margin of `inf` is the front off (the reference, always run first). `settle_time=`
 //! (s) gives the candidates (not the reference) another settle time than the fed start's
-//! (`FED_SETTLE_LENGTH` / v_f: 20 ms at 5 m/s, 2 ms at 50 m/s).
+//! (28 coil scales of fed fibre, `FED_SETTLE_COILS`: 20 ms at 5 m/s, 0.2 ms at 50 m/s),
+//! and `reference_settle_time=` (s) the reference, e.g. the time 0.1 m takes to feed, the
+//! rule before 2026-12-05 (`pipelines/studies/FIBRE_SPEED.md`, "The settle time in coil
+//! scales").
 use laydown::rod::feed::{fed_settings, simulate_fed_with, FeedSettings};
 use laydown::rod::{replicate_rng, LaydownParams, LaydownResult};
 use laydown::stages::mean_std;
@@ -21,11 +24,16 @@ fn main() {
     let n: u64 = args.first().map_or(16, |s| s.parse().expect("a replicate count"));
     let margins: Vec<f64> = args.get(1).map_or("0.002", |s| s.as_str()).split(',').map(|s| s.parse().expect("a margin in m, or inf")).collect();
     let mut p = LaydownParams::default();
-    let mut settle_time = None;
+    let (mut settle_time, mut reference_settle_time) = (None, None);
     for kv in args.iter().skip(2) {
         let (k, v) = kv.split_once('=').expect("name=value");
-        if k == "settle_time" {
-            settle_time = Some(v.parse().expect("a settle time in s"));
+        if k == "settle_time" || k == "reference_settle_time" {
+            let t = Some(v.parse().expect("a settle time in s"));
+            if k == "settle_time" {
+                settle_time = t;
+            } else {
+                reference_settle_time = t;
+            }
             continue;
         }
         p.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{k}: {e}"));
@@ -34,20 +42,20 @@ fn main() {
     let seed = 2024;
     let run = |margin: f64| -> Vec<LaydownResult> {
         let mut settings = FeedSettings { front_margin: margin, ..fed_settings(&p) };
-        if margin.is_finite() {
-            settings.settle_time = settle_time.unwrap_or(settings.settle_time);
-        }
+        let chosen = if margin.is_finite() { settle_time } else { reference_settle_time };
+        settings.settle_time = chosen.unwrap_or(settings.settle_time);
         (0..n).into_par_iter().map(|r| simulate_fed_with(&p, &settings, &mut replicate_rng(seed, r))).collect()
     };
     println!(
-        "scene: v_f {} m/s, V_air {} m/s, v_b {} m/s, f {} Hz, {} elements, end time {:.4} s, {n} replicates of seed {seed}, candidates' settle time {:.4} s",
+        "scene: v_f {} m/s, V_air {} m/s, v_b {} m/s, f {} Hz, {} elements, end time {:.4} s, {n} replicates of seed {seed}, candidates' settle time {:.4} s, reference's {:.4} s",
         p.fibre_speed,
         p.air_speed,
         p.belt_speed,
         p.oscillation_frequency,
         p.resolved_elements(),
         p.end_time(),
-        settle_time.unwrap_or(fed_settings(&p).settle_time)
+        settle_time.unwrap_or(fed_settings(&p).settle_time),
+        reference_settle_time.unwrap_or(fed_settings(&p).settle_time)
     );
     let reference = run(f64::INFINITY);
     let cpu = |rs: &[LaydownResult]| rs.iter().map(|r| r.wall_seconds).sum::<f64>() / rs.len() as f64;

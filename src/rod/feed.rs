@@ -180,18 +180,24 @@ impl FedFibre {
     }
 }
 
-/// Fed length per second that a laid node must stay put before it may freeze, and
-/// after which it freezes anyway (m): `start: fed` takes the settle time and age limit
-/// as the time these lengths take to feed, 20 ms and 0.2 s at Table 1's 5 m/s (the
-/// `laid_web` defaults), 2 ms and 20 ms at 50 m/s.
-const FED_SETTLE_LENGTH: f64 = 0.1;
+/// Inertial coil scales ℓ_c = √(EI/(ρA))/v_f ([`LaydownParams::coil_scale`]) of fed
+/// fibre over which a laid node must stay put before it may freeze: `start: fed` takes
+/// the settle time as the time they take to feed, 28 ℓ_c/v_f ∝ 1/v_f² (20.3 ms at Table 1,
+/// about the `laid_web` default; 1.3 ms at 20 m/s, 0.2 ms at 50 m/s; 6.6 ms for d = 16.2 µm at
+/// 5 m/s). It moves S and e by less than 0.5 % at 5-50 m/s; a fixed fed length (0.1 m,
+/// before 2026-12-05) froze next to nothing at 10-20 m/s (`pipelines/studies/FIBRE_SPEED.md`,
+/// "The settle time in coil scales").
+const FED_SETTLE_COILS: f64 = 28.0;
+/// Fed length after which a laid node freezes anyway (m): the age limit is the time it
+/// takes to feed, 0.2 s at Table 1's 5 m/s (the `laid_web` default), 20 ms at 50 m/s.
 const FED_AGE_LENGTH: f64 = 1.0;
 
-/// The freezing settings of `start: fed` for the scene `p`: the settle time and age
-/// limit as the time `FED_SETTLE_LENGTH` and `FED_AGE_LENGTH` take to feed, the
-/// front at [`FeedSettings::FRONT_MARGIN`].
+/// The freezing settings of `start: fed` for the scene `p`: the settle time as the time
+/// `FED_SETTLE_COILS` coil scales take to feed, the age limit as the time
+/// `FED_AGE_LENGTH` takes, the front at [`FeedSettings::FRONT_MARGIN`].
 pub fn fed_settings(p: &LaydownParams) -> FeedSettings {
-    FeedSettings { settle_time: FED_SETTLE_LENGTH / p.fibre_speed, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin: FeedSettings::FRONT_MARGIN, ..FeedSettings::default() }
+    let settle_time = FED_SETTLE_COILS * p.coil_scale() / p.fibre_speed;
+    FeedSettings { settle_time, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin: FeedSettings::FRONT_MARGIN, ..FeedSettings::default() }
 }
 
 /// One replicate of the laydown scene with `start: fed` ([`fed_settings`]).

@@ -27,16 +27,11 @@ fn main() {
     let (mut settle_time, mut reference_settle_time) = (None, None);
     for kv in args.iter().skip(2) {
         let (k, v) = kv.split_once('=').expect("name=value");
-        if k == "settle_time" || k == "reference_settle_time" {
-            let t = Some(v.parse().expect("a settle time in s"));
-            if k == "settle_time" {
-                settle_time = t;
-            } else {
-                reference_settle_time = t;
-            }
-            continue;
+        match k {
+            "settle_time" => settle_time = Some(v.parse().expect("a settle time in s")),
+            "reference_settle_time" => reference_settle_time = Some(v.parse().expect("a settle time in s")),
+            _ => p.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{k}: {e}")),
         }
-        p.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{k}: {e}"));
     }
     p.validate().expect("valid parameters");
     let seed = 2024;

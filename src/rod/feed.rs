@@ -205,6 +205,21 @@ pub(crate) fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> L
     simulate_fed_with(p, &fed_settings(p), rng)
 }
 
+/// The fibre [`feed_fibre`] feeds for the laydown scene `p` (`start: fed`): the length
+/// fed in `p`'s end time, in elements of `p`'s (coil-resolved) element length.
+pub fn fed_scene(p: &LaydownParams) -> LaydownParams {
+    let element_length = p.length / p.resolved_elements() as f64;
+    let length = p.fibre_speed * p.end_time();
+    LaydownParams {
+        length,
+        elements: (length / element_length).round().max(1.0) as usize,
+        // the element length is the resolved one already
+        coil_resolution: 0.0,
+        duration: 0.0,
+        ..p.clone()
+    }
+}
+
 /// One replicate of the laydown scene fed continuously with the freezing `settings`:
 /// the paper's element length (after `coil_resolution`) and end time, the fibre fed
 /// into a short buffer above z0 instead of hanging from z = L, settled laid nodes
@@ -213,14 +228,8 @@ pub(crate) fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> L
 /// `examples/fed_freezing_accuracy.rs`.
 pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSettings, rng: &mut R) -> LaydownResult {
     let elements = p.resolved_elements();
-    let element_length = p.length / elements as f64;
     let t_end = p.end_time();
-    let mut scene = p.clone();
-    scene.length = p.fibre_speed * t_end;
-    scene.elements = (scene.length / element_length).round().max(1.0) as usize;
-    scene.coil_resolution = 0.0; // the element length is the resolved one already
-    scene.duration = 0.0;
-    let fed = feed_fibre(&scene, 0.0, t_end, settings, rng);
+    let fed = feed_fibre(&fed_scene(p), 0.0, t_end, settings, rng);
     let ((laid, removed), (s, e), (sr, er)) = fed.shape(p);
     let invalid_reason = fed.invalid_reason(p);
     LaydownResult {

@@ -3,6 +3,7 @@
 //! balance K + U − W of the integrators.
 //! Run with `cargo test --release --lib rod::tests -- --nocapture` (prints the measured errors).
 
+use super::feed::{FedFibre, FeedSettings};
 use super::forces::{axial_energy_of, bending_energy_of, Term};
 use super::integrator::{EnergySample, Simulator, StepControl};
 use super::params::{Integrator, LaydownParams};
@@ -605,7 +606,7 @@ fn fed_start_reproduces_the_vertical_start() {
 /// `examples/fed_freezing_accuracy.rs`).
 #[test]
 fn fed_start_front_freezes_behind_the_creeping_start_up_end() {
-    use super::feed::{fed_settings, FeedSettings};
+    use super::feed::fed_settings;
     let p = LaydownParams::default();
     let t_end = 0.15;
     let scene = LaydownParams { length: p.fibre_speed * t_end, elements: 750, ..p.clone() };
@@ -621,11 +622,11 @@ fn fed_start_front_freezes_behind_the_creeping_start_up_end() {
 /// Replicate `r` of the fed fibre `scene` (of the laydown scene `p`) fed for `t_end` with
 /// each of two freezing settings: both run without error, and S and e of the second lie
 /// within 1 % and 2 % of the first's; printed with the frozen nodes and node-steps.
-fn fed_pair(p: &LaydownParams, scene: &LaydownParams, t_end: f64, settings: [(&str, &super::feed::FeedSettings); 2], r: u64) -> (super::feed::FedFibre, super::feed::FedFibre) {
+fn fed_pair(p: &LaydownParams, scene: &LaydownParams, t_end: f64, settings: [(&str, &FeedSettings); 2], r: u64) -> (FedFibre, FedFibre) {
     use super::feed::feed_fibre;
     use super::scene::replicate_rng;
     let [(name_a, sa), (name_b, sb)] = settings;
-    let run = |s: &super::feed::FeedSettings| feed_fibre(scene, 0.0, t_end, s, &mut replicate_rng(2024, r));
+    let run = |s: &FeedSettings| feed_fibre(scene, 0.0, t_end, s, &mut replicate_rng(2024, r));
     let (a, b) = (run(sa), run(sb));
     let (shape_a, shape_b) = (a.shape(p), b.shape(p));
     let rel = |x: f64, y: f64| (y - x) / x;
@@ -644,11 +645,9 @@ fn fed_pair(p: &LaydownParams, scene: &LaydownParams, t_end: f64, settings: [(&s
 /// 0.19 % against the front off, `examples/fed_freezing_accuracy.rs`).
 #[test]
 fn fed_start_settles_in_coil_scales_at_high_fibre_speed() {
-    use super::feed::{fed_settings, FeedSettings};
+    use super::feed::{fed_scene, fed_settings};
     let p = LaydownParams { fibre_speed: 20.0, air_speed: 60.0, belt_speed: 0.8, oscillation_frequency: 40.0, ..LaydownParams::default() };
-    let t_end = p.end_time();
-    let element_length = p.length / p.resolved_elements() as f64;
-    let scene = LaydownParams { length: p.fibre_speed * t_end, elements: (p.fibre_speed * t_end / element_length).round() as usize, coil_resolution: 0.0, ..p.clone() };
+    let (t_end, scene) = (p.end_time(), fed_scene(&p));
     let coils = fed_settings(&p);
     let old = FeedSettings { settle_time: 0.1 / p.fibre_speed, ..coils.clone() };
     assert!((coils.settle_time - 28.0 * p.coil_scale() / p.fibre_speed).abs() < 1e-15, "settle time {}", coils.settle_time);

@@ -40,6 +40,7 @@
 
 use super::contact_world::ContactBody;
 use super::integrator::{Simulator, StepControl};
+use super::state::NodeContact;
 use super::recovery::Recovery;
 use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
 use super::params::LaydownParams;
@@ -602,8 +603,13 @@ fn laid_time_of(sim: &Simulator, spans: Option<&[f64]>, i: usize) -> f64 {
 
 /// The leading run of settled nodes, clamped ones included: stuck for the settling time,
 /// or laid `age_limit` ago, or laid at least `settle_time` ago and downstream of `line`
-/// (x ≥ line). Zero when it is too short to freeze (fewer than `batch` nodes, or not
-/// leaving the rod at least two more).
+/// (x ≥ line). Without fibre contact the run ends where its last [`CLAMPED`] nodes, the
+/// clamped end after the freeze, touch the belt: a node that settled within
+/// `lift_tolerance` may hover a few µm above it, and a clamp tilted up by it held the
+/// next free node just above the tolerance for good, so that nothing after it froze
+/// (`pipelines/studies/FIBRE_SPEED.md`, "A tilted clamp stalled freezing"). Zero when it
+/// is too short to freeze (fewer than `batch` nodes, or not leaving the rod at least two
+/// more).
 pub(super) fn settled_run(sim: &Simulator, stuck_since: &[f64], s: &FeedSettings, line: f64, batch: usize, spans: Option<&[f64]>) -> usize {
     let t = sim.t;
     let clamped = sim.clamped.len();
@@ -618,7 +624,13 @@ pub(super) fn settled_run(sim: &Simulator, stuck_since: &[f64], s: &FeedSettings
         })
         .count();
     // nodes clamped now are settled by construction
-    let run = clamped + settled;
+    let mut run = clamped + settled;
+    if spans.is_none() {
+        let touches = |i: usize| sim.ws.contact[i] != NodeContact::Free || sim.rod.x[i][2] <= 0.0;
+        while run >= batch + CLAMPED && !(run - CLAMPED..run).all(touches) {
+            run -= 1;
+        }
+    }
     if run < batch + CLAMPED || run + 2 >= sim.rod.nodes() {
         0
     } else {

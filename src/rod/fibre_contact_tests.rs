@@ -9,6 +9,7 @@ use crate::rod::contact_world::{ContactStats, ContactWorld, FreeRod};
 use crate::rod::integrator::Simulator;
 use crate::rod::params::LaydownParams;
 use crate::rod::scene::{build, CustomStart};
+use crate::rod::feed::settled_run;
 
 fn close(a: f64, b: f64) -> bool {
     (a - b).abs() < 1e-12
@@ -576,29 +577,33 @@ fn spans_between_laid_nodes_count_as_laid_with_fibre_contact() {
     assert!(same(&spans, &[0.1, 0.2, 0.2, 0.2, 0.2, nan, nan]), "with contact: {spans:?}");
 }
 
+/// A single fibre laid along the belt for the freezing front's tests: 60 elements, its
+/// start downstream (node i at x = 30.5 − i mm), nodes 0..58 laid at t = 0, every node
+/// creeping (never settled), at t = 0.05 s; with the default settings and the front's line
+/// x = −5.2 mm, so that nodes 0..=35 lie downstream of it.
+fn laid_past_the_front() -> (Simulator, Vec<f64>, crate::rod::feed::FeedSettings, f64) {
+    let p = scene();
+    let mut sim = straight(&p, [0.0005, 0.0, 0.0], [-1.0, 0.0, 0.0], 60, [0.0; 3]);
+    sim.landing_time = (0..=60).map(|i| if i < 58 { 0.0 } else { f64::NAN }).collect();
+    sim.t = 0.05;
+    (sim, vec![f64::NAN; 61], crate::rod::feed::FeedSettings::default(), -0.0052)
+}
+
 /// The freezing front: laid fibre downstream of the line freezes once it was laid at
 /// least the settling time ago, even if it still creeps; the run stops at the first node
 /// upstream of the line, and nothing freezes without a line, too early, or in a run
 /// shorter than the batch.
 #[test]
 fn freezing_front_freezes_the_laid_run_downstream_of_the_line() {
-    use crate::rod::feed::{settled_run, FeedSettings};
-    let p = scene();
-    // 60 elements on the belt, the fibre's start downstream: node i at x = 30.5 − i mm
-    let mut sim = straight(&p, [0.0005, 0.0, 0.0], [-1.0, 0.0, 0.0], 60, [0.0; 3]);
-    sim.fibre_contact = Some(FibreContact::new(p.diameter, Some(0.3)));
-    // laid at t = 0 but for the last three, still hanging
-    sim.landing_time = (0..=60).map(|i| if i < 58 { 0.0 } else { f64::NAN }).collect();
-    let creeping = vec![f64::NAN; 61];
-    let s = FeedSettings::default();
+    let (mut sim, creeping, s, line) = laid_past_the_front();
+    sim.fibre_contact = Some(FibreContact::new(scene().diameter, Some(0.3)));
     let run = |sim: &Simulator, line: f64| {
         let mut spans = Vec::new();
         sim.laid_times(&mut spans);
         settled_run(sim, &creeping, &s, line, s.freeze_batch, Some(&spans))
     };
-    sim.t = 0.05;
     // x ≥ −5.2 mm: nodes 0..=35 (x = 30.5 .. −4.5 mm)
-    assert_eq!(run(&sim, -0.0052), 36);
+    assert_eq!(run(&sim, line), 36);
     assert_eq!(run(&sim, f64::INFINITY), 0, "no line: nothing but the settle rule and the age limit");
     assert_eq!(run(&sim, 0.0), 0, "31 nodes are fewer than the batch of 32");
     sim.t = 0.01;
@@ -612,15 +617,7 @@ fn freezing_front_freezes_the_laid_run_downstream_of_the_line() {
 /// before it; with fibre contact (a node resting on the web is above the belt) it counts.
 #[test]
 fn freezing_front_without_fibre_contact_takes_only_nodes_on_the_belt() {
-    use crate::rod::feed::{settled_run, FeedSettings};
-    let p = scene();
-    // 60 elements on the belt, the fibre's start downstream: node i at x = 30.5 − i mm
-    let mut sim = straight(&p, [0.0005, 0.0, 0.0], [-1.0, 0.0, 0.0], 60, [0.0; 3]);
-    sim.landing_time = (0..=60).map(|i| if i < 58 { 0.0 } else { f64::NAN }).collect();
-    let creeping = vec![f64::NAN; 61];
-    let s = FeedSettings::default();
-    sim.t = 0.05;
-    let line = -0.0052; // nodes 0..=35 downstream of it
+    let (mut sim, creeping, s, line) = laid_past_the_front();
     assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 36, "every node on the belt past the line");
     sim.rod.x[34][2] = 1e-3;
     assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 34, "the run stops at the lifted node");
@@ -629,6 +626,28 @@ fn freezing_front_without_fibre_contact_takes_only_nodes_on_the_belt() {
     let mut spans = Vec::new();
     sim.laid_times(&mut spans);
     assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, Some(&spans)), 36, "with fibre contact a node above the belt may rest on the web");
+}
+
+/// Without fibre contact a frozen run ends where its clamped end touches the belt. A node
+/// that has settled may hover within `lift_tolerance` of the belt; clamped there, its
+/// tilt held the next free node 11.5 µm up, just above the tolerance, and nothing after it
+/// froze (2 of 12 fed replicates at 50 m/s, up to 3× the node-steps).
+#[test]
+fn a_frozen_run_ends_with_its_clamped_end_on_the_belt() {
+    let (mut sim, creeping, s, line) = laid_past_the_front();
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 36);
+    // node 34 hovers within the tolerance: it may freeze, but not be clamped
+    sim.rod.x[34][2] = 0.5 * s.lift_tolerance;
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 34, "the clamp (nodes 32, 33) touches the belt");
+    sim.rod.x[35][2] = 0.5 * s.lift_tolerance;
+    sim.rod.x[33][2] = 0.5 * s.lift_tolerance;
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 0, "no touching pair leaves the batch and the clamp");
+    // a node in contact with the belt touches it wherever the clip left it
+    sim.ws.contact[33] = crate::rod::state::NodeContact::Stick;
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 34);
+    let mut spans = Vec::new();
+    sim.laid_times(&mut spans);
+    assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, Some(&spans)), 36, "with fibre contact the clamp may rest on the web");
 }
 
 /// The velocities other fibres see (`predict_velocities`) leave the lagged axial force

@@ -185,9 +185,11 @@ impl FedFibre {
 /// fibre over which a laid node must stay put before it may freeze: `start: fed` takes
 /// the settle time as the time they take to feed, 28 ℓ_c/v_f ∝ 1/v_f² (20.3 ms at Table 1,
 /// about the `laid_web` default; 1.3 ms at 20 m/s, 0.2 ms at 50 m/s; 6.6 ms for d = 16.2 µm at
-/// 5 m/s). It moves S and e by less than 0.5 % at 5-50 m/s; a fixed fed length (0.1 m,
-/// before 2026-12-05) froze next to nothing at 10-20 m/s (`pipelines/studies/FIBRE_SPEED.md`,
-/// "The settle time in coil scales").
+/// 5 m/s). Against the front off it moves S and e by less than 0.5 % at 5-30 m/s; against
+/// nothing frozen at 50 m/s, e by +1.9 ± 0.6 % (a node frozen 1 ms after landing keeps
+/// curvature it would still lose). A fixed fed length (0.1 m, before 2026-12-05) froze next
+/// to nothing at 10-20 m/s (`pipelines/studies/FIBRE_SPEED.md`, "The settle time in coil
+/// scales" and "A tilted clamp stalled freezing").
 const FED_SETTLE_COILS: f64 = 28.0;
 /// Fed length after which a laid node freezes anyway (m): the age limit is the time it
 /// takes to feed, 0.2 s at Table 1's 5 m/s (the `laid_web` default), 20 ms at 50 m/s.

@@ -134,7 +134,7 @@ impl Stage for LaidWebStage {
         v.push(ParamSpec::float("amplitude_jitter", "1", 0.0, 0.0, 0.9, "relative standard deviation of each fibre's oscillation amplitude"));
         v.push(ParamSpec::float("edge_margin_spreads", "1", 3.0, 0.0, 100.0, "interior MD range: this many belt-removed spreads from the touchdown and from the start-up"));
         v.push(ParamSpec::flag("freeze", true, "freeze settled laid nodes (crept < 1 % of an element relative to the belt for settle_time, or laid 0.2 s ago, or past the freezing front: freeze_front_margin): carried with the belt at no cost"));
-        v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a laid node must stay put on the belt (creep below 1 % of an element) before it may freeze"));
+        v.push(ParamSpec::float("settle_time", "s", 0.02, 0.0, 10.0, "time a laid node must stay put on the belt (creep below 1 % of an element), and the least time since it landed, before it may freeze; shorter is cheaper and reads e higher (at 50 m/s 0.2 ms lays a web in 0.14x the node-steps of 20 ms, e about 2 % high)"));
         v.push(ParamSpec::float("freeze_front_margin", "m", FeedSettings::FRONT_MARGIN, 0.0, 1.0, "a laid node this far downstream of the farthest touchdown point reached so far (no fibre lands there; with fibre_contact of any fibre, without it the fibre's own, and then only a node on the belt) freezes after settle_time even if it still creeps; larger freezes later, 1 m switches the rule off"));
         v.push(ParamSpec::float("oscillation_ramp", "s", 0.0, 0.0, 1.0, "soft start: the oscillation amplitude grows smoothly from 0 to u0 over this time (needed with fibre_contact)"));
         let contact = FibreContactSettings::default();

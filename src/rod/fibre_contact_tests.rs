@@ -9,7 +9,8 @@ use crate::rod::contact_world::{ContactStats, ContactWorld, FreeRod};
 use crate::rod::integrator::Simulator;
 use crate::rod::params::LaydownParams;
 use crate::rod::scene::{build, CustomStart};
-use crate::rod::feed::settled_run;
+use crate::rod::feed::{settled_run, FeedSettings};
+use crate::rod::state::NodeContact;
 
 fn close(a: f64, b: f64) -> bool {
     (a - b).abs() < 1e-12
@@ -581,12 +582,12 @@ fn spans_between_laid_nodes_count_as_laid_with_fibre_contact() {
 /// start downstream (node i at x = 30.5 − i mm), nodes 0..58 laid at t = 0, every node
 /// creeping (never settled), at t = 0.05 s; with the default settings and the front's line
 /// x = −5.2 mm, so that nodes 0..=35 lie downstream of it.
-fn laid_past_the_front() -> (Simulator, Vec<f64>, crate::rod::feed::FeedSettings, f64) {
+fn laid_past_the_front() -> (Simulator, Vec<f64>, FeedSettings, f64) {
     let p = scene();
     let mut sim = straight(&p, [0.0005, 0.0, 0.0], [-1.0, 0.0, 0.0], 60, [0.0; 3]);
     sim.landing_time = (0..=60).map(|i| if i < 58 { 0.0 } else { f64::NAN }).collect();
     sim.t = 0.05;
-    (sim, vec![f64::NAN; 61], crate::rod::feed::FeedSettings::default(), -0.0052)
+    (sim, vec![f64::NAN; 61], FeedSettings::default(), -0.0052)
 }
 
 /// The freezing front: laid fibre downstream of the line freezes once it was laid at
@@ -643,7 +644,7 @@ fn a_frozen_run_ends_with_its_clamped_end_on_the_belt() {
     sim.rod.x[33][2] = 0.5 * s.lift_tolerance;
     assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 0, "no touching pair leaves the batch and the clamp");
     // a node in contact with the belt touches it wherever the clip left it
-    sim.ws.contact[33] = crate::rod::state::NodeContact::Stick;
+    sim.ws.contact[33] = NodeContact::Stick;
     assert_eq!(settled_run(&sim, &creeping, &s, line, s.freeze_batch, None), 34);
     let mut spans = Vec::new();
     sim.laid_times(&mut spans);

@@ -33,12 +33,14 @@ impl BeltContact {
     /// and driven nodes are excluded). Their work is booked by the integrator, from the
     /// belt's whole reaction over the step ([`super::integrator`], "Work").
     /// Nodes with `supported[i]` set (held up by another fibre in this step, see
-    /// [`super::fibre_contact`]) are left alone. `lagged`: the tests add the lagged
-    /// axial force `ws.lag_force` (projection schemes).
+    /// [`super::fibre_contact`]) are left alone. `segment_force` (projection schemes):
+    /// the last projection's axial force P_k of each segment, compression positive; the
+    /// tests add the lagged force it puts on each node, P_{i−1} t_{i−1} − P_i t_i.
     #[allow(clippy::too_many_arguments)]
-    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool, lagged: bool, supported: &[bool]) {
+    pub fn apply(&self, rod: &mut Rod, ws: &mut Workspace, dt: f64, nodes: std::ops::Range<usize>, restrict_w: bool, segment_force: Option<&[f64]>, supported: &[bool]) {
         let vb = self.belt_speed;
         let idt = 1.0 / dt;
+        let segments = rod.rest.len();
         for i in nodes {
             if supported.get(i).copied().unwrap_or(false) {
                 continue;
@@ -49,12 +51,25 @@ impl BeltContact {
             // In the projection schemes the axial force is not in v yet: the contact and
             // stick tests use the last projection's force on the node (lagged), so that
             // fibre tension can lift or pull a laid node loose.
-            let lag = if lagged { ws.lag_force[i] } else { [0.0; 3] };
+            let lag_along = |j: usize| match segment_force {
+                Some(p) => {
+                    let mut f = 0.0;
+                    if i > 0 {
+                        f += p[i - 1] * ws.tangent[i - 1][j];
+                    }
+                    if i < segments {
+                        f -= p[i] * ws.tangent[i][j];
+                    }
+                    f
+                }
+                None => 0.0,
+            };
             let h = dt / m;
-            let vz_test = v[2] + h * lag[2];
+            let vz_test = v[2] + h * lag_along(2);
             if z + dt * vz_test > 0.0 {
                 continue;
             }
+            let lag = [lag_along(0), lag_along(1)];
             let vz = -z * idt;
             let pn = (vz - vz_test).max(0.0);
             let mut state = NodeContact::Slide;

@@ -566,9 +566,12 @@ impl Simulator {
         if self.forces_for.take() != Some((t, dt, n)) {
             self.evaluate_forces();
         }
-        self.ws.v_start.copy_from_slice(&self.rod.v);
-        self.solve_velocities()?;
         let implicit_bending = self.integrator == Integrator::ImplicitBending;
+        // the start-of-step velocities: read by the work ledger and the implicit bending
+        if self.work_ledger || implicit_bending {
+            self.ws.v_start.copy_from_slice(&self.rod.v);
+        }
+        self.solve_velocities()?;
         if implicit_bending {
             // the implicit system over the nodes not held at the last step (a margin of
             // four nodes that may come loose), and the contact predictor from it
@@ -611,7 +614,9 @@ impl Simulator {
                 }
                 // predicted positions; the projection's displacement is added to v below
                 self.ws.x_old.copy_from_slice(&self.rod.x);
-                self.ws.lambda_e.fill([0.0; 3]);
+                if self.work_ledger {
+                    self.ws.lambda_e.fill([0.0; 3]);
+                }
                 self.project()?;
                 if self.contact.is_some() || self.fibre_contact.is_some() {
                     // nodes the projection pushed below the belt join the contact set
@@ -799,27 +804,11 @@ impl Simulator {
         let n = self.rod.nodes();
         let need_w = self.integrator != Integrator::Explicit;
         let skip_top = if self.driven_top.is_some() { n - 1 } else { n };
-        if need_w && lagged {
-            // Node by node (no chain of read-modify-writes between segments): the force of
-            // segment i − 1 along its tangent, minus segment i's, summed in that order.
-            let ns = self.rod.rest.len();
-            let (p, t) = (&self.segment_force, &self.ws.tangent);
-            for (i, f) in self.ws.lag_force.iter_mut().enumerate() {
-                *f = [0.0; 3];
-                if i > 0 {
-                    for j in 0..3 {
-                        f[j] += p[i - 1] * t[i - 1][j];
-                    }
-                }
-                if i < ns {
-                    for j in 0..3 {
-                        f[j] -= p[i] * t[i][j];
-                    }
-                }
-            }
-        }
+        // the lagged axial force of the projection schemes, node by node from the last
+        // projection's segment forces (BeltContact::apply)
+        let lag = (need_w && lagged).then_some(&self.segment_force[..]);
         let supported = self.fibre_contact.as_ref().map_or(&[][..], |f| &f.supported[..]);
-        c.apply(&mut self.rod, &mut self.ws, self.dt, self.clamped.len()..skip_top, need_w, need_w && lagged, supported)
+        c.apply(&mut self.rod, &mut self.ws, self.dt, self.clamped.len()..skip_top, need_w, lag, supported)
     }
 
     /// Step 2: the node-wise implicit velocity update from the forces and node matrices
@@ -1035,6 +1024,7 @@ impl Simulator {
                 self.compliance,
                 self.dt,
                 self.axial_theta,
+                self.work_ledger,
             );
             self.projection_iterations += iters;
             residual = residual.max(r);
@@ -1170,6 +1160,7 @@ fn segment_constraints_lanes(rod: &Rod, ws: &mut Workspace, p_old: &[f64], range
 /// θ-method on the axial springs: the force applied over the step is λ/Δt² =
 /// θ P_new + (1 − θ) P_old with P = EA (l0 − l)/l0, hence the constraint
 /// l − l0 + (l0/(EA θ Δt²)) λ − (1 − θ)/θ · (l0/EA) P_old = 0.
+/// `book_lambda_e`: add λ_k t_k to `ws.lambda_e` (the work ledger's reactions read it).
 #[allow(clippy::too_many_arguments)]
 fn project_run(
     rod: &mut Rod,
@@ -1180,6 +1171,7 @@ fn project_run(
     inv_ea: f64,
     dt: f64,
     theta: f64,
+    book_lambda_e: bool,
 ) -> (f64, u64, usize) {
     let compliance = inv_ea / (theta * dt * dt);
     let old_weight = inv_ea * (1.0 - theta) / theta;
@@ -1254,10 +1246,12 @@ fn project_run(
             let l = ws.lambda[k] - ws.cprime[k] * lnext;
             ws.lambda[k] = l;
             ws.lambda_acc[k] += l;
-            let (e, s) = (ws.seg_e[k], &mut ws.lambda_e[k]);
-            s[0] += l * e[0];
-            s[1] += l * e[1];
-            s[2] += l * e[2];
+            if book_lambda_e {
+                let (e, s) = (ws.seg_e[k], &mut ws.lambda_e[k]);
+                s[0] += l * e[0];
+                s[1] += l * e[1];
+                s[2] += l * e[2];
+            }
             // node k+1: Δx = W (λ_k t_k − λ_{k+1} t_{k+1})
             let wp = ws.we_prev[k + 1];
             let d = if k + 1 < b {

@@ -85,8 +85,6 @@ pub struct Workspace {
     /// Effective inverse mass of each node for the constraint projection.
     pub winv: Vec<[f64; 6]>,
     pub x_old: Vec<[f64; 3]>,
-    /// Constraint (axial) forces of the last projection on each node (N).
-    pub lag_force: Vec<[f64; 3]>,
     pub contact: Vec<NodeContact>,
     /// Velocities at the start of the step (for the work of the constraint reactions).
     pub v_start: Vec<[f64; 3]>,
@@ -127,7 +125,6 @@ impl Workspace {
             seg_len: vec![0.0; s],
             winv: vec![[0.0; 6]; nodes],
             x_old: vec![[0.0; 3]; nodes],
-            lag_force: vec![[0.0; 3]; nodes],
             contact: vec![NodeContact::Free; nodes],
             v_start: vec![[0.0; 3]; nodes],
             lambda_e: vec![[0.0; 3]; s],
@@ -153,7 +150,7 @@ impl Workspace {
     /// step, starts again from 0, as in a new workspace.
     pub fn resize(&mut self, nodes: usize) {
         let s = nodes - 1;
-        for v in [&mut self.force, &mut self.rhs, &mut self.x_old, &mut self.lag_force, &mut self.v_start, &mut self.we_prev, &mut self.we_next] {
+        for v in [&mut self.force, &mut self.rhs, &mut self.x_old, &mut self.v_start, &mut self.we_prev, &mut self.we_next] {
             v.resize(nodes, [0.0; 3]);
         }
         for v in [&mut self.amat, &mut self.drag_g, &mut self.winv] {

@@ -248,7 +248,7 @@ impl Stage for LaydownStage {
             "start",
             Start::NAMES,
             Start::default().name(),
-            "vertical: the paper's start, a vertical fibre of length L all simulated; fed: fibre fed continuously into a short buffer above laydown_height, settled laid nodes frozen (src/rod/feed.rs, as laid_web lays a fibre): the same element length, end time and laid length, statistically the same replicate (paired with it, 96 replicates at Table 1 and 32 at 50 m/s: S and e within 1.7 standard errors), 3.3x faster at Table 1, 8x at 50 m/s; with bounce_check final only",
+            "vertical: the paper's start, a vertical fibre of length L all simulated; fed: fibre fed continuously into a short buffer above laydown_height, settled laid nodes frozen (src/rod/feed.rs, as laid_web lays a fibre): the same element length, end time and laid length, statistically the same replicate (paired with it, 96 replicates at Table 1 and 64 at 50 m/s: S within 0.7 % and e within 2 %), 3.3x faster at Table 1, 8x at 50 m/s; with bounce_check final only",
         ));
         v.push(ParamSpec::choice(
             "feed_end",

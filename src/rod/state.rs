@@ -86,10 +86,12 @@ pub struct Workspace {
     pub winv: Vec<[f64; 6]>,
     pub x_old: Vec<[f64; 3]>,
     pub contact: Vec<NodeContact>,
-    /// Velocities at the start of the step (for the work of the constraint reactions).
+    /// Velocities at the start of the step (for the work of the constraint reactions, and
+    /// `implicit_bending`); filled only while the work ledger is on or with that scheme.
     pub v_start: Vec<[f64; 3]>,
     /// Σ λ e per segment over the step's projections: the segment pushes its end nodes
-    /// by ±(this)/Δt (N·s) (for the reactions on the held nodes).
+    /// by ±(this)/Δt (N·s) (for the reactions on the held nodes); booked only while the
+    /// work ledger is on.
     pub lambda_e: Vec<[f64; 3]>,
     // tridiagonal solver buffers (one entry per segment)
     pub seg_e: Vec<[f64; 3]>,

@@ -11,9 +11,12 @@
 //! sample of the web.
 //!
 //! [`Recovery`] keeps the last two checkpoints, [`CHECKPOINT_STEPS`] accepted steps
-//! apart. When a step fails even at the smallest step, the run goes back to the older
-//! checkpoint (one to two intervals before the failure; fewer steps at the start of a
-//! run) and retakes the stretch to as far again past the failure with the axial springs
+//! apart, none taken while the step has collapsed ([`COLLAPSED_STEP`]: a segment crushed
+//! at touchdown can shrink the buckling-limited step a thousandfold for a hundred steps
+//! before the run fails, and checkpoints counted in steps would all lie inside the
+//! collapse, each retake failing at the same instant). When a step fails even at the
+//! smallest step, the run goes back to the older checkpoint (one to two intervals before
+//! the failure, or before the collapse; fewer steps at the start of a run) and retakes the stretch to as far again past the failure with the axial springs
 //! by backward Euler (θ = 1, which damps the axial ringing the trapezoid leaves
 //! undamped; `implicit_axial` and `implicit_bending` have it anyway) and the largest step
 //! divided by 4. No checkpoint is taken inside the stretch, so a second failure within it
@@ -75,6 +78,12 @@ const STEP_SHRINK: f64 = 0.25;
 /// Rollbacks in a row to the same checkpoint before the run is given up (the last
 /// retakes the stretch at 1/64 of the step).
 pub const ROLLBACKS_IN_A_ROW: i32 = 3;
+
+/// A periodic checkpoint is skipped while the step control's step is below this fraction
+/// of the largest step: the step has collapsed, as it does when a crushed segment's
+/// buckling limit shrinks it a thousandfold in the steps before a failure, and a
+/// checkpoint taken inside the collapse holds the state that fails.
+pub const COLLAPSED_STEP: f64 = STEP_SHRINK * STEP_SHRINK;
 
 /// The simulator without its workspace (scratch arrays, five times the state's size,
 /// that hold nothing between steps but `bend_first`): what a checkpoint keeps.
@@ -158,12 +167,14 @@ impl<S: Clone> Recovery<S> {
 
     /// After each accepted step, once the caller's state is up to date: end a retaken
     /// stretch that is over, and outside one keep a checkpoint every
-    /// [`CHECKPOINT_STEPS`] steps (`extra` is called only then).
+    /// [`CHECKPOINT_STEPS`] steps unless the step has collapsed ([`COLLAPSED_STEP`];
+    /// `extra` is called only when a checkpoint is kept).
     pub fn after_step(&mut self, sim: &mut Simulator, control: &mut StepControl, extra: impl FnOnce() -> S) {
         if self.level > 0 && sim.t >= self.until {
             self.finish(sim, control);
         }
-        if self.periodic && self.limit > 0 && self.level == 0 && sim.steps.is_multiple_of(CHECKPOINT_STEPS) {
+        let collapsed = control.dt < COLLAPSED_STEP * self.dt_max;
+        if self.periodic && self.limit > 0 && self.level == 0 && sim.steps.is_multiple_of(CHECKPOINT_STEPS) && !collapsed {
             self.checkpoint(sim, control, extra());
         }
     }
@@ -390,6 +401,42 @@ mod tests {
         assert_eq!(faulty_run(ROLLBACKS), (ROLLBACKS_IN_A_ROW as usize, vec![0.25, 0.0625, 0.015625]));
         assert_eq!(faulty_run(2), (2, vec![0.25, 0.0625]));
         assert_eq!(faulty_run(0), (0, vec![]));
+    }
+
+    /// A step that collapses before the failure (forced here to a thousandth of the
+    /// largest, as the buckling limit shrinks it when a segment is crushed) takes no
+    /// checkpoint, so the rollback goes back to before the collapse, not into it.
+    #[test]
+    fn a_rollback_goes_back_to_before_the_step_collapsed() {
+        let p = LaydownParams { length: 0.1, elements: 100, ..LaydownParams::default() };
+        let mut sim = prepared_simulator(&p, &mut replicate_rng(1, 0), 0.0);
+        let mut control = StepControl::new(sim.limits.chosen, p.mass_per_length());
+        let dt_max = control.dt_max;
+        let mut recovery = Recovery::new(&mut sim, &control, ROLLBACKS, 0u64);
+        let (collapse, fault) = (2 * CHECKPOINT_STEPS + 10, 5 * CHECKPOINT_STEPS + 10);
+        loop {
+            assert!(sim.steps <= fault, "the fault never fired");
+            if sim.steps >= collapse {
+                control.dt = 1e-3 * dt_max;
+            }
+            if sim.steps == fault {
+                sim.rod.v[50][2] = f64::NAN;
+            }
+            match control.advance(&mut sim, 1.0) {
+                Ok(()) => {
+                    let steps = sim.steps;
+                    recovery.after_step(&mut sim, &mut control, || steps);
+                }
+                Err(_) => {
+                    // three multiples of CHECKPOINT_STEPS passed inside the collapse; back
+                    // to the older of the two checkpoints before it (1 and 2 intervals)
+                    let kept = recovery.roll_back(&mut sim, &mut control).expect("a rollback left");
+                    assert_eq!(kept, CHECKPOINT_STEPS, "went back into the collapse");
+                    assert_eq!(sim.steps, kept);
+                    break;
+                }
+            }
+        }
     }
 
     #[test]

@@ -316,7 +316,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("rayleigh_damping", "1/s", 0.01, 0.0, 1e6, "Rayleigh mass damping alpha_R"),
     real("imperfection_std", "m", 1e-6, 0.0, 1e-2, "std of the initial x/y node imperfections"),
     real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
-    real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step"),
+    real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step; S and e are converged in it at Table 1, but at v_f = 50 m/s 0.8 reads S 2.7 % above the step-converged value and 0.4 halves that at twice the time (pipelines/studies/FIBRE_SPEED.md, \"The time step at 50 m/s\")"),
     int("rollbacks", super::recovery::ROLLBACKS as i64, 0, 1000, "adaptive-step schemes: times a run whose step failed even at the smallest step goes back to a checkpoint 64-128 steps earlier (or from before the step collapsed below 1/16 of the largest) and retakes the stretch with the axial springs by backward Euler (as implicit_axial has anyway) and a quarter of the step (src/rod/recovery.rs); with fibre_contact the fibres that can touch go back together to the start of the broad-phase interval; 0 = the first failure ends the replicate or fibre"),
     int("diagnostic_stride", 1000, 1, 1_000_000_000, "record energy diagnostics every this many steps"),
     real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),

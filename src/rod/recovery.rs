@@ -10,22 +10,23 @@
 //! default step"). Such a fibre used to be lost, and the fibres lost are not a random
 //! sample of the web.
 //!
-//! [`Recovery`] keeps the last two checkpoints, [`CHECKPOINT_STEPS`] accepted steps
-//! apart, none taken while the step has collapsed ([`COLLAPSED_STEP`]: a segment crushed
-//! at touchdown can shrink the buckling-limited step a thousandfold for a hundred steps
-//! before the run fails, and checkpoints counted in steps would all lie inside the
-//! collapse, each retake failing at the same instant). When a step fails even at the
-//! smallest step, the run goes back to the older checkpoint (one to two intervals before
-//! the failure, or before the collapse; fewer steps at the start of a run) and retakes the stretch to as far again past the failure with the axial springs
-//! by backward Euler (θ = 1, which damps the axial ringing the trapezoid leaves
-//! undamped; `implicit_axial` and `implicit_bending` have it anyway) and the largest step
-//! divided by 4. No checkpoint is taken inside the stretch, so a second failure within it
-//! goes back to the same checkpoint, with the step divided by 16, a third with 64, and a
-//! fourth ends the run ([`ROLLBACKS_IN_A_ROW`]). Past the stretch, or when the run ends,
-//! the scene's own scheme and step return. A run that has not failed is bit-identical
-//! with and without recovery (the checkpoints only copy the state), and a rolled-back run
-//! is as reproducible as any. The number of rollbacks is the scene parameter `rollbacks`
-//! (0: the first failure ends the run, as before); each run reports how many it took.
+//! [`Recovery`] keeps the last two checkpoints, [`CHECKPOINT_STEPS`] accepted steps apart,
+//! none taken while the step has collapsed ([`COLLAPSED_STEP`]: a segment crushed at
+//! touchdown can shrink the buckling-limited step a thousandfold for a hundred steps before
+//! the run fails, and checkpoints counted in steps would all lie inside the collapse, each
+//! retake failing at the same instant). When a step fails even at the smallest step, the
+//! run goes back to the older checkpoint (one to two intervals before the failure, or
+//! before the collapse; fewer steps at the start of a run) and retakes the stretch to as
+//! far again past the failure with the axial springs by backward Euler (θ = 1, which damps
+//! the axial ringing the trapezoid leaves undamped; `implicit_axial` and `implicit_bending`
+//! have it anyway) and the largest step divided by 4. No checkpoint is taken inside the
+//! stretch, so a second failure within it goes back to the same checkpoint, with the step
+//! divided by 16, a third with 64, and a fourth ends the run ([`ROLLBACKS_IN_A_ROW`]). Past
+//! the stretch, or when the run ends, the scene's own scheme and step return. A run that
+//! has not failed is bit-identical with and without recovery (the checkpoints only copy the
+//! state), and a rolled-back run is as reproducible as any. The number of rollbacks is the
+//! scene parameter `rollbacks` (0: the first failure ends the run, as before); each run
+//! reports how many it took.
 //!
 //! A fibre of a contact world ([`super::contact_world`]) cannot go back on its own: the
 //! other fibres have seen its state. There the checkpoints are taken on demand

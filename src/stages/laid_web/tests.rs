@@ -513,8 +513,8 @@ fn a_contact_web_goes_back_together_when_a_fibre_fails() {
 /// A real failure, not a planted one: fibre 5 of `table4_contact.yaml`'s web at c = 0.07
 /// (stage `laid_c007`, seed 2032, replicate 0) lands at 15 ms with a node folded to 172°;
 /// in the next step the segments beside it are crushed to 0.56 of their length, the
-/// buckling-limited step collapses from 23 µs to 10 ns, and 150 steps later a node passes
-/// the speed limit. The checkpoints, counted in steps, then all lay inside the collapse and
+/// buckling-limited step collapses from 23 µs to 6-17 ns, and 155 steps later a node
+/// passes the speed limit. The checkpoints, counted in steps, then all lay inside the collapse and
 /// every retake failed at the same instant; none is taken while the step has collapsed
 /// (`recovery::COLLAPSED_STEP`), so the rollback goes back to before it and the fibre is
 /// laid. (The runs are chaotic: a change of the physics or the scheme may move this

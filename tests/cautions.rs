@@ -89,3 +89,17 @@ fn a_cartesian_sweep_warns_at_the_item_of_the_point() {
     let w = only_warning("pipeline: grid\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    sweep:\n      friction_coefficient: [1.0, 3.0]\n      integrator: [implicit_axial, trapezoidal_axial]\n");
     assert!(w.starts_with("warning: p.yaml:7:35: stages[0].sweep.friction_coefficient[1]: 3 is above 2"), "{w}");
 }
+
+/// Above Table 1's 5 m/s the default step of the default integrator is not converged
+/// (measured at 10-50 m/s: FIBRE_SPEED.md, "The time step at 50 m/s, and at 5-30 m/s"):
+/// a fibre speed above 5 m/s warns where it is written and says what step to set; that
+/// step, another integrator, or 5 m/s draw none.
+#[test]
+fn a_fast_fibre_at_the_default_step_warns_and_the_converged_step_does_not() {
+    let w = only_warning("pipeline: fast\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    params:\n      fibre_speed: 30\n  - name: quiet\n    kind: laydown\n    params: {fibre_speed: 30, time_step_factor: 0.2}\n  - name: implicit\n    kind: laid_web\n    params: {fibre_speed: 30, integrator: implicit_axial}\n  - name: slow\n    kind: laid_web\n    params: {fibre_speed: 5}\n");
+    assert!(w.starts_with("warning: p.yaml:7:20: stages[0].params.fibre_speed: 30 m/s with integrator trapezoidal_axial"), "{w}");
+    assert!(w.contains("time_step_factor: 0.2"), "says what to set: {w}");
+    // a laid web is warned as a single fibre is
+    let w = only_warning("pipeline: web\narchive: study.h5\nstages:\n  - name: web\n    kind: laid_web\n    sweep:\n      fibre_speed: [5.0, 10.0]\n");
+    assert!(w.starts_with("warning: p.yaml:7:26: stages[0].sweep.fibre_speed[1]: 10 m/s"), "{w}");
+}

@@ -283,6 +283,15 @@ pub const HIGH_FRICTION: f64 = 2.0;
 /// (single fibres at μ = 10: none of 20 lost), so no caution is given.
 pub const SAFE_HIGH_FRICTION_STEP: f64 = 0.2;
 
+/// Fibre speed (m/s) up to which the default integrator's default step was shown
+/// converged (Table 1); above it [`LaydownParams::cautions`] warns unless the step is at
+/// most [`CONVERGED_STEP_FACTOR`].
+pub const STEP_CONVERGED_SPEED: f64 = 5.0;
+
+/// `time_step_factor` at which S and e of the default integrator were converged in the
+/// step at 10-50 m/s (within their errors of 0.1 and 0.05 at 10 m/s, of 0.1 at 50 m/s).
+pub const CONVERGED_STEP_FACTOR: f64 = 0.2;
+
 const fn real(name: &'static str, unit: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
     ParamSpec::float(name, unit, default, min, max, doc)
 }
@@ -486,6 +495,18 @@ impl LaydownParams {
                      2 of 20 bounced, the explicit reference none); set integrator: implicit_axial, which held in every case without rollbacks, or \
                      time_step_factor: {SAFE_HIGH_FRICTION_STEP} (single fibres at 10: none of 20 lost) (pipelines/studies/FIBRE_SPEED.md, \"High friction at the default step\")",
                     self.friction_coefficient
+                ),
+            });
+        }
+        if self.fibre_speed > STEP_CONVERGED_SPEED && self.integrator == Integrator::TrapezoidalAxial && self.time_step_factor > CONVERGED_STEP_FACTOR {
+            out.push(ParamCaution {
+                key: "fibre_speed".into(),
+                message: format!(
+                    "{} m/s with integrator trapezoidal_axial (the default) at time_step_factor {}: the step is converged at Table 1's 5 m/s, but measured at 10-50 m/s \
+                     the default 0.8 leaves e 7-11 % low at 10 m/s and S 2-2.7 % high at 30-50 m/s (within 2 % at 20 m/s); set time_step_factor: \
+                     {CONVERGED_STEP_FACTOR} for S and e converged in the step, at four times the steps (pipelines/studies/FIBRE_SPEED.md, \
+                     \"The time step at 50 m/s, and at 5-30 m/s\")",
+                    self.fibre_speed, self.time_step_factor
                 ),
             });
         }

@@ -355,13 +355,19 @@ mod tests {
         assert!(saved.landed_nodes > 10);
     }
 
+    /// A short vertical start (0.1 m, 100 elements) and its step control, not yet stepped.
+    fn short_vertical_start() -> (Simulator, StepControl) {
+        let p = LaydownParams { length: 0.1, elements: 100, ..LaydownParams::default() };
+        let sim = prepared_simulator(&p, &mut replicate_rng(1, 0), 0.0);
+        let control = StepControl::new(sim.limits.chosen, p.mass_per_length());
+        (sim, control)
+    }
+
     /// Runs a short vertical start that meets a fault again after every rollback (put
     /// back at the same step), allowing `limit` rollbacks: the rollbacks taken and the
     /// largest step of each retake over the scene's.
     fn faulty_run(limit: usize) -> (usize, Vec<f64>) {
-        let p = LaydownParams { length: 0.1, elements: 100, ..LaydownParams::default() };
-        let mut sim = prepared_simulator(&p, &mut replicate_rng(1, 0), 0.0);
-        let mut control = StepControl::new(sim.limits.chosen, p.mass_per_length());
+        let (mut sim, mut control) = short_vertical_start();
         let dt_max = control.dt_max;
         let mut recovery = Recovery::new(&mut sim, &control, limit, 0u64);
         // late in its interval, so that a retaken stretch (at a quarter of the step or
@@ -409,9 +415,7 @@ mod tests {
     /// checkpoint, so the rollback goes back to before the collapse, not into it.
     #[test]
     fn a_rollback_goes_back_to_before_the_step_collapsed() {
-        let p = LaydownParams { length: 0.1, elements: 100, ..LaydownParams::default() };
-        let mut sim = prepared_simulator(&p, &mut replicate_rng(1, 0), 0.0);
-        let mut control = StepControl::new(sim.limits.chosen, p.mass_per_length());
+        let (mut sim, mut control) = short_vertical_start();
         let dt_max = control.dt_max;
         let mut recovery = Recovery::new(&mut sim, &control, ROLLBACKS, 0u64);
         let (collapse, fault) = (2 * CHECKPOINT_STEPS + 10, 5 * CHECKPOINT_STEPS + 10);
@@ -442,9 +446,7 @@ mod tests {
 
     #[test]
     fn a_retaken_stretch_ends_and_the_scene_scheme_returns() {
-        let p = LaydownParams { length: 0.1, elements: 100, ..LaydownParams::default() };
-        let mut sim = prepared_simulator(&p, &mut replicate_rng(1, 0), 0.0);
-        let mut control = StepControl::new(sim.limits.chosen, p.mass_per_length());
+        let (mut sim, mut control) = short_vertical_start();
         let (dt_max, theta) = (control.dt_max, sim.axial_theta);
         let mut recovery = Recovery::new(&mut sim, &control, ROLLBACKS, ());
         let (mut faulted, mut retaken_steps) = (false, 0);

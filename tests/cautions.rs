@@ -90,16 +90,19 @@ fn a_cartesian_sweep_warns_at_the_item_of_the_point() {
     assert!(w.starts_with("warning: p.yaml:7:35: stages[0].sweep.friction_coefficient[1]: 3 is above 2"), "{w}");
 }
 
-/// Above Table 1's 5 m/s the default step of the default integrator is not converged
-/// (measured at 10-50 m/s: FIBRE_SPEED.md, "The time step at 50 m/s, and at 5-30 m/s"):
-/// a fibre speed above 5 m/s warns where it is written and says what step to set; that
-/// step, another integrator, or 5 m/s draw none.
+/// A time step coarser than 0.032 of the inertial coil time ℓ_c/v_f under the default
+/// integrator (10-50 m/s, or thin fibres, at the coil-resolved mesh: 0.1) warns where
+/// the cause is written (the fibre speed, the diameter) and says to set coil_step; that
+/// rule, a small enough time_step_factor, another integrator, or Table 1 draw none.
 #[test]
-fn a_fast_fibre_at_the_default_step_warns_and_the_converged_step_does_not() {
-    let w = only_warning("pipeline: fast\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    params:\n      fibre_speed: 30\n  - name: quiet\n    kind: laydown\n    params: {fibre_speed: 30, time_step_factor: 0.2}\n  - name: implicit\n    kind: laid_web\n    params: {fibre_speed: 30, integrator: implicit_axial}\n  - name: slow\n    kind: laid_web\n    params: {fibre_speed: 5}\n");
-    assert!(w.starts_with("warning: p.yaml:7:20: stages[0].params.fibre_speed: 30 m/s with integrator trapezoidal_axial"), "{w}");
-    assert!(w.contains("time_step_factor: 0.2"), "says what to set: {w}");
-    // a laid web is warned as a single fibre is
+fn a_step_coarse_in_coil_times_warns_and_the_coil_step_rule_does_not() {
+    let w = only_warning("pipeline: fast\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    params:\n      fibre_speed: 30\n  - name: ruled\n    kind: laydown\n    params: {fibre_speed: 30, coil_step: 0.04}\n  - name: small\n    kind: laydown\n    params: {fibre_speed: 30, time_step_factor: 0.2}\n  - name: implicit\n    kind: laid_web\n    params: {fibre_speed: 30, integrator: implicit_axial}\n  - name: slow\n    kind: laid_web\n    params: {fibre_speed: 5}\n");
+    assert!(w.starts_with("warning: p.yaml:7:20: stages[0].params.fibre_speed: 30 m/s: the time step of integrator trapezoidal_axial (the default) is 0.100 of the inertial coil time"), "{w}");
+    assert!(w.contains("coil_step: 0.04"), "says what to set: {w}");
+    // a laid web is warned as a single fibre is, at the sweep item
     let w = only_warning("pipeline: web\narchive: study.h5\nstages:\n  - name: web\n    kind: laid_web\n    sweep:\n      fibre_speed: [5.0, 10.0]\n");
     assert!(w.starts_with("warning: p.yaml:7:26: stages[0].sweep.fibre_speed[1]: 10 m/s"), "{w}");
+    // a thin fibre at Table 1's speed, at its diameter
+    let w = only_warning("pipeline: thin\narchive: study.h5\nstages:\n  - name: web\n    kind: laid_web\n    params:\n      diameter: 16.2e-6\n");
+    assert!(w.starts_with("warning: p.yaml:7:17: stages[0].params.diameter: 0.0000162 m: the time step"), "{w}");
 }

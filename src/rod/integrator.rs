@@ -32,6 +32,9 @@
 //!   factor 1.0 is measured to be unstable, 0.8 (default) and 0.5 give the same statistics;
 //! - kinematic: Δt_k = Δs/(4 v_max), v_max the largest imposed speed (feed, belt, ωu0),
 //!   so a node never moves more than a quarter element per step;
+//! - coil time (opt-in, `coil_step` > 0): Δt_c = coil_step·ℓ_c/v_f, ℓ_c/v_f = √(EI/ρA)/v_f²,
+//!   whatever the mesh (at two elements per ℓ_c the limits above allow 0.1 ℓ_c/v_f, where
+//!   S and e are not converged in the step; [`super::scene::time_step_limits`] applies it);
 //! - `Explicit`: fixed Δt = factor · min(2/√(ω_a² + ω_b²), Δt_k);
 //! - projection schemes: adaptive Δt ≤ factor · min(Δt_b, Δt_k), starting at 1 % of it,
 //!   growing by at most 25 % per step, and kept below ½/σ where σ = P/(2√(EI ρA)) is the
@@ -75,6 +78,9 @@ pub struct TimeStepLimits {
     pub bending: f64,
     /// Δs/(4 v_max).
     pub kinematic: f64,
+    /// `coil_step`·ℓ_c/v_f, the coil-time limit (∞ when off; set by
+    /// [`super::scene::time_step_limits`]).
+    pub coil: f64,
     /// The step used (after the safety factor, before rounding to the end time).
     pub chosen: f64,
 }
@@ -114,7 +120,7 @@ pub fn stable_time_step(
     if !chosen.is_finite() {
         chosen = factor * 0.25 * ds;
     }
-    TimeStepLimits { axial, bending, kinematic, chosen }
+    TimeStepLimits { axial, bending, kinematic, coil: f64::INFINITY, chosen }
 }
 
 /// Cumulative work done on the fibre (J), by source (booking: module docs, "Work"), so

@@ -76,7 +76,10 @@
 //!
 //! All keep Δt ≤ factor·Δs/(4 v_max) (v_max: feed, belt, ωu0). `coil_resolution` raises N when the inertial
 //! coil scale √(EI/ρA v_f²) (3.6 mm at the baseline, ten times smaller at 50 m/s) would
-//! be resolved by fewer than that many elements.
+//! be resolved by fewer than that many elements. `coil_step` (opt-in) bounds Δt by
+//! factor·`coil_step`·ℓ_c/v_f: at the coil-resolved mesh the limits above allow 0.1 ℓ_c/v_f,
+//! where S and e are not converged in the step (0.04 leaves Table 1 unchanged;
+//! `pipelines/studies/FIBRE_SPEED.md`, "Where the step error comes from").
 //!
 //! # Validity and failures
 //! The paper rejects about 10 % of its runs because "portions of fibre were out of

@@ -208,6 +208,9 @@ pub struct LaydownParams {
     pub penetration_tolerance: f64,
     /// Minimum number of elements per inertial coil scale √(EI/ρAv_f²); 0 = use `elements` as given.
     pub coil_resolution: f64,
+    /// Largest time step as a fraction of the inertial coil time ℓ_c/v_f (before
+    /// `time_step_factor`); 0 = off.
+    pub coil_step: f64,
     /// Simulated time (s); 0 = until the top node reaches z0, (L − z0)/v_f.
     pub duration: f64,
     /// `implicit_bending` only: elements a node moving at the largest imposed speed
@@ -260,6 +263,7 @@ impl Default for LaydownParams {
             bounce_tolerance: 1e-3,
             penetration_tolerance: 1e-5,
             coil_resolution: 2.0,
+            coil_step: 0.0,
             duration: 0.0,
             implicit_step_travel: 0.25,
             integrator: Integrator::default(),
@@ -283,14 +287,11 @@ pub const HIGH_FRICTION: f64 = 2.0;
 /// (single fibres at μ = 10: none of 20 lost), so no caution is given.
 pub const SAFE_HIGH_FRICTION_STEP: f64 = 0.2;
 
-/// Fibre speed (m/s) up to which the default integrator's default step was shown
-/// converged (Table 1); above it [`LaydownParams::cautions`] warns unless the step is at
-/// most [`CONVERGED_STEP_FACTOR`].
-pub const STEP_CONVERGED_SPEED: f64 = 5.0;
-
-/// `time_step_factor` at which S and e of the default integrator were converged in the
-/// step at 10-50 m/s (within their errors of 0.1 and 0.05 at 10 m/s, of 0.1 at 50 m/s).
-pub const CONVERGED_STEP_FACTOR: f64 = 0.2;
+/// `coil_step` recommended where the step is coarse against the inertial coil time: S
+/// within 0.6 % of its step-converged value at 10-50 m/s, e within about 2 % at 10-30 m/s
+/// and for thin fibres at 5 m/s (pipelines/studies/FIBRE_SPEED.md, "Where the step error
+/// comes from"); at Table 1 it does not bind.
+pub const CONVERGED_COIL_STEP: f64 = 0.04;
 
 const fn real(name: &'static str, unit: &'static str, default: f64, min: f64, max: f64, doc: &'static str) -> ParamSpec {
     ParamSpec::float(name, unit, default, min, max, doc)
@@ -325,12 +326,13 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("rayleigh_damping", "1/s", 0.01, 0.0, 1e6, "Rayleigh mass damping alpha_R"),
     real("imperfection_std", "m", 1e-6, 0.0, 1e-2, "std of the initial x/y node imperfections"),
     real("gravity", "m/s^2", 9.81, 0.0, 1e3, "gravitational acceleration g"),
-    real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step; at 0.8 S and e are within about 2 % of their step-converged values at Table 1 and 20 m/s, but e reads 7-11 % low at 10 m/s, S about 2-2.7 % high at 30-50 m/s and e 2-7 % low at 50 m/s (0.2 there, at four times the time; pipelines/studies/FIBRE_SPEED.md, \"The time step at 50 m/s, and at 5-30 m/s\")"),
+    real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step; at 0.8 S and e are within about 2 % of their step-converged values at Table 1 and 20 m/s, but e reads 7-11 % low at 10 m/s, S about 2-2.7 % high at 30-50 m/s and e 2-7 % low at 50 m/s (0.2 there, at four times the time, or coil_step: 0.04, at three; pipelines/studies/FIBRE_SPEED.md, \"The time step at 50 m/s, and at 5-30 m/s\")"),
     int("rollbacks", super::recovery::ROLLBACKS as i64, 0, 1000, "adaptive-step schemes: times a run whose step failed even at the smallest step goes back to a checkpoint 64-128 steps earlier (or from before the step collapsed below 1/16 of the largest) and retakes the stretch with the axial springs by backward Euler (as implicit_axial has anyway) and a quarter of the step (src/rod/recovery.rs); with fibre_contact the fibres that can touch go back together to the start of the broad-phase interval; 0 = the first failure ends the replicate or fibre"),
     int("diagnostic_stride", 1000, 1, 1_000_000_000, "record energy diagnostics every this many steps"),
     real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
     real("coil_resolution", "1", 2.0, 0.0, 100.0, "minimum elements per inertial coil scale sqrt(EI/(rho A v_f^2)); 0 = off"),
+    real("coil_step", "1", 0.0, 0.0, 1.0, "largest time step as a fraction of the inertial coil time l_c/v_f = sqrt(EI/(rho A))/v_f^2, times time_step_factor; 0 = off. 0.04 leaves Table 1 as it is, holds S within 0.6 % of its step-converged value at 10-50 m/s and e within about 2 % at 10-30 m/s and for thin fibres at 5 m/s (at 50 m/s e moves by a few % with any step), at about 3 times the steps there (pipelines/studies/FIBRE_SPEED.md, \"Where the step error comes from\")"),
     real("duration", "s", 0.0, 0.0, 1e3, "simulated time; 0 = until the top node reaches laydown_height"),
     real("implicit_step_travel", "1", 0.25, 0.01, 100.0, "integrator implicit_bending only: elements a node at the largest imposed speed (feed, belt, omega u0) may travel per step, dt <= time_step_factor * this * element length / v_max"),
 ];
@@ -379,6 +381,7 @@ impl LaydownParams {
             "bounce_tolerance" => self.bounce_tolerance,
             "penetration_tolerance" => self.penetration_tolerance,
             "coil_resolution" => self.coil_resolution,
+            "coil_step" => self.coil_step,
             "duration" => self.duration,
             "implicit_step_travel" => self.implicit_step_travel,
             _ => return None,
@@ -431,6 +434,7 @@ impl LaydownParams {
             "bounce_tolerance" => &mut self.bounce_tolerance,
             "penetration_tolerance" => &mut self.penetration_tolerance,
             "coil_resolution" => &mut self.coil_resolution,
+            "coil_step" => &mut self.coil_step,
             "duration" => &mut self.duration,
             "implicit_step_travel" => &mut self.implicit_step_travel,
             _ => return Err(ParamError::Unknown(name.to_string())),
@@ -498,18 +502,6 @@ impl LaydownParams {
                 ),
             });
         }
-        if self.fibre_speed > STEP_CONVERGED_SPEED && self.integrator == Integrator::TrapezoidalAxial && self.time_step_factor > CONVERGED_STEP_FACTOR {
-            out.push(ParamCaution {
-                key: "fibre_speed".into(),
-                message: format!(
-                    "{} m/s with integrator trapezoidal_axial (the default) at time_step_factor {}: the step is converged at Table 1's 5 m/s, but measured at 10-50 m/s \
-                     the default 0.8 leaves e 7-11 % low at 10 m/s and S 2-2.7 % high at 30-50 m/s (within 2 % at 20 m/s); set time_step_factor: \
-                     {CONVERGED_STEP_FACTOR} for S and e converged in the step, at four times the steps (pipelines/studies/FIBRE_SPEED.md, \
-                     \"The time step at 50 m/s, and at 5-30 m/s\")",
-                    self.fibre_speed, self.time_step_factor
-                ),
-            });
-        }
         out
     }
 
@@ -556,6 +548,11 @@ impl LaydownParams {
     /// Inertial coil scale √(EI/(ρA v_f²)) (m): 3.6 mm at the baseline.
     pub fn coil_scale(&self) -> f64 {
         (self.bending_stiffness() / self.mass_per_length()).sqrt() / self.fibre_speed
+    }
+    /// Inertial coil time ℓ_c/v_f = √(EI/ρA)/v_f² (s): the time the feed takes to lay one
+    /// coil scale, 0.73 ms at the baseline.
+    pub fn coil_time(&self) -> f64 {
+        self.coil_scale() / self.fibre_speed
     }
     /// Elements actually used: `elements`, raised so that the element length is at most
     /// coil_scale / coil_resolution (when coil_resolution > 0).

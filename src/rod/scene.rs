@@ -6,7 +6,8 @@ use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
 use super::recovery::Recovery;
 use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
-use super::params::{BounceCheck, FeedEnd, Integrator, LaydownParams};
+use super::params::{BounceCheck, FeedEnd, Integrator, LaydownParams, CONVERGED_COIL_STEP};
+use crate::params::ParamCaution;
 use super::twist::Twist;
 use super::state::{Rod, Workspace};
 use crate::geometry::arc_length;
@@ -48,7 +49,8 @@ pub(crate) fn paper_start<R: Rng + ?Sized>(p: &LaydownParams, elements: usize, r
 
 /// The automatic time step of `p`'s scene for elements of `ds` (with `driven_top`, the
 /// top node fed at v_f): the stable step of its integrator, limited by the largest
-/// imposed speed (feed, belt, oscillation ω u0). Shared by the scene's build and the
+/// imposed speed (feed, belt, oscillation ω u0) and, with `coil_step`, by the coil time
+/// ℓ_c/v_f. Shared by the scene's build and the
 /// run-time estimates.
 pub fn time_step_limits(p: &LaydownParams, ds: f64, driven_top: bool) -> super::integrator::TimeStepLimits {
     let e = &p.effects;
@@ -72,7 +74,56 @@ pub fn time_step_limits(p: &LaydownParams, ds: f64, driven_top: bool) -> super::
         // implicit_step_travel elements a step
         limits.chosen = p.time_step_factor * p.implicit_step_travel * ds / max_speed;
     }
+    if p.coil_step > 0.0 {
+        // the coil-time limit: the step in units of the time one coil scale takes to feed
+        limits.coil = p.coil_step * p.coil_time();
+        limits.chosen = limits.chosen.min(p.time_step_factor * limits.coil);
+    }
     limits
+}
+
+/// Step of the default scheme, as a fraction of the coil time ℓ_c/v_f, above which S and
+/// e were measured off their step-converged values: 0.8 × [`CONVERGED_COIL_STEP`]. The
+/// Table 1 baseline steps at 0.0305 and is converged.
+pub const COARSE_COIL_STEP: f64 = 0.8 * CONVERGED_COIL_STEP;
+
+/// The warning a scene of the default integrator draws when its time step at element
+/// length `element_length` (fed at v_f) is coarser than [`COARSE_COIL_STEP`] of the coil
+/// time ℓ_c/v_f: at the coil-resolved mesh (two elements per ℓ_c, 10 m/s and up, or thin
+/// fibres) the step is 0.1 ℓ_c/v_f. Keyed at the fibre speed above 5 m/s, or at the
+/// diameter below Table 1's 50 µm, where it was measured; a mesh chosen coarse at Table 1's
+/// speed and diameter draws none (its step coarsens with it, and `mesh_error_estimate`
+/// states the two together). None for the other integrators, or with `coil_step` at or
+/// below the recommended [`CONVERGED_COIL_STEP`].
+pub fn step_caution(p: &LaydownParams, element_length: f64) -> Option<ParamCaution> {
+    let e = &p.effects;
+    if p.integrator != Integrator::TrapezoidalAxial || !e.elasticity || !(p.fibre_speed > 0.0) {
+        return None;
+    }
+    if p.coil_step > 0.0 && p.coil_step <= CONVERGED_COIL_STEP {
+        return None;
+    }
+    let coil_time = p.coil_time();
+    let fraction = time_step_limits(p, element_length, true).chosen / coil_time;
+    if !(fraction > COARSE_COIL_STEP * (1.0 + 1e-9)) {
+        return None;
+    }
+    let (key, written) = if p.fibre_speed > 5.0 {
+        ("fibre_speed", format!("{} m/s", p.fibre_speed))
+    } else if p.diameter < 50e-6 {
+        ("diameter", format!("{} m", p.diameter))
+    } else {
+        return None;
+    };
+    Some(ParamCaution {
+        key: key.into(),
+        message: format!(
+            "{written}: the time step of integrator trapezoidal_axial (the default) is {fraction:.3} of the inertial coil time l_c/v_f = {coil_time:.3e} s, \
+             coarser than the {COARSE_COIL_STEP} at which S and e were measured converged (Table 1 steps at 0.031); at 0.1 (two elements per coil scale) e read \
+             6-11 % low (5 m/s at d = 16.2 and 20 um, 10 m/s) and S 2-2.5 % high (30-50 m/s), while S at 5 m/s moved by less than 0.5 %; set coil_step: {CONVERGED_COIL_STEP} \
+             (about three times the steps there) (pipelines/studies/FIBRE_SPEED.md, \"Where the step error comes from\")"
+        ),
+    })
 }
 
 /// Assemble the simulator: only the enabled effects become terms.
@@ -365,3 +416,61 @@ pub fn replicate_rng(seed: u64, replicate: u64) -> ChaCha8Rng {
     crate::rng::stream_rng(seed, replicate, 0)
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn step_in_coil_times(p: &LaydownParams) -> f64 {
+        time_step_limits(p, p.length / p.resolved_elements() as f64, true).chosen / p.coil_time()
+    }
+
+    /// `coil_step` 0.04 leaves the Table 1 baseline's step as it is, to the bit (there the
+    /// bending limit, 0.0305 ℓ_c/v_f, is below it), and holds the coil-resolved scenes
+    /// of 10-50 m/s and thin fibres, which otherwise step at 0.1 ℓ_c/v_f, to
+    /// time_step_factor · 0.04 ℓ_c/v_f.
+    #[test]
+    fn coil_step_leaves_table_1_alone_and_bounds_the_step_in_coil_times() {
+        let table1 = LaydownParams::default();
+        assert_eq!(table1.coil_step, 0.0, "opt-in");
+        let ruled = LaydownParams { coil_step: CONVERGED_COIL_STEP, ..table1.clone() };
+        let ds = table1.length / table1.resolved_elements() as f64;
+        assert_eq!(time_step_limits(&ruled, ds, true).chosen.to_bits(), time_step_limits(&table1, ds, true).chosen.to_bits());
+        let baseline = step_in_coil_times(&table1);
+        assert!((baseline - 0.0305).abs() < 5e-4, "Table 1 steps at {baseline} coil times");
+        for (fibre_speed, diameter) in [(10.0, 50e-6), (50.0, 50e-6), (5.0, 16.2e-6)] {
+            let p = LaydownParams { fibre_speed, diameter, air_speed: 3.0 * fibre_speed, ..table1.clone() };
+            let coarse = step_in_coil_times(&p);
+            assert!((coarse - 0.1).abs() < 3e-3, "{fibre_speed} m/s, d {diameter}: {coarse} coil times without the rule");
+            let with = step_in_coil_times(&LaydownParams { coil_step: CONVERGED_COIL_STEP, ..p.clone() });
+            assert!((with - p.time_step_factor * CONVERGED_COIL_STEP).abs() < 1e-12, "{fibre_speed} m/s: {with}");
+            let limits = time_step_limits(&LaydownParams { coil_step: CONVERGED_COIL_STEP, ..p.clone() }, p.length / p.resolved_elements() as f64, true);
+            assert!((limits.coil - CONVERGED_COIL_STEP * p.coil_time()).abs() < 1e-18, "the limit is reported");
+        }
+    }
+
+    /// The step caution: none at Table 1, with the rule, at a small enough
+    /// time_step_factor, under another integrator or for a mesh chosen coarse at Table 1;
+    /// at 50 m/s keyed at the fibre speed, for a thin fibre at the diameter.
+    #[test]
+    fn a_step_coarse_in_coil_times_is_cautioned_where_it_comes_from() {
+        let table1 = LaydownParams::default();
+        let ds = |p: &LaydownParams| p.length / p.resolved_elements() as f64;
+        assert!(step_caution(&table1, ds(&table1)).is_none());
+        let fast = LaydownParams { fibre_speed: 50.0, air_speed: 150.0, ..table1.clone() };
+        let c = step_caution(&fast, ds(&fast)).expect("50 m/s at the default step");
+        assert_eq!(c.key, "fibre_speed");
+        assert!(c.message.contains("0.100 of the inertial coil time") && c.message.contains("coil_step: 0.04"), "{}", c.message);
+        for quiet in [
+            LaydownParams { coil_step: CONVERGED_COIL_STEP, ..fast.clone() },
+            LaydownParams { time_step_factor: 0.25, ..fast.clone() },
+            LaydownParams { integrator: Integrator::ImplicitAxial, ..fast.clone() },
+        ] {
+            assert!(step_caution(&quiet, ds(&quiet)).is_none(), "{quiet:?}");
+        }
+        let thin = LaydownParams { diameter: 16.2e-6, ..table1.clone() };
+        assert_eq!(step_caution(&thin, ds(&thin)).map(|c| c.key), Some("diameter".to_string()));
+        let coarse = LaydownParams { elements: 250, ..table1.clone() };
+        assert!(step_caution(&coarse, ds(&coarse)).is_none(), "a coarse mesh at Table 1: its error is the mesh estimate's");
+    }
+}

@@ -153,7 +153,10 @@ impl Stage for LaidWebStage {
         LaidWebParams::from(own).validate()
     }
     fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
-        stage_params(p).scene.cautions()
+        let lw = laid_web_params(p);
+        let mut out = lw.scene.cautions();
+        out.extend(crate::rod::scene::step_caution(&lw.scene, lw.resolved_element_length()));
+        out
     }
     /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it
     /// costs at least (a dense web's contact work grows with its pile, which the

@@ -279,7 +279,11 @@ impl Stage for LaydownStage {
     }
 
     fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
-        scene(p).cautions()
+        let scene = scene(p);
+        let mut out = scene.cautions();
+        let element_length = scene.length / scene.resolved_elements() as f64;
+        out.extend(crate::rod::scene::step_caution(&scene, element_length));
+        out
     }
 
     /// `estimated_cpu_seconds`: about, for the vertical start; at most, for the fed

@@ -577,7 +577,12 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
             }
         };
         match name {
-            "bending_energy" => warn(&|_| true, "e", "; Richardson from N and N/2 elements); raise elements or coil_resolution"),
+            "bending_energy" => warn(
+                &|_| true,
+                "e",
+                "; Richardson from N and N/2 elements, which overstates it where N/2 has fewer than 2 elements per coil scale: at 10 m/s 13 % against about 8 % from N, 2N and 4N, \
+                 pipelines/studies/FIBRE_SPEED.md); raise elements or coil_resolution",
+            ),
             "bending_energy_belt_removed" => warn(
                 &|p| by_landing.get(p) == Some(&true),
                 "e with the belt removed by landing time",

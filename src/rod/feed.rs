@@ -211,7 +211,7 @@ pub(crate) fn simulate_fed<R: Rng + ?Sized>(p: &LaydownParams, rng: &mut R) -> L
 /// The fibre [`feed_fibre`] feeds for the laydown scene `p` (`start: fed`): the length
 /// fed in `p`'s end time, in elements of `p`'s (coil-resolved) element length.
 pub fn fed_scene(p: &LaydownParams) -> LaydownParams {
-    let element_length = p.length / p.resolved_elements() as f64;
+    let element_length = p.element_length();
     let length = p.fibre_speed * p.end_time();
     LaydownParams {
         length,
@@ -322,7 +322,7 @@ impl Feeder {
     /// The fibre at t = 0: vertical up to the feed height, moving down at v_f.
     pub fn new<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, settings: &FeedSettings, rng: &mut R) -> Self {
         let clock = Instant::now();
-        let ds = p.length / p.resolved_elements() as f64;
+        let ds = p.element_length();
         let start_elements = ((p.laydown_height / ds).ceil() as usize + settings.buffer_elements).max(2);
         let feed_height = start_elements as f64 * ds;
         let mut positions: Vec<[f64; 3]> = (0..=start_elements).map(|i| [0.0, 0.0, i as f64 * ds]).collect();

@@ -554,6 +554,10 @@ impl LaydownParams {
     pub fn coil_time(&self) -> f64 {
         self.coil_scale() / self.fibre_speed
     }
+    /// Element length Δs actually used, `length` over [`Self::resolved_elements`] (m).
+    pub fn element_length(&self) -> f64 {
+        self.length / self.resolved_elements() as f64
+    }
     /// Elements actually used: `elements`, raised so that the element length is at most
     /// coil_scale / coil_resolution (when coil_resolution > 0).
     pub fn resolved_elements(&self) -> usize {

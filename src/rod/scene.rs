@@ -126,6 +126,15 @@ pub fn step_caution(p: &LaydownParams, element_length: f64) -> Option<ParamCauti
     })
 }
 
+/// Every caution of scene `p` laid in elements of `element_length`: the parameter
+/// cautions ([`LaydownParams::cautions`]) and the step caution ([`step_caution`]). What the
+/// laydown and laid_web stages report.
+pub fn cautions(p: &LaydownParams, element_length: f64) -> Vec<ParamCaution> {
+    let mut out = p.cautions();
+    out.extend(step_caution(p, element_length));
+    out
+}
+
 /// Assemble the simulator: only the enabled effects become terms.
 pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
     let n = start.positions.len();
@@ -422,7 +431,7 @@ mod tests {
     use super::*;
 
     fn step_in_coil_times(p: &LaydownParams) -> f64 {
-        time_step_limits(p, p.length / p.resolved_elements() as f64, true).chosen / p.coil_time()
+        time_step_limits(p, p.element_length(), true).chosen / p.coil_time()
     }
 
     /// `coil_step` 0.04 leaves the Table 1 baseline's step as it is, to the bit (there the
@@ -434,7 +443,7 @@ mod tests {
         let table1 = LaydownParams::default();
         assert_eq!(table1.coil_step, 0.0, "opt-in");
         let ruled = LaydownParams { coil_step: CONVERGED_COIL_STEP, ..table1.clone() };
-        let ds = table1.length / table1.resolved_elements() as f64;
+        let ds = table1.element_length();
         assert_eq!(time_step_limits(&ruled, ds, true).chosen.to_bits(), time_step_limits(&table1, ds, true).chosen.to_bits());
         let baseline = step_in_coil_times(&table1);
         assert!((baseline - 0.0305).abs() < 5e-4, "Table 1 steps at {baseline} coil times");
@@ -444,7 +453,7 @@ mod tests {
             assert!((coarse - 0.1).abs() < 3e-3, "{fibre_speed} m/s, d {diameter}: {coarse} coil times without the rule");
             let with = step_in_coil_times(&LaydownParams { coil_step: CONVERGED_COIL_STEP, ..p.clone() });
             assert!((with - p.time_step_factor * CONVERGED_COIL_STEP).abs() < 1e-12, "{fibre_speed} m/s: {with}");
-            let limits = time_step_limits(&LaydownParams { coil_step: CONVERGED_COIL_STEP, ..p.clone() }, p.length / p.resolved_elements() as f64, true);
+            let limits = time_step_limits(&LaydownParams { coil_step: CONVERGED_COIL_STEP, ..p.clone() }, p.element_length(), true);
             assert!((limits.coil - CONVERGED_COIL_STEP * p.coil_time()).abs() < 1e-18, "the limit is reported");
         }
     }
@@ -455,7 +464,7 @@ mod tests {
     #[test]
     fn a_step_coarse_in_coil_times_is_cautioned_where_it_comes_from() {
         let table1 = LaydownParams::default();
-        let ds = |p: &LaydownParams| p.length / p.resolved_elements() as f64;
+        let ds = |p: &LaydownParams| p.element_length();
         assert!(step_caution(&table1, ds(&table1)).is_none());
         let fast = LaydownParams { fibre_speed: 50.0, air_speed: 150.0, ..table1.clone() };
         let c = step_caution(&fast, ds(&fast)).expect("50 m/s at the default step");

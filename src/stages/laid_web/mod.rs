@@ -220,7 +220,7 @@ impl LaidWebParams {
     /// Element length actually used (m).
     pub fn resolved_element_length(&self) -> f64 {
         let s = self.fibre_scene(1.0, 1.0);
-        s.length / s.resolved_elements() as f64
+        s.element_length()
     }
     /// Feed height z_f = z0 + buffer (m), as [`feed_fibre`] places it.
     pub fn feed_height(&self) -> f64 {

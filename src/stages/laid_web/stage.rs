@@ -154,9 +154,7 @@ impl Stage for LaidWebStage {
     }
     fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
         let lw = laid_web_params(p);
-        let mut out = lw.scene.cautions();
-        out.extend(crate::rod::scene::step_caution(&lw.scene, lw.resolved_element_length()));
-        out
+        crate::rod::scene::cautions(&lw.scene, lw.resolved_element_length())
     }
     /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it
     /// costs at least (a dense web's contact work grows with its pile, which the

@@ -280,10 +280,7 @@ impl Stage for LaydownStage {
 
     fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
         let scene = scene(p);
-        let mut out = scene.cautions();
-        let element_length = scene.length / scene.resolved_elements() as f64;
-        out.extend(crate::rod::scene::step_caution(&scene, element_length));
-        out
+        crate::rod::scene::cautions(&scene, scene.element_length())
     }
 
     /// `estimated_cpu_seconds`: about, for the vertical start; at most, for the fed

@@ -32,7 +32,7 @@ use ndarray::{Array1, Array2, ArrayD};
 pub struct LaidWebStage;
 
 /// Parameters of the laydown stage that a laid web sets itself.
-pub(crate) const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration", "diagnostic_stride", "valid_replicates_target", "max_replicates", "mesh_error_estimate", "start"];
+pub(crate) const NOT_FROM_LAYDOWN: &[&str] = &["length", "elements", "duration", "diagnostic_stride", "valid_replicates_target", "max_replicates", "mesh_error_estimate", "step_error_estimate", "start"];
 
 /// Bytes per laid node until the output is written: the fed fibre's positions and
 /// landing time, its row and the copy placed on (point, replicate), 32 B each, the write

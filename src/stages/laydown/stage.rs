@@ -30,6 +30,18 @@
 //! points with `belt_removal: landing` whose belt-removed e is, in another (that
 //! definition does not converge; `feed` does).
 //!
+//! **Step error** (`step_error_estimate`, opt-in): every replicate is simulated again at
+//! half its time step (`time_step_factor` halved, which halves every step limit of every
+//! integrator) on the *same* random stream: the same imperfections and oscillation phase
+//! (where the laydown is chaotic the two paths still part: at 10 m/s a pair differed as
+//! much as two fibres do). Per point, the relative change of each mean,
+//! (m_{Δt/2} − m_{Δt}) / m_{Δt}, with its standard error from the scatter of the paired
+//! differences ([`step_change`]); points whose S or e changes by more than
+//! [`STEP_CHANGE_WARNING`] (and twice its standard error) are counted in a warning. It is
+//! the measured change, not an extrapolation: against much smaller steps the error at
+//! 10-50 m/s was 1.4 to 3 times this change, no one order of convergence (FIBRE_SPEED.md,
+//! "The order of the step error"). It costs twice the replicate.
+//!
 //! **Memory** ([`Stage::estimate_memory`]): every replicate's nodes are kept until the
 //! output is written (result, per-replicate row, placed copy: [`KEPT_BYTES_PER_NODE`]),
 //! and each thread simulates one rod ([`SIM_BYTES_PER_NODE`]); the energy diagnostics
@@ -50,11 +62,16 @@ use ndarray::{Array1, Array2, Array3};
 const TARGET: &str = "valid_replicates_target";
 const CAP: &str = "max_replicates";
 const MESH: &str = "mesh_error_estimate";
+const STEP: &str = "step_error_estimate";
 /// Order p of the Richardson estimate. The scheme is second order for smooth curves, but
 /// the laid curve's e converged at orders 0.7-1.8 in the measurements (within their noise,
 /// pipelines/paper/LAYDOWN_MEASUREMENTS.md); first order lies between, where second order
 /// would make the estimate a third as large, too small in both.
 const MESH_ORDER: f64 = 1.0;
+/// Points whose S or e changes by more than this when the step is halved (and by more than
+/// twice its standard error) are counted in a warning: the error against much smaller steps
+/// was 1.4-3 times the change, so 1 % flags errors of about 2 % and more.
+pub const STEP_CHANGE_WARNING: f64 = 0.01;
 /// Points whose estimated error of e exceeds this are counted in a warning on stderr.
 pub const MESH_ERROR_WARNING: f64 = 0.02;
 /// The laid-fibre measures (whose discretisation error is estimated) and their short labels.
@@ -111,6 +128,7 @@ pub struct LaydownStageParams {
     pub valid_replicates_target: usize,
     pub max_replicates: usize,
     pub mesh_error_estimate: bool,
+    pub step_error_estimate: bool,
 }
 
 impl LaydownStageParams {
@@ -165,6 +183,9 @@ fn cost_advice(p: &LaydownStageParams) -> String {
     if p.mesh_error_estimate {
         advice += ", set mesh_error_estimate: false (its half-mesh run)";
     }
+    if p.step_error_estimate {
+        advice += ", set step_error_estimate: false (its half-step run)";
+    }
     if scene.integrator == Integrator::Explicit {
         advice += ", use a projection integrator (the default trapezoidal_axial)";
     } else if scene.start == Start::Vertical {
@@ -174,12 +195,16 @@ fn cost_advice(p: &LaydownStageParams) -> String {
 }
 
 /// Estimated CPU time of one replicate of a point (s): [`estimated_node_steps`] at the
-/// integrator's cost per node-step, plus the half-mesh run of `mesh_error_estimate`.
+/// integrator's cost per node-step, plus the half-mesh run of `mesh_error_estimate` and
+/// the half-step run of `step_error_estimate`.
 pub fn estimated_cpu_seconds(p: &LaydownStageParams) -> f64 {
     let scene = &p.scene;
     let mut node_steps = estimated_node_steps(scene);
     if p.mesh_error_estimate {
         node_steps += estimated_node_steps(&half_mesh_scene(scene, scene.resolved_elements()));
+    }
+    if p.step_error_estimate {
+        node_steps += estimated_node_steps(&half_step_scene(scene));
     }
     node_steps * cpu_seconds_per_node_step(scene.integrator)
 }
@@ -232,6 +257,11 @@ impl Stage for LaydownStage {
             true,
             "also simulate every replicate at half its elements (a quarter of the cost at 1000 elements) and estimate the discretisation error of the mean S and e by Richardson extrapolation (first order), per point (`*_mesh_error`); points whose e is off by more than 2 % are counted in a warning",
         ));
+        v.push(ParamSpec::flag(
+            STEP,
+            false,
+            "also simulate every replicate at half its time step (time_step_factor halved; twice the cost) on the same random stream (the same imperfections and oscillation phase), and report the relative change of the mean S and e with its paired standard error, per point (`*_step_change`; the error against much smaller steps was 1.4-3 times this change at 10-50 m/s, pipelines/studies/FIBRE_SPEED.md); points whose S or e changes by more than 1 % (and twice its standard error) are counted in a warning",
+        ));
         v.push(ParamSpec::choice(
             "bounce_check",
             BounceCheck::NAMES,
@@ -265,9 +295,23 @@ impl Stage for LaydownStage {
         v
     }
     fn check(&self, p: &ParamSet) -> Result<(), InvalidParam> {
-        let LaydownStageParams { scene, valid_replicates_target: target, max_replicates: cap, .. } = LaydownStageParams::of(p);
+        let LaydownStageParams { scene, valid_replicates_target: target, max_replicates: cap, step_error_estimate: step, .. } = LaydownStageParams::of(p);
         if target > 0 && cap < target {
             return Err(InvalidParam::new(CAP.to_string(), format!("max_replicates ({cap}) must be at least valid_replicates_target ({target})")));
+        }
+        if step && scene.validate().is_ok() && half_step_scene(&scene).validate().is_err() {
+            let smallest = PARAMETERS.iter().find(|s| s.name == "time_step_factor").map_or(f64::NAN, |s| match s.kind {
+                crate::params::ParamKind::Float { min, .. } => min,
+                _ => f64::NAN,
+            });
+            return Err(InvalidParam::new(
+                "time_step_factor".to_string(),
+                format!(
+                    "{} is too small for step_error_estimate, which runs every replicate again at half of it: allowed at least {} (twice the smallest time_step_factor, {smallest})",
+                    scene.time_step_factor,
+                    2.0 * smallest
+                ),
+            ));
         }
         scene.validate().map_err(|e| {
             let name = match &e {
@@ -279,8 +323,14 @@ impl Stage for LaydownStage {
     }
 
     fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
-        let scene = scene(p);
-        crate::rod::scene::cautions(&scene, scene.element_length())
+        let own = LaydownStageParams::of(p);
+        let mut cautions = crate::rod::scene::cautions(&own.scene, own.scene.element_length());
+        if !own.step_error_estimate {
+            if let Some(c) = cautions.iter_mut().find(|c| c.message.contains("coil_step:")) {
+                c.message += "; or measure it: step_error_estimate: true";
+            }
+        }
+        cautions
     }
 
     /// `estimated_cpu_seconds`: about, for the vertical start; at most, for the fed
@@ -339,7 +389,9 @@ impl Stage for LaydownStage {
         let sim = |p: usize, r: usize| {
             let fine = simulate(&own[p].scene, &mut ctx.rng(r, 0));
             let half = own[p].mesh_error_estimate.then(|| half_mesh(&own[p].scene, &fine, &mut ctx.rng(r, 1))).flatten();
-            Replicate { fine, half }
+            // the fine run's stream: the same imperfections and phase, at half the step
+            let half_step = own[p].step_error_estimate.then(|| half_step(&own[p].scene, &fine, &mut ctx.rng(r, 0))).flatten();
+            Replicate { fine, half, half_step }
         };
         let rows: Vec<(usize, usize, Replicate)> = if units.per_point == 1 {
             // Whole points, with their rounds of extra replicates.
@@ -350,36 +402,65 @@ impl Stage for LaydownStage {
         } else {
             ctx.par_units(range, |p, r| (p, r, sim(p, r)))
         };
-        unit_rows(&rows, own.iter().any(|p| p.mesh_error_estimate))
+        unit_rows(&rows, own.iter().any(|p| p.mesh_error_estimate), own.iter().any(|p| p.step_error_estimate))
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let own: Vec<LaydownStageParams> = ctx.points.iter().map(LaydownStageParams::of).collect();
         let targets: Vec<(usize, usize)> = own.iter().map(|p| (p.valid_replicates_target, p.max_replicates)).collect();
-        let mesh = own.iter().any(|p| p.mesh_error_estimate);
+        let estimates = Estimates { mesh: own.iter().any(|p| p.mesh_error_estimate), step: own.iter().any(|p| p.step_error_estimate) };
         let by_landing: Vec<bool> = own.iter().map(|p| p.scene.belt_removal == crate::rod::BeltRemoval::Landing).collect();
-        assemble(&rows, &targets, &ctx.stage_name, mesh, &by_landing)
+        assemble(&rows, &targets, &ctx.stage_name, estimates, &by_landing)
     }
 }
 
-/// Replicates per point: first 0..`replicates` for every point, then, for each point
-/// with a target (T, cap) not yet met, further rounds of replicate indices continuing
-/// from the last one attempted. The size of a round is (T − valid)/(valid fraction so
-/// far, at least ¼), capped; it depends only on earlier results, so the set of runs and
-/// the output are independent of the number of threads. `sim(point, replicate)` must be
-/// a pure function of its arguments.
 /// One replicate: the fibre at the scene's mesh and, with `mesh_error_estimate`, the
-/// measures of the same scene at half the elements.
+/// measures of the same scene at half the elements; with `step_error_estimate`, those at
+/// half the step on the same random stream.
 #[derive(Clone)]
 struct Replicate {
     fine: LaydownResult,
-    half: Option<HalfMesh>,
+    half: Option<Measures>,
+    half_step: Option<Measures>,
 }
 
-/// S and e (raw, belt removed) of a replicate simulated at half the elements.
+/// S and e (raw, belt removed) of a replicate simulated again at half the elements or
+/// half the step, and the wall time of that run.
 #[derive(Clone, Copy)]
-struct HalfMesh {
+struct Measures {
     measures: [f64; 4],
     wall_seconds: f64,
+}
+
+impl Measures {
+    /// The measures of a run that completed and is valid.
+    fn of(r: &LaydownResult) -> Option<Self> {
+        (r.valid && r.error.is_none()).then_some(Measures {
+            measures: [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed],
+            wall_seconds: r.wall_seconds,
+        })
+    }
+}
+
+/// Which discretisation-error estimates a stage made (any point asked for them).
+#[derive(Clone, Copy)]
+struct Estimates {
+    mesh: bool,
+    step: bool,
+}
+
+/// `scene` at half its time step: `time_step_factor` halved, which halves every limit of
+/// [`crate::rod::scene::time_step_limits`] for every integrator (the coil-time limit too).
+fn half_step_scene(scene: &LaydownParams) -> LaydownParams {
+    LaydownParams { time_step_factor: 0.5 * scene.time_step_factor, ..scene.clone() }
+}
+
+/// [`half_step_scene`] simulated on the fine run's stream (its imperfections and phase); None when the
+/// fine run failed or the half-step run failed or is invalid.
+fn half_step(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha::ChaCha8Rng) -> Option<Measures> {
+    if fine.error.is_some() {
+        return None;
+    }
+    Measures::of(&simulate(&half_step_scene(scene), rng))
 }
 
 /// `scene` at half of `elements` (the fine run's), with coil_resolution off so the
@@ -391,15 +472,11 @@ fn half_mesh_scene(scene: &LaydownParams, elements: usize) -> LaydownParams {
 /// [`half_mesh_scene`] of the fine run, simulated on its own stream; None when the fine
 /// run failed, the coarse one failed or bounced, or the mesh is too coarse to halve
 /// (under 8 elements).
-fn half_mesh(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha::ChaCha8Rng) -> Option<HalfMesh> {
+fn half_mesh(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha::ChaCha8Rng) -> Option<Measures> {
     if fine.error.is_some() || fine.elements < 8 {
         return None;
     }
-    let r = simulate(&half_mesh_scene(scene, fine.elements), rng);
-    (r.valid && r.error.is_none()).then_some(HalfMesh {
-        measures: [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed],
-        wall_seconds: r.wall_seconds,
-    })
+    Measures::of(&simulate(&half_mesh_scene(scene, fine.elements), rng))
 }
 
 /// The short label of a laid-fibre measure (a `long_name`).
@@ -420,6 +497,27 @@ pub fn mesh_error(fine: &[f64], half: &[f64]) -> (f64, f64) {
     ((mf - mh) / scale, (sf * sf / nf as f64 + sh * sh / nh as f64).sqrt() / scale.abs())
 }
 
+/// Relative change of a mean over replicates when the time step is halved, from paired
+/// runs of the same fibres at the scene's step (`fine`) and at half of it (`half_step`):
+/// (m_{Δt/2} − m_{Δt}) / m_{Δt}, with its standard error from the scatter of the paired
+/// differences. Pairs where either value is not finite are left out; NaN with fewer than
+/// two pairs or a zero mean.
+pub fn step_change(fine: &[f64], half_step: &[f64]) -> (f64, f64) {
+    let (f, d): (Vec<f64>, Vec<f64>) = fine.iter().zip(half_step).filter(|(a, b)| a.is_finite() && b.is_finite()).map(|(&a, &b)| (a, b - a)).unzip();
+    let (mf, _, n) = mean_std(f.into_iter());
+    let (md, sd, _) = mean_std(d.into_iter());
+    if n < 2 || mf == 0.0 {
+        return (f64::NAN, f64::NAN);
+    }
+    (md / mf, sd / (n as f64).sqrt() / mf.abs())
+}
+
+/// Replicates per point: first 0..`replicates` for every point, then, for each point
+/// with a target (T, cap) not yet met, further rounds of replicate indices continuing
+/// from the last one attempted. The size of a round is (T − valid)/(valid fraction so
+/// far, at least ¼), capped; it depends only on earlier results, so the set of runs and
+/// the output are independent of the number of threads. `sim(point, replicate)` must be
+/// a pure function of its arguments.
 pub(crate) fn run_until_valid<T: Send + Clone>(
     targets: &[(usize, usize)],
     replicates: usize,
@@ -473,7 +571,7 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 /// everything of a replicate that the stage output holds, with the laid polylines
 /// computed here. Node, laid-node and record axes are padded with NaN to the longest
 /// replicate (the laid axis to the node count, as the output's is).
-fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool) -> Result<Output> {
+fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool, step_error_estimate: bool) -> Result<Output> {
     let results: Vec<(usize, usize, &LaydownResult)> = replicates.iter().map(|(p, r, rep)| (*p, *r, &rep.fine)).collect();
     let nan = f64::NAN;
     let n = results.len();
@@ -532,41 +630,108 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
     out.f64("laid_twist", &[unit], column(&|r| r.laid_twist), "rad", "");
     out.f64("elements", &[unit], column(&|r| r.elements as f64), "1", "");
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
-    if mesh_error_estimate {
-        let half = |f: &dyn Fn(&HalfMesh) -> f64| Array1::from_iter(replicates.iter().map(|r| r.2.half.as_ref().map_or(f64::NAN, f)));
+    let extra = |out: &mut Output, suffix: &str, of: &dyn Fn(&Replicate) -> Option<&Measures>| {
+        let column = |f: &dyn Fn(&Measures) -> f64| Array1::from_iter(replicates.iter().map(|r| of(&r.2).map_or(f64::NAN, f)));
         for (k, (name, _)) in MESH_METRICS.iter().enumerate() {
-            out.f64(&format!("{name}_half_mesh"), &[unit], half(&|h| h.measures[k]), "", "");
+            out.f64(&format!("{name}_{suffix}"), &[unit], column(&|h| h.measures[k]), "", "");
         }
-        out.f64("wall_seconds_half_mesh", &[unit], half(&|h| h.wall_seconds), "s", "");
+        out.f64(&format!("wall_seconds_{suffix}"), &[unit], column(&|h| h.wall_seconds), "s", "");
+    };
+    if mesh_error_estimate {
+        extra(&mut out, "half_mesh", &|r| r.half.as_ref());
+    }
+    if step_error_estimate {
+        extra(&mut out, "half_step", &|r| r.half_step.as_ref());
     }
     Ok(out)
 }
 
-/// Per point, the Richardson estimate ([`mesh_error`]) of the discretisation error of each
-/// mean measure over the used replicates, beside the half-mesh values and their cost.
-/// Warns when e is off by more than [`MESH_ERROR_WARNING`], and when the belt-removed e of
-/// a point whose `belt_removal` is `landing` (`by_landing[p]`) is: that definition grows
-/// with refinement, `feed` converges.
-fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>>, used: &Array2<bool>, fine: [&Array2<f64>; 4], stage_name: &str, by_landing: &[bool]) -> Result<()> {
+/// One of the two discretisation-error estimates: what its extra run changed, the names
+/// of its datasets, and how it is computed.
+struct ErrorEstimate {
+    /// Suffix of the extra run's datasets (`half_mesh`, `half_step`).
+    run: &'static str,
+    /// Suffix of the estimate's datasets (`mesh_error`, `step_change`).
+    error: &'static str,
+    /// What the warning says of a measure beyond `threshold` (its percentage at `{}`).
+    beyond: &'static str,
+    /// Relative size above which a measure is counted in a warning.
+    threshold: f64,
+    /// The measures warned about (S and e raw, by their dataset names).
+    warned: &'static [&'static str],
+    /// Warn only where the estimate is more than twice its standard error (the step change
+    /// is a small difference of noisy means; the mesh error is warned as it stands).
+    significant_only: bool,
+    /// What the extra run is, for the long names.
+    what: &'static str,
+    /// The estimate and its standard error from the fine and the extra run's values.
+    estimate: fn(&[f64], &[f64]) -> (f64, f64),
+    /// How the estimate is formed, for the dataset description.
+    formula: String,
+    /// Where the warning on e sends the reader, after the dataset name.
+    advice: &'static str,
+}
+
+impl ErrorEstimate {
+    fn mesh() -> Self {
+        ErrorEstimate {
+            run: "half_mesh",
+            error: "mesh_error",
+            beyond: "is estimated more than {} % off its converged value",
+            threshold: MESH_ERROR_WARNING,
+            warned: &["bending_energy"],
+            significant_only: false,
+            what: "half the elements",
+            estimate: mesh_error,
+            formula: format!("Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run"),
+            advice: "; Richardson from N and N/2 elements, which overstates it where N/2 has fewer than 2 elements per coil scale: at 10 m/s 13 % against about 8 % from N, 2N and 4N, \
+                     pipelines/studies/FIBRE_SPEED.md); raise elements or coil_resolution",
+        }
+    }
+    fn step() -> Self {
+        ErrorEstimate {
+            run: "half_step",
+            error: "step_change",
+            beyond: "changes by more than {} % when the time step is halved",
+            threshold: STEP_CHANGE_WARNING,
+            warned: &["radius_of_gyration", "bending_energy"],
+            significant_only: true,
+            what: "half the time step",
+            estimate: step_change,
+            formula: "(m_dt/2 − m_dt)/m_dt over the used replicates with a valid half-step run on the same random stream, s.e. from the paired differences; a measured change, not an extrapolation: the error against much smaller steps was 1.4-3 times it at 10-50 m/s (pipelines/studies/FIBRE_SPEED.md, \"The order of the step error\")".to_string(),
+            advice: ": not converged in the step, pipelines/studies/FIBRE_SPEED.md, \"The order of the step error\"); set coil_step: 0.04 or lower time_step_factor",
+        }
+    }
+}
+
+/// Per point, the estimate `kind` of the discretisation error of each mean measure over
+/// the used replicates, beside the extra run's values and their cost. Warns where the
+/// measures `kind` names are beyond its threshold, and for the mesh where the belt-removed
+/// e of a point whose `belt_removal` is `landing` (`by_landing[p]`) is: that definition
+/// grows with refinement, `feed` converges.
+fn add_error_estimate(out: &mut Output, kind: &ErrorEstimate, per_rep: &dyn Fn(&str) -> Result<Array2<f64>>, used: &Array2<bool>, fine: [&Array2<f64>; 4], stage_name: &str, by_landing: &[bool]) -> Result<()> {
     let (npoints, nreps) = used.dim();
+    let (run, suffix) = (kind.run, kind.error);
     for (k, &(name, label)) in MESH_METRICS.iter().enumerate() {
-        let half = per_rep(&format!("{name}_half_mesh"))?;
+        let extra = per_rep(&format!("{name}_{run}"))?;
         let (mut error, mut error_std) = (vec![], vec![]);
         for p in 0..npoints {
             // Replicates with both runs valid, so the two means are over the same imperfections.
-            let paired: Vec<usize> = (0..nreps).filter(|&r| used[[p, r]] && half[[p, r]].is_finite() && fine[k][[p, r]].is_finite()).collect();
+            let paired: Vec<usize> = (0..nreps).filter(|&r| used[[p, r]] && extra[[p, r]].is_finite() && fine[k][[p, r]].is_finite()).collect();
             let pick = |a: &Array2<f64>| paired.iter().map(|&r| a[[p, r]]).collect::<Vec<f64>>();
-            let (err, sd) = mesh_error(&pick(fine[k]), &pick(&half));
+            let (err, sd) = (kind.estimate)(&pick(fine[k]), &pick(&extra));
             error.push(err);
             error_std.push(sd);
         }
-        // Points more than MESH_ERROR_WARNING off, counted in one warning.
+        // Points beyond the threshold, counted in one warning.
+        let threshold = if name == "bending_energy_belt_removed" { MESH_ERROR_WARNING } else { kind.threshold };
         let warn = |flagged: &dyn Fn(usize) -> bool, what: &str, advice: &str| {
-            let off: Vec<usize> = (0..npoints).filter(|&p| flagged(p) && error[p].abs() > MESH_ERROR_WARNING).collect();
+            let beyond = |p: usize| error[p].abs() > threshold && (!kind.significant_only || error[p].abs() > 2.0 * error_std[p]);
+            let off: Vec<usize> = (0..npoints).filter(|&p| flagged(p) && beyond(p)).collect();
             if let Some(&worst) = off.iter().max_by(|&&a, &&b| error[a].abs().total_cmp(&error[b].abs())) {
                 eprintln!(
-                    "{stage_name}: warning: {what} is estimated more than {:.0} % off its converged value at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % ({name}_mesh_error{advice}",
-                    100.0 * MESH_ERROR_WARNING,
+                    "{stage_name}: warning: {what} {} at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % ({name}_{suffix}{advice}",
+                    kind.beyond.replace("{}", &format!("{:.0}", 100.0 * threshold)),
                     off.len(),
                     100.0 * error[worst],
                     100.0 * error_std[worst]
@@ -574,13 +739,8 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
             }
         };
         match name {
-            "bending_energy" => warn(
-                &|_| true,
-                "e",
-                "; Richardson from N and N/2 elements, which overstates it where N/2 has fewer than 2 elements per coil scale: at 10 m/s 13 % against about 8 % from N, 2N and 4N, \
-                 pipelines/studies/FIBRE_SPEED.md); raise elements or coil_resolution",
-            ),
-            "bending_energy_belt_removed" => warn(
+            _ if kind.warned.contains(&name) => warn(&|_| true, label, kind.advice),
+            "bending_energy_belt_removed" if kind.run == "half_mesh" => warn(
                 &|p| by_landing.get(p) == Some(&true),
                 "e with the belt removed by landing time",
                 "). That definition adds a node-scale jitter v_b·δt_land that refinement sharpens, so it does not converge; belt_removal: feed does (pipelines/paper/LAYDOWN_MEASUREMENTS.md)",
@@ -588,13 +748,16 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
             _ => {}
         }
         let unit = if name.starts_with("radius") { "m" } else { "1" };
-        out.f64(&format!("{name}_half_mesh"), &["point", "replicate"], half, unit, &format!("{label} at half the elements"));
-        out.f64(&format!("{name}_mesh_error"), &["point"], Array1::from(error), "1", &format!("mesh error of mean {label}")).describe(format!(
-            "estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run"
-        ));
-        out.f64(&format!("{name}_mesh_error_std"), &["point"], Array1::from(error_std), "1", &format!("s.e. of the mesh error of {label}"));
+        let description = if kind.run == "half_mesh" {
+            format!("estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); {}", kind.formula)
+        } else {
+            format!("relative change of {name}_mean when the time step is halved: {}", kind.formula)
+        };
+        out.f64(&format!("{name}_{run}"), &["point", "replicate"], extra, unit, &format!("{label} at {}", kind.what));
+        out.f64(&format!("{name}_{suffix}"), &["point"], Array1::from(error), "1", &format!("{} of mean {label}", suffix.replace('_', " "))).describe(description);
+        out.f64(&format!("{name}_{suffix}_std"), &["point"], Array1::from(error_std), "1", &format!("s.e. of the {} of {label}", suffix.replace('_', " ")));
     }
-    out.f64("wall_seconds_half_mesh", &["point", "replicate"], per_rep("wall_seconds_half_mesh")?, "s", "wall time of the half-mesh run");
+    out.f64(&format!("wall_seconds_{run}"), &["point", "replicate"], per_rep(&format!("wall_seconds_{run}"))?, "s", &format!("wall time of the run at {}", kind.what));
     Ok(())
 }
 
@@ -602,7 +765,7 @@ fn add_mesh_error(out: &mut Output, per_rep: &dyn Fn(&str) -> Result<Array2<f64>
 /// gathered from the parts of a job array): the replicates placed on the (point,
 /// replicate) axes, `used` (the first T valid in replicate order), the shortfall, and the
 /// per-point means and standard deviations over the used replicates.
-fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_error_estimate: bool, by_landing: &[bool]) -> Result<Output> {
+fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, estimates: Estimates, by_landing: &[bool]) -> Result<Output> {
     use crate::stages::rows as get;
     let nan = f64::NAN;
     let index = get::index(rows)?;
@@ -705,8 +868,11 @@ fn assemble(rows: &Output, targets: &[(usize, usize)], stage_name: &str, mesh_er
             out.i64("valid_replicates", &["point"], Array1::from(counts), "1", "valid replicates used").describe("number of valid replicates entering the statistics per point (the `used` ones)");
         }
     }
-    if mesh_error_estimate {
-        add_mesh_error(&mut out, &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name, by_landing)?;
+    if estimates.mesh {
+        add_error_estimate(&mut out, &ErrorEstimate::mesh(), &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name, by_landing)?;
+    }
+    if estimates.step {
+        add_error_estimate(&mut out, &ErrorEstimate::step(), &per_rep, &used, [&s, &e, &s_b, &e_b], stage_name, by_landing)?;
     }
     out.f64("steps", &["point", "replicate"], steps, "1", "time steps taken");
     out.f64("rollbacks", &["point", "replicate"], rollbacks, "1", "rollbacks after failed steps").describe("times the run went back to a checkpoint after a step failed even at the smallest size and retook the stretch with the recovery scheme (parameter rollbacks, src/rod/recovery.rs); 0: no step failed");

@@ -528,8 +528,24 @@ fn mesh_error_is_richardson_of_first_order_with_its_standard_error() {
 }
 
 #[test]
+fn step_change_is_the_paired_relative_change_with_its_standard_error() {
+    use super::stage::step_change;
+    // Fine means 11; the half-step runs differ by +1 and +3: change 2/11, and the paired
+    // differences' scatter (sd √2 over √2 pairs) gives the s.e. 1/11.
+    let (change, se) = step_change(&[10.0, 12.0], &[11.0, 15.0]);
+    assert!((change - 2.0 / 11.0).abs() < 1e-15, "{change}");
+    assert!((se - 1.0 / 11.0).abs() < 1e-15, "{se}");
+    // Pairs, not means: a shift common to both runs of a replicate leaves no scatter.
+    assert_eq!(step_change(&[10.0, 20.0], &[11.0, 21.0]).1, 0.0);
+    // A pair with a run missing drops out; fewer than two pairs or a zero mean: undefined.
+    assert_eq!(step_change(&[10.0, 12.0, 5.0], &[11.0, 15.0, f64::NAN]), step_change(&[10.0, 12.0], &[11.0, 15.0]));
+    assert!(step_change(&[10.0, f64::NAN], &[11.0, 12.0]).0.is_nan());
+    assert!(step_change(&[0.0, 0.0], &[1.0, 1.0]).0.is_nan());
+}
+
+#[test]
 fn stage_table_is_its_typed_parameters() {
-    let own = super::stage::LaydownStageParams { scene: LaydownParams::default(), valid_replicates_target: 0, max_replicates: 40, mesh_error_estimate: true };
+    let own = super::stage::LaydownStageParams { scene: LaydownParams::default(), valid_replicates_target: 0, max_replicates: 40, mesh_error_estimate: true, step_error_estimate: false };
     crate::params::assert_table_matches(&crate::stages::Stage::params(&LaydownStage), &own);
 }
 

@@ -99,7 +99,7 @@ fn a_step_coarse_in_coil_times_warns_and_the_coil_step_rule_does_not() {
     let w = only_warning("pipeline: fast\narchive: study.h5\nstages:\n  - name: single\n    kind: laydown\n    params:\n      fibre_speed: 30\n  - name: ruled\n    kind: laydown\n    params: {fibre_speed: 30, coil_step: 0.04}\n  - name: small\n    kind: laydown\n    params: {fibre_speed: 30, time_step_factor: 0.2}\n  - name: implicit\n    kind: laid_web\n    params: {fibre_speed: 30, integrator: implicit_axial}\n  - name: slow\n    kind: laid_web\n    params: {fibre_speed: 5}\n");
     assert!(w.starts_with("warning: p.yaml:7:20: stages[0].params.fibre_speed: 30 m/s: the time step of integrator trapezoidal_axial (the default) is 0.100 of the inertial coil time"), "{w}");
     assert!(w.contains("coil_step: 0.04"), "says what to set: {w}");
-    assert!(w.ends_with("; or measure it: step_error_estimate: true"), "and how the laydown stage measures it: {w}");
+    assert!(w.ends_with("; or measure the change at half the step: step_error_estimate: true"), "and how the laydown stage measures it: {w}");
     // a laid web is warned as a single fibre is, at the sweep item
     let w = only_warning("pipeline: web\narchive: study.h5\nstages:\n  - name: web\n    kind: laid_web\n    sweep:\n      fibre_speed: [5.0, 10.0]\n");
     assert!(w.starts_with("warning: p.yaml:7:26: stages[0].sweep.fibre_speed[1]: 10 m/s"), "{w}");

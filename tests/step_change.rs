@@ -49,6 +49,7 @@ fn the_half_step_change_flags_the_coarse_step_and_not_the_step_bounded_in_coil_t
             // the stored change is the paired mean difference over the stored replicates
             let paired: Vec<usize> = (0..12).filter(|&r| used[[p, r]] != 0 && half[[p, r]].is_finite()).collect();
             assert!(paired.len() >= 8, "{name} point {p}: {} pairs", paired.len());
+            assert_eq!(hdf::read_i64(&with, &format!("{name}_step_change_pairs")).unwrap()[[p]], paired.len() as i64, "{name} point {p}");
             let n = paired.len() as f64;
             let mean = |f: &dyn Fn(usize) -> f64| paired.iter().map(|&r| f(r)).sum::<f64>() / n;
             let (m_fine, m_diff) = (mean(&|r| fine[[p, r]]), mean(&|r| half[[p, r]] - fine[[p, r]]));

@@ -40,7 +40,9 @@
 //! [`STEP_CHANGE_WARNING`] (and twice its standard error) are counted in a warning. It is
 //! the measured change, not an extrapolation: against much smaller steps the error at
 //! 10-50 m/s was 1.4 to 3 times this change, no one order of convergence (FIBRE_SPEED.md,
-//! "The order of the step error"). It costs twice the replicate.
+//! "The order of the step error"). The half-step runs are estimated at twice the replicates'
+//! cost and took 1.05-1.7 times it over the fibre-speed sweep (invalid replicates are not
+//! run again).
 //!
 //! **Memory** ([`Stage::estimate_memory`]): every replicate's nodes are kept until the
 //! output is written (result, per-replicate row, placed copy: [`KEPT_BYTES_PER_NODE`]),
@@ -74,8 +76,8 @@ const MESH_ORDER: f64 = 1.0;
 pub const STEP_CHANGE_WARNING: f64 = 0.01;
 /// Points whose estimated error of e exceeds this are counted in a warning on stderr.
 pub const MESH_ERROR_WARNING: f64 = 0.02;
-/// The laid-fibre measures (whose discretisation error is estimated) and their short labels.
-const MESH_METRICS: [(&str, &str); 4] = [
+/// The laid-fibre measures (whose discretisation errors are estimated) and their short labels.
+const LAID_MEASURES: [(&str, &str); 4] = [
     ("radius_of_gyration", "S"),
     ("bending_energy", "e"),
     ("radius_of_gyration_belt_removed", "S, belt removed"),
@@ -260,7 +262,7 @@ impl Stage for LaydownStage {
         v.push(ParamSpec::flag(
             STEP,
             false,
-            "also simulate every replicate at half its time step (time_step_factor halved; twice the cost) on the same random stream (the same imperfections and oscillation phase), and report the relative change of the mean S and e with its paired standard error, per point (`*_step_change`; the error against much smaller steps was 1.4-3 times this change at 10-50 m/s, pipelines/studies/FIBRE_SPEED.md); points whose S or e changes by more than 1 % (and twice its standard error) are counted in a warning",
+            "also simulate every valid replicate at half its time step (time_step_factor halved; about twice its cost) on the same random stream (the same imperfections and oscillation phase), and report the relative change of the mean S and e with its paired standard error, per point (`*_step_change`; the error against much smaller steps was 1.4-3 times this change at 10-50 m/s, pipelines/studies/FIBRE_SPEED.md); points whose S or e changes by more than 1 % (and twice its standard error) are counted in a warning",
         ));
         v.push(ParamSpec::choice(
             "bounce_check",
@@ -324,12 +326,13 @@ impl Stage for LaydownStage {
 
     fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
         let own = LaydownStageParams::of(p);
-        let mut cautions = crate::rod::scene::cautions(&own.scene, own.scene.element_length());
-        if !own.step_error_estimate {
-            if let Some(c) = cautions.iter_mut().find(|c| c.message.contains("coil_step:")) {
-                c.message += "; or measure it: step_error_estimate: true";
+        let mut cautions = own.scene.cautions();
+        cautions.extend(crate::rod::scene::step_caution(&own.scene, own.scene.element_length()).map(|mut c| {
+            if !own.step_error_estimate {
+                c.message += "; or measure the change at half the step: step_error_estimate: true";
             }
-        }
+            c
+        }));
         cautions
     }
 
@@ -455,9 +458,10 @@ fn half_step_scene(scene: &LaydownParams) -> LaydownParams {
 }
 
 /// [`half_step_scene`] simulated on the fine run's stream (its imperfections and phase); None when the
-/// fine run failed or the half-step run failed or is invalid.
+/// fine run failed or is invalid (it never enters the statistics, so it is not run), or the
+/// half-step run failed or is invalid.
 fn half_step(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha::ChaCha8Rng) -> Option<Measures> {
-    if fine.error.is_some() {
+    if fine.error.is_some() || !fine.valid {
         return None;
     }
     Measures::of(&simulate(&half_step_scene(scene), rng))
@@ -481,7 +485,7 @@ fn half_mesh(scene: &LaydownParams, fine: &LaydownResult, rng: &mut rand_chacha:
 
 /// The short label of a laid-fibre measure (a `long_name`).
 fn metric_label(name: &str) -> &'static str {
-    MESH_METRICS.iter().find(|m| m.0 == name).map_or("measure", |m| m.1)
+    LAID_MEASURES.iter().find(|m| m.0 == name).map_or("measure", |m| m.1)
 }
 
 /// Richardson estimate of the relative discretisation error of a mean over replicates,
@@ -632,7 +636,7 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
     out.f64("energy_diagnostics", &[unit, "record", "diagnostic"], diag, "J", "");
     let extra = |out: &mut Output, suffix: &str, of: &dyn Fn(&Replicate) -> Option<&Measures>| {
         let column = |f: &dyn Fn(&Measures) -> f64| Array1::from_iter(replicates.iter().map(|r| of(&r.2).map_or(f64::NAN, f)));
-        for (k, (name, _)) in MESH_METRICS.iter().enumerate() {
+        for (k, (name, _)) in LAID_MEASURES.iter().enumerate() {
             out.f64(&format!("{name}_{suffix}"), &[unit], column(&|h| h.measures[k]), "", "");
         }
         out.f64(&format!("wall_seconds_{suffix}"), &[unit], column(&|h| h.wall_seconds), "s", "");
@@ -647,74 +651,94 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
 }
 
 /// One of the two discretisation-error estimates: what its extra run changed, the names
-/// of its datasets, and how it is computed.
+/// of its datasets, how it is computed and when it warns.
 struct ErrorEstimate {
     /// Suffix of the extra run's datasets (`half_mesh`, `half_step`).
     run: &'static str,
+    /// The extra run, for the long name of its wall time.
+    run_name: &'static str,
+    /// What the extra run changed, for the long names of its values.
+    what: &'static str,
     /// Suffix of the estimate's datasets (`mesh_error`, `step_change`).
     error: &'static str,
-    /// What the warning says of a measure beyond `threshold` (its percentage at `{}`).
-    beyond: &'static str,
-    /// Relative size above which a measure is counted in a warning.
-    threshold: f64,
-    /// The measures warned about (S and e raw, by their dataset names).
+    /// The estimate and its standard error from the fine and the extra run's values.
+    estimate: fn(&[f64], &[f64]) -> (f64, f64),
+    /// The description of the estimate of a measure (its dataset name given).
+    describe: fn(&str) -> String,
+    /// The measures warned about (by their dataset names).
     warned: &'static [&'static str],
+    /// Relative size above which a warned measure is counted in the warning.
+    threshold: f64,
     /// Warn only where the estimate is more than twice its standard error (the step change
     /// is a small difference of noisy means; the mesh error is warned as it stands).
     significant_only: bool,
-    /// What the extra run is, for the long names.
-    what: &'static str,
-    /// The estimate and its standard error from the fine and the extra run's values.
-    estimate: fn(&[f64], &[f64]) -> (f64, f64),
-    /// How the estimate is formed, for the dataset description.
-    formula: String,
-    /// Where the warning on e sends the reader, after the dataset name.
+    /// What the warning says of a measure beyond `threshold` (given in %).
+    beyond: fn(f64) -> String,
+    /// Where the warning sends the reader, after the dataset name.
     advice: &'static str,
+    /// Also warn where the belt-removed e of a point with `belt_removal: landing` is beyond
+    /// [`MESH_ERROR_WARNING`] (that definition does not converge with the mesh).
+    landing_warning: bool,
 }
 
 impl ErrorEstimate {
     fn mesh() -> Self {
         ErrorEstimate {
             run: "half_mesh",
-            error: "mesh_error",
-            beyond: "is estimated more than {} % off its converged value",
-            threshold: MESH_ERROR_WARNING,
-            warned: &["bending_energy"],
-            significant_only: false,
+            run_name: "half-mesh run",
             what: "half the elements",
+            error: "mesh_error",
             estimate: mesh_error,
-            formula: format!("Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run"),
+            describe: |name| {
+                format!(
+                    "estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); Richardson of order {MESH_ORDER}, (m_N − m_N/2)/((2^{MESH_ORDER} − 1) m_N), over the used replicates with a valid half-mesh run"
+                )
+            },
+            warned: &["bending_energy"],
+            threshold: MESH_ERROR_WARNING,
+            significant_only: false,
+            beyond: |percent| format!("is estimated more than {percent:.0} % off its converged value"),
             advice: "; Richardson from N and N/2 elements, which overstates it where N/2 has fewer than 2 elements per coil scale: at 10 m/s 13 % against about 8 % from N, 2N and 4N, \
                      pipelines/studies/FIBRE_SPEED.md); raise elements or coil_resolution",
+            landing_warning: true,
         }
     }
     fn step() -> Self {
         ErrorEstimate {
             run: "half_step",
-            error: "step_change",
-            beyond: "changes by more than {} % when the time step is halved",
-            threshold: STEP_CHANGE_WARNING,
-            warned: &["radius_of_gyration", "bending_energy"],
-            significant_only: true,
+            run_name: "half-step run",
             what: "half the time step",
+            error: "step_change",
             estimate: step_change,
-            formula: "(m_dt/2 − m_dt)/m_dt over the used replicates with a valid half-step run on the same random stream, s.e. from the paired differences; a measured change, not an extrapolation: the error against much smaller steps was 1.4-3 times it at 10-50 m/s (pipelines/studies/FIBRE_SPEED.md, \"The order of the step error\")".to_string(),
-            advice: ": not converged in the step, pipelines/studies/FIBRE_SPEED.md, \"The order of the step error\"); set coil_step: 0.04 or lower time_step_factor",
+            describe: |name| {
+                format!(
+                    "relative change of the mean of {name} when the time step is halved, over the used replicates with a valid half-step run on the same random stream \
+                     ({name}_step_change_pairs of them): (m_dt/2 − m_dt)/m_dt, s.e. from the paired differences; a measured change, not an extrapolation: the error against \
+                     much smaller steps was 1.4-3 times it at 10-50 m/s (pipelines/studies/FIBRE_SPEED.md, \"The order of the step error\")"
+                )
+            },
+            warned: &["radius_of_gyration", "bending_energy"],
+            threshold: STEP_CHANGE_WARNING,
+            significant_only: true,
+            beyond: |percent| format!("changes by more than {percent:.0} % when the time step is halved"),
+            advice: ": not converged in the step, pipelines/studies/FIBRE_SPEED.md, \"The order of the step error\"); set coil_step: 0.04 if it is off, or lower time_step_factor",
+            landing_warning: false,
         }
     }
 }
 
 /// Per point, the estimate `kind` of the discretisation error of each mean measure over
-/// the used replicates, beside the extra run's values and their cost. Warns where the
-/// measures `kind` names are beyond its threshold, and for the mesh where the belt-removed
-/// e of a point whose `belt_removal` is `landing` (`by_landing[p]`) is: that definition
-/// grows with refinement, `feed` converges.
+/// the used replicates whose extra run is valid (and how many those are), beside the extra
+/// run's values and their cost. Warns where the measures `kind` names are beyond its
+/// threshold, and with `landing_warning` where the belt-removed e of a point whose
+/// `belt_removal` is `landing` (`by_landing[p]`) is: that definition grows with
+/// refinement, `feed` converges.
 fn add_error_estimate(out: &mut Output, kind: &ErrorEstimate, per_rep: &dyn Fn(&str) -> Result<Array2<f64>>, used: &Array2<bool>, fine: [&Array2<f64>; 4], stage_name: &str, by_landing: &[bool]) -> Result<()> {
     let (npoints, nreps) = used.dim();
     let (run, suffix) = (kind.run, kind.error);
-    for (k, &(name, label)) in MESH_METRICS.iter().enumerate() {
+    for (k, &(name, label)) in LAID_MEASURES.iter().enumerate() {
         let extra = per_rep(&format!("{name}_{run}"))?;
-        let (mut error, mut error_std) = (vec![], vec![]);
+        let (mut error, mut error_std, mut pairs) = (vec![], vec![], vec![]);
         for p in 0..npoints {
             // Replicates with both runs valid, so the two means are over the same imperfections.
             let paired: Vec<usize> = (0..nreps).filter(|&r| used[[p, r]] && extra[[p, r]].is_finite() && fine[k][[p, r]].is_finite()).collect();
@@ -722,42 +746,42 @@ fn add_error_estimate(out: &mut Output, kind: &ErrorEstimate, per_rep: &dyn Fn(&
             let (err, sd) = (kind.estimate)(&pick(fine[k]), &pick(&extra));
             error.push(err);
             error_std.push(sd);
+            pairs.push(paired.len() as i64);
         }
-        // Points beyond the threshold, counted in one warning.
-        let threshold = if name == "bending_energy_belt_removed" { MESH_ERROR_WARNING } else { kind.threshold };
-        let warn = |flagged: &dyn Fn(usize) -> bool, what: &str, advice: &str| {
-            let beyond = |p: usize| error[p].abs() > threshold && (!kind.significant_only || error[p].abs() > 2.0 * error_std[p]);
-            let off: Vec<usize> = (0..npoints).filter(|&p| flagged(p) && beyond(p)).collect();
+        // Points beyond `threshold`, counted in one warning.
+        let warn = |flagged: &dyn Fn(usize) -> bool, threshold: f64, significant_only: bool, what: &str, beyond: String, advice: &str| {
+            let beyond_at = |p: usize| error[p].abs() > threshold && (!significant_only || error[p].abs() > 2.0 * error_std[p]);
+            let off: Vec<usize> = (0..npoints).filter(|&p| flagged(p) && beyond_at(p)).collect();
             if let Some(&worst) = off.iter().max_by(|&&a, &&b| error[a].abs().total_cmp(&error[b].abs())) {
                 eprintln!(
-                    "{stage_name}: warning: {what} {} at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % ({name}_{suffix}{advice}",
-                    kind.beyond.replace("{}", &format!("{:.0}", 100.0 * threshold)),
+                    "{stage_name}: warning: {what} {beyond} at {} of {npoints} point(s), most at point {worst}: {:+.1} ± {:.1} % ({name}_{suffix}{advice}",
                     off.len(),
                     100.0 * error[worst],
                     100.0 * error_std[worst]
                 );
             }
         };
-        match name {
-            _ if kind.warned.contains(&name) => warn(&|_| true, label, kind.advice),
-            "bending_energy_belt_removed" if kind.run == "half_mesh" => warn(
+        if kind.warned.contains(&name) {
+            warn(&|_| true, kind.threshold, kind.significant_only, label, (kind.beyond)(100.0 * kind.threshold), kind.advice);
+        } else if kind.landing_warning && name == "bending_energy_belt_removed" {
+            warn(
                 &|p| by_landing.get(p) == Some(&true),
+                MESH_ERROR_WARNING,
+                false,
                 "e with the belt removed by landing time",
+                (kind.beyond)(100.0 * MESH_ERROR_WARNING),
                 "). That definition adds a node-scale jitter v_b·δt_land that refinement sharpens, so it does not converge; belt_removal: feed does (pipelines/paper/LAYDOWN_MEASUREMENTS.md)",
-            ),
-            _ => {}
+            );
         }
         let unit = if name.starts_with("radius") { "m" } else { "1" };
-        let description = if kind.run == "half_mesh" {
-            format!("estimated relative error of {name}_mean from the mesh: converged ≈ mean·(1 + error); {}", kind.formula)
-        } else {
-            format!("relative change of {name}_mean when the time step is halved: {}", kind.formula)
-        };
+        let words = suffix.replace('_', " ");
         out.f64(&format!("{name}_{run}"), &["point", "replicate"], extra, unit, &format!("{label} at {}", kind.what));
-        out.f64(&format!("{name}_{suffix}"), &["point"], Array1::from(error), "1", &format!("{} of mean {label}", suffix.replace('_', " "))).describe(description);
-        out.f64(&format!("{name}_{suffix}_std"), &["point"], Array1::from(error_std), "1", &format!("s.e. of the {} of {label}", suffix.replace('_', " ")));
+        out.f64(&format!("{name}_{suffix}"), &["point"], Array1::from(error), "1", &format!("{words} of mean {label}")).describe((kind.describe)(name));
+        out.f64(&format!("{name}_{suffix}_std"), &["point"], Array1::from(error_std), "1", &format!("s.e. of the {words} of {label}"));
+        out.i64(&format!("{name}_{suffix}_pairs"), &["point"], Array1::from(pairs), "1", &format!("replicates behind the {words} of {label}"))
+            .describe(format!("used replicates whose {} is valid too: the {name}_{suffix} and its s.e. are over these", kind.run_name));
     }
-    out.f64(&format!("wall_seconds_{run}"), &["point", "replicate"], per_rep(&format!("wall_seconds_{run}"))?, "s", &format!("wall time of the run at {}", kind.what));
+    out.f64(&format!("wall_seconds_{run}"), &["point", "replicate"], per_rep(&format!("wall_seconds_{run}"))?, "s", &format!("wall time of the {}", kind.run_name));
     Ok(())
 }
 

@@ -778,7 +778,7 @@ fn add_error_estimate(out: &mut Output, kind: &ErrorEstimate, per_rep: &dyn Fn(&
         out.f64(&format!("{name}_{run}"), &["point", "replicate"], extra, unit, &format!("{label} at {}", kind.what));
         out.f64(&format!("{name}_{suffix}"), &["point"], Array1::from(error), "1", &format!("{words} of mean {label}")).describe((kind.describe)(name));
         out.f64(&format!("{name}_{suffix}_std"), &["point"], Array1::from(error_std), "1", &format!("s.e. of the {words} of {label}"));
-        out.i64(&format!("{name}_{suffix}_pairs"), &["point"], Array1::from(pairs), "1", &format!("replicates behind the {words} of {label}"))
+        out.i64(&format!("{name}_{suffix}_pairs"), &["point"], Array1::from(pairs), "1", &format!("pairs in the {words} of {label}"))
             .describe(format!("used replicates whose {} is valid too: the {name}_{suffix} and its s.e. are over these", kind.run_name));
     }
     out.f64(&format!("wall_seconds_{run}"), &["point", "replicate"], per_rep(&format!("wall_seconds_{run}"))?, "s", &format!("wall time of the {}", kind.run_name));

@@ -405,14 +405,13 @@ impl Stage for LaydownStage {
         } else {
             ctx.par_units(range, |p, r| (p, r, sim(p, r)))
         };
-        unit_rows(&rows, own.iter().any(|p| p.mesh_error_estimate), own.iter().any(|p| p.step_error_estimate))
+        unit_rows(&rows, Estimates::of(&own))
     }
     fn reduce(&self, ctx: &RunContext, rows: Output) -> Result<Output> {
         let own: Vec<LaydownStageParams> = ctx.points.iter().map(LaydownStageParams::of).collect();
         let targets: Vec<(usize, usize)> = own.iter().map(|p| (p.valid_replicates_target, p.max_replicates)).collect();
-        let estimates = Estimates { mesh: own.iter().any(|p| p.mesh_error_estimate), step: own.iter().any(|p| p.step_error_estimate) };
         let by_landing: Vec<bool> = own.iter().map(|p| p.scene.belt_removal == crate::rod::BeltRemoval::Landing).collect();
-        assemble(&rows, &targets, &ctx.stage_name, estimates, &by_landing)
+        assemble(&rows, &targets, &ctx.stage_name, Estimates::of(&own), &by_landing)
     }
 }
 
@@ -449,6 +448,14 @@ impl Measures {
 struct Estimates {
     mesh: bool,
     step: bool,
+}
+
+impl Estimates {
+    /// The estimates any of a stage's points asks for: every part of a job array writes
+    /// the same columns, and `reduce` reads them.
+    fn of(points: &[LaydownStageParams]) -> Self {
+        Estimates { mesh: points.iter().any(|p| p.mesh_error_estimate), step: points.iter().any(|p| p.step_error_estimate) }
+    }
 }
 
 /// `scene` at half its time step: `time_step_factor` halved, which halves every limit of
@@ -575,7 +582,7 @@ fn mean_std(values: impl Iterator<Item = f64>) -> (f64, f64, usize) {
 /// everything of a replicate that the stage output holds, with the laid polylines
 /// computed here. Node, laid-node and record axes are padded with NaN to the longest
 /// replicate (the laid axis to the node count, as the output's is).
-fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool, step_error_estimate: bool) -> Result<Output> {
+fn unit_rows(replicates: &[(usize, usize, Replicate)], estimates: Estimates) -> Result<Output> {
     let results: Vec<(usize, usize, &LaydownResult)> = replicates.iter().map(|(p, r, rep)| (*p, *r, &rep.fine)).collect();
     let nan = f64::NAN;
     let n = results.len();
@@ -641,11 +648,11 @@ fn unit_rows(replicates: &[(usize, usize, Replicate)], mesh_error_estimate: bool
         }
         out.f64(&format!("wall_seconds_{suffix}"), &[unit], column(&|h| h.wall_seconds), "s", "");
     };
-    if mesh_error_estimate {
-        extra(&mut out, "half_mesh", &|r| r.half.as_ref());
+    if estimates.mesh {
+        extra(&mut out, ErrorEstimate::mesh().run, &|r| r.half.as_ref());
     }
-    if step_error_estimate {
-        extra(&mut out, "half_step", &|r| r.half_step.as_ref());
+    if estimates.step {
+        extra(&mut out, ErrorEstimate::step().run, &|r| r.half_step.as_ref());
     }
     Ok(out)
 }

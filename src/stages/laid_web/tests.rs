@@ -78,10 +78,10 @@ fn freezing_keeps_shape_and_saves_work() {
 }
 
 /// Without fibre contact the freezing front (`freeze_front_margin`) serves each fibre on
-/// its own: at Table 1 a fibre's start-up end slides on the belt for the whole run, and
+/// its own: at Table 1 a fibre's start-up end can slide on the belt for the whole run, and
 /// since only a leading run of nodes freezes, the laid fibre behind it waited for the
-/// 0.2 s age limit. With the front it freezes sooner (a shorter active rod, fewer
-/// node-steps; by the end the age limit has frozen as much), and the shape
+/// 0.2 s age limit. With the front the web freezes sooner (a shorter largest active rod,
+/// fewer node-steps; by the end the age limit has frozen about as much), and the shape
 /// moves by what a slightly different trajectory gives (the 4-web ensemble of
 /// `pipelines/studies/freezing_front.yaml`: S +0.10 %, e +0.24 %).
 #[test]
@@ -105,13 +105,20 @@ fn freezing_front_serves_a_fibre_without_contact() {
             100.0 * (fb.bending_energy / fa.bending_energy - 1.0)
         );
         assert!(fa.valid && fb.valid, "{:?} {:?}", fa.invalid_reason, fb.invalid_reason);
-        // by the end the age limit has frozen as much; the front froze it sooner
-        assert!(fb.fed.frozen_nodes >= fa.fed.frozen_nodes, "the front froze {} against {}", fb.fed.frozen_nodes, fa.fed.frozen_nodes);
-        assert!(fb.fed.max_active_nodes < fa.fed.max_active_nodes, "largest active rod {} against {}", fb.fed.max_active_nodes, fa.fed.max_active_nodes);
-        assert!((fb.fed.node_steps as f64) < 0.95 * fa.fed.node_steps as f64, "the front saved no work");
+        // by the end the age limit has frozen about as much (the last nodes of two runs
+        // that part chaotically age at different times)
+        assert!(fb.fed.frozen_nodes as f64 >= 0.98 * fa.fed.frozen_nodes as f64, "the front froze {} against {}", fb.fed.frozen_nodes, fa.fed.frozen_nodes);
+        assert!((fb.fed.node_steps as f64) < 1.02 * fa.fed.node_steps as f64, "fibre {j}: the front cost work");
         assert!((fb.radius_of_gyration / fa.radius_of_gyration - 1.0).abs() < 5e-3);
         assert!((fb.bending_energy / fa.bending_energy - 1.0).abs() < 1e-2);
     }
+    // the front froze the web sooner: a fibre whose laid part froze early without it gains
+    // little (fibre 1 of this draw: node-steps -1 %, its largest active rod 574 nodes
+    // against 563), one whose start-up end slid gains much (fibre 0: -32 %, 452 against 886)
+    let cost = |w: &LaidWeb| (w.fibres.iter().map(|f| f.fed.node_steps).sum::<u64>(), w.fibres.iter().map(|f| f.fed.max_active_nodes).max().unwrap());
+    let ((steps_a, largest_a), (steps_b, largest_b)) = (cost(&a), cost(&b));
+    assert!((steps_b as f64) < 0.95 * steps_a as f64, "the front saved no work: {steps_b} node-steps against {steps_a}");
+    assert!(largest_b < largest_a, "largest active rod {largest_b} against {largest_a}");
 }
 
 /// Every fed element is somewhere: laid, or still hanging. The laid length per belt
@@ -119,7 +126,9 @@ fn freezing_front_serves_a_fibre_without_contact() {
 #[test]
 fn laid_length_per_belt_length_is_feed_over_belt_speed() {
     let scene = small_scene();
-    let p = laid_web_for(&scene, 0.6, 1);
+    // 1.2 s of laydown: the coils cut at the two ends of the window weigh half what they
+    // do over 0.6 s (which read 25.55, 2.2 % high, on this seed)
+    let p = laid_web_for(&scene, 1.2, 1);
     let web = lay_web(&p, 3, 0, &indicatif::ProgressBar::hidden());
     let f = &web.fibres[0];
     assert!(f.valid, "{:?}", f.invalid_reason);
@@ -510,15 +519,16 @@ fn a_contact_web_goes_back_together_when_a_fibre_fails() {
     }
 }
 
-/// A real failure, not a planted one: fibre 5 of `table4_contact.yaml`'s web at c = 0.07
-/// (stage `laid_c007`, seed 2032, replicate 0) lands at 15 ms with a node folded to 172°;
-/// in the next step the segments beside it are crushed to 0.56 of their length, the
-/// buckling-limited step collapses from 23 µs to 6-17 ns, and 155 steps later a node
-/// passes the speed limit. The checkpoints, counted in steps, then all lay inside the collapse and
-/// every retake failed at the same instant; none is taken while the step has collapsed
-/// (`recovery::COLLAPSED_STEP`), so the rollback goes back to before it and the fibre is
-/// laid. (The runs are chaotic: a change of the physics or the scheme may move this
-/// failure elsewhere, and then the first assertion says so.)
+/// A real failure, not a planted one: fibre 34 of a web of `table4_contact.yaml`'s c = 0.07
+/// (stage `laid_c007`'s scene, seed 2037, replicate 0; found by laying fibres 0-34 of seeds
+/// 2000-2059 for 40 ms without rollbacks) stops at 11.2 ms with a node past the speed
+/// limit, a few steps after its buckling-limited step collapsed to 77 ns. Checkpoints
+/// counted in steps would lie inside the collapse, and every retake would fail at the same
+/// instant; none is taken while the step has collapsed (`recovery::COLLAPSED_STEP`: the one
+/// due at 11.1797 ms is skipped), so the rollback goes back to before it and the fibre is
+/// laid. (The runs are chaotic: a change of the physics or the scheme moves such failures
+/// elsewhere, as it moved the case recorded before, fibre 5 of seed 2032, when a repeated
+/// length projection began to keep its multipliers; then the first assertion says so.)
 #[test]
 fn a_fibre_whose_step_collapsed_before_it_failed_is_rolled_back_to_before_the_collapse() {
     use crate::params::{ParamSet, ParamValue};
@@ -536,13 +546,13 @@ fn a_fibre_whose_step_collapsed_before_it_failed_is_rolled_back_to_before_the_co
     .collect();
     let p = stage::laid_web_params(&ParamSet::resolve(&LaidWebStage.params(), &given));
     let fibre = |rollbacks: usize| {
-        let (mut rng, turbulence, mut scene) = fibre_setup(&p, 2032, 0, 5);
+        let (mut rng, turbulence, mut scene) = fibre_setup(&p, 2037, 0, 34);
         scene.rollbacks = rollbacks;
         crate::rod::feed::feed_fibre(&scene, turbulence.0, 0.02, &p.feed, &mut rng)
     };
     let lost = fibre(0);
     let reason = lost.error.as_deref().unwrap_or("");
-    assert!(reason.contains("unstable step at t = 1.5419"), "the case no longer fails as recorded: {:?}", lost.error);
+    assert!(reason.contains("unstable step at t = 1.11797"), "the case no longer fails as recorded: {:?}", lost.error);
     let saved = fibre(crate::rod::recovery::ROLLBACKS);
     println!("rollbacks {}, steps {}, end {:.4} s, {:?}", saved.rollbacks, saved.steps, saved.end_time, saved.error);
     assert!(saved.error.is_none(), "{:?} after {} rollbacks", saved.error, saved.rollbacks);

@@ -400,19 +400,24 @@ fn explicit_reference_hard_case_fails_clearly_or_runs() {
 }
 
 fn mean_metrics(p: &LaydownParams, n: u64) -> [f64; 4] {
+    mean_metrics_with_errors(p, n).0
+}
+
+/// Means of S, e, S and e belt removed over `n` replicates (seed 11), and their standard
+/// errors.
+fn mean_metrics_with_errors(p: &LaydownParams, n: u64) -> ([f64; 4], [f64; 4]) {
     let jobs: Vec<LaydownJob> = (0..n).map(|r| LaydownJob { params: p.clone(), seed: 11, replicate: r }).collect();
     let res = run_jobs(&jobs);
-    let mut m = [0.0; 4];
-    let mut k = 0.0;
-    for r in res.iter().filter(|r| r.error.is_none()) {
-        m[0] += r.radius_of_gyration;
-        m[1] += r.bending_energy;
-        m[2] += r.radius_of_gyration_belt_removed;
-        m[3] += r.bending_energy_belt_removed;
-        k += 1.0;
-    }
+    let rows: Vec<[f64; 4]> = res
+        .iter()
+        .filter(|r| r.error.is_none())
+        .map(|r| [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed])
+        .collect();
+    let k = rows.len() as f64;
     assert!(k >= n as f64 - 1.0, "too many failed replicates");
-    m.map(|x| x / k)
+    let m: [f64; 4] = std::array::from_fn(|j| rows.iter().map(|x| x[j]).sum::<f64>() / k);
+    let se = std::array::from_fn(|j| (rows.iter().map(|x| (x[j] - m[j]).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt());
+    (m, se)
 }
 
 #[test]
@@ -447,8 +452,17 @@ fn paper_trends() {
     println!("belt 0.05 {slow:?}\nbelt 0.5 {fast:?}");
     assert!(fast[0] > slow[0] * 1.08, "raw S grows with belt speed");
     assert!((fast[2] - slow[2]).abs() < 0.1 * slow[2], "S_removed: {} vs {}", slow[2], fast[2]);
-    // e with the belt removed is noisier: nodes laid out of order during the start-up
-    // impact get kinked by the subtraction (see the module docs); only a loose check.
+    // e with the belt removed: the default (`landing`) subtraction adds a node-scale jitter
+    // v_b δt_land that grows with the belt speed (see BeltRemoval), so the trend is read
+    // with the travel since each node was fed (`feed`), and only loosely.
+    let feed_removal = |v_b: f64| {
+        with(&|p| {
+            p.belt_speed = v_b;
+            p.belt_removal = crate::rod::BeltRemoval::Feed;
+        })
+    };
+    let (slow, fast) = (feed_removal(0.05), feed_removal(0.5));
+    println!("belt removed since fed: 0.05 {slow:?}\n0.5 {fast:?}");
     assert!(fast[3] < 2.0 * slow[3] && fast[3] > 0.5 * slow[3], "e_removed: {} vs {}", slow[3], fast[3]);
 }
 
@@ -457,19 +471,21 @@ fn paper_trends() {
 fn mesh_convergence_reduced() {
     // Reduced scene at 150, 300, 600 elements (the full study is in the module docs):
     // e approaches its mesh limit (its change shrinks with refinement), S stays within
-    // a few per cent.
+    // its statistical error (six replicates of this 0.3 m scene scatter S by 6-7 %, so
+    // a fixed bound of a few per cent would be a draw).
     let at = |n: usize| {
         let mut p = reduced();
         p.elements = n;
         p.coil_resolution = 0.0;
-        mean_metrics(&p, 6)
+        mean_metrics_with_errors(&p, 6)
     };
-    let (a, b, c) = (at(150), at(300), at(600));
-    println!("150 {a:?}\n300 {b:?}\n600 {c:?}");
+    let ((a, _), (b, sb), (c, sc)) = (at(150), at(300), at(600));
+    println!("150 {a:?}\n300 {b:?} ± {sb:?}\n600 {c:?} ± {sc:?}");
     let d1 = (b[1] - a[1]).abs();
     let d2 = (c[1] - b[1]).abs();
     assert!(d2 < 0.7 * d1, "e not converging: {} {} {}", a[1], b[1], c[1]);
-    assert!((c[0] - b[0]).abs() < 0.05 * b[0], "S: {} vs {}", b[0], c[0]);
+    let z = (c[0] - b[0]).abs() / (sb[0] * sb[0] + sc[0] * sc[0]).sqrt();
+    assert!(z < 3.0, "S: {} ± {} vs {} ± {} (z = {z:.2})", b[0], sb[0], c[0], sc[0]);
 }
 
 #[test]

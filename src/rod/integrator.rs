@@ -1311,9 +1311,9 @@ mod tests {
     /// step's multiplier λ_k along the segment, the impulse the compliance term of its
     /// constraint counts, on every segment off the belt (up to the turn of t over the
     /// iterations and projections: at most 1.6 % of the largest multiplier over these 50
-    /// steps; 5 % allowed). When each repeat cleared λ, the repeat re-solved every compliant segment
-    /// from λ = 0 and applied a second impulse that λ no longer held (the first repeat here
-    /// then differed by as much as the largest multiplier).
+    /// steps; 5 % allowed). When each repeat cleared λ, the repeat re-solved every
+    /// compliant segment from λ = 0 and applied a second impulse that λ no longer held (the
+    /// first repeat here then differed by as much as the largest multiplier).
     #[test]
     fn a_repeated_projection_applies_the_step_impulse_once() {
         let p = LaydownParams { length: 0.1, elements: 100, ..LaydownParams::default() };
@@ -1333,8 +1333,7 @@ mod tests {
             // segments off the belt (a node clipped between the projections turns its
             // segments by more than the iterations do)
             for k in (0..sim.rod.rest.len()).filter(|&k| ws.contact[k] == NodeContact::Free && ws.contact[k + 1] == NodeContact::Free) {
-                let (applied, e) = (ws.lambda_e[k], ws.seg_e[k]);
-                let along = applied[0] * e[0] + applied[1] * e[1] + applied[2] * e[2];
+                let along = crate::geometry::dot(&ws.lambda_e[k], &ws.seg_e[k]);
                 largest = largest.max(ws.lambda_acc[k].abs());
                 unheld = unheld.max((along - ws.lambda_acc[k]).abs());
             }

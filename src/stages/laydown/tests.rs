@@ -413,11 +413,10 @@ fn mean_metrics_with_errors(p: &LaydownParams, n: u64) -> ([f64; 4], [f64; 4]) {
         .filter(|r| r.error.is_none())
         .map(|r| [r.radius_of_gyration, r.bending_energy, r.radius_of_gyration_belt_removed, r.bending_energy_belt_removed])
         .collect();
+    assert!(rows.len() as u64 >= n - 1, "too many failed replicates");
+    let stats: [(f64, f64); 4] = std::array::from_fn(|j| crate::stages::mean_std(&rows.iter().map(|x| x[j]).collect::<Vec<_>>()));
     let k = rows.len() as f64;
-    assert!(k >= n as f64 - 1.0, "too many failed replicates");
-    let m: [f64; 4] = std::array::from_fn(|j| rows.iter().map(|x| x[j]).sum::<f64>() / k);
-    let se = std::array::from_fn(|j| (rows.iter().map(|x| (x[j] - m[j]).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt());
-    (m, se)
+    (stats.map(|(m, _)| m), stats.map(|(_, sd)| sd / k.sqrt()))
 }
 
 #[test]

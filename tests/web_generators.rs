@@ -13,10 +13,12 @@ use std::path::Path;
 /// on them and an open-web interior grid of each (4 realisations).
 // Seed 6: on seed 5 one of the six laid fibres ends in a fold (curvature 2.6 /mm two
 // nodes before its last landed node), and `laid_segments` with the matched join reads e
-// 37 % above its input there: every template is walked to its end but entered in its
-// first half, so its second half is walked every time and its first only in part, and a
-// fold at a template's end weighs more than its share (src/stages/web/segments.rs).
-// Seeds 6-8 read e within 2 % (`laydown run` of this pipeline, 2026-12-06).
+// 11 % above its input there (and 17 % on seed 11): every template is walked to its end
+// but entered in its first half, so a fold at a template's end weighs up to 4/3 of its
+// share (src/stages/web/segments.rs). Over seeds 5-16 the generated e is on average
+// 2.5 % above the input's and S 1.4 % below it (`laydown run` of this pipeline with the
+// web stage alone, 2026-12-06); before the joins weighed bending energy the generated
+// fibres (measured on their nodes) carried 16 % more e and 3.3 % less S.
 const PIPELINE: &str = "pipeline: gen
 archive: gen.h5
 seed: 6
@@ -231,8 +233,14 @@ fn lay_down_sde_preset_and_bad_input() {
 
 /// The matched join keeps a fibre about its deposition point: templates that coil about
 /// their centroid (radius 5 mm, their centre drifting 1 mm along each) make a fibre whose
-/// belt-removed nodes never leave a few mm of its hole over 60 joins, continuous in
-/// position, while the curvature join of the same templates wanders away.
+/// belt-removed nodes stay within the coil's reach of its hole over 60 joins, continuous
+/// in position, while the curvature join of the same templates wanders away. The reach is
+/// the template's extent (about 5.5 mm) plus one coil diameter: with `mirror`, a join from
+/// a coil turning one way into one turning the other either reverses the tangent in one
+/// node or enters the other side of the coil, and the join takes the second, which bends
+/// the fibre far less (a 10 mm offset blended over 40 nodes against a kink of π; before the
+/// joins weighed bending energy, 2026-12-06, the farthest node was 8.8 mm from the hole,
+/// now 12.4 mm).
 #[test]
 fn laid_segments_matched_join_stays_at_the_hole() {
     use laydown::stages::spectra::integrate_curvature;
@@ -253,6 +261,6 @@ fn laid_segments_matched_join_stays_at_the_hole() {
     };
     let (matched, curvature) = (far(&make(SegmentJoin::Matched)), far(&make(SegmentJoin::Curvature)));
     eprintln!("farthest node from the hole: matched {:.2} mm, curvature {:.2} mm", matched * 1e3, curvature * 1e3);
-    assert!(matched < 0.012, "matched join left the hole: {matched}");
+    assert!(matched < 0.0155, "matched join left the hole: {matched}");
     assert!(curvature > 2.0 * matched, "curvature join {curvature} vs matched {matched}");
 }

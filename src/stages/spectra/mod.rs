@@ -28,7 +28,7 @@ mod sample;
 mod spectrum;
 
 pub use ideal::{SquareWaveParams, SQUARE_WAVE_PRESETS};
-pub use sample::{integrate_curvature, reconstruct, sample_fibre, tangent_angles, wrap_angle, CurvatureSignal};
+pub use sample::{integrate_curvature, reconstruct, sample_fibre, tangent_angles, turning_curvature, wrap_angle, CurvatureSignal};
 pub use spectrum::{check_compatible, inverse_dft, CurvatureSpectrum};
 
 use crate::params::{ParamError, ParamSpec};

@@ -114,15 +114,36 @@ pub fn sample_fibre(nodes: &[[f64; 3]], spacing: f64, points: Option<usize>) -> 
         let (a, b) = (nodes[j], nodes[j + 1]);
         resampled.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
     }
-    // Chord directions φ_{m+1/2}, m = 0..n−1; turning angles wrapped to (−π, π].
-    let chord: Vec<f64> = resampled.windows(2).map(|w| (w[1][1] - w[0][1]).atan2(w[1][0] - w[0][0])).collect();
+    let curvature = turning_curvature(&resampled, spacing);
+    let first_chord = (resampled[1][1] - resampled[0][1]).atan2(resampled[1][0] - resampled[0][0]);
+    let tangent_angle_start = first_chord - 0.5 * curvature[0] * spacing;
+    Ok(CurvatureSignal { spacing, start: resampled[0], tangent_angle_start, curvature, resampled })
+}
+
+/// Curvature samples (eq 9) of a polyline whose N + 1 nodes lie Δs = `spacing` apart
+/// along it, as [`sample_fibre`] reads them off the nodes it resampled: κ_m is the
+/// turning angle between the chords either side of node m, wrapped to (−π, π], over Δs,
+/// for m = 1..N−1, and κ_0 = κ_1 (a single chord, N = 1: κ_0 = 0).
+///
+/// ```
+/// use laydown::stages::spectra::turning_curvature;
+/// // A right-angle corner at node 1 of three nodes 1 mm apart: κ_1 = (π/2)/Δs.
+/// let k = turning_curvature(&[[0.0, 0.0], [1e-3, 0.0], [1e-3, 1e-3]], 1e-3);
+/// assert_eq!(k.len(), 2);
+/// assert!((k[1] - std::f64::consts::FRAC_PI_2 / 1e-3).abs() < 1e-9 && k[0] == k[1]);
+/// ```
+pub fn turning_curvature(nodes: &[[f64; 2]], spacing: f64) -> Vec<f64> {
+    let n = nodes.len().saturating_sub(1);
+    // Chord directions φ_{m+1/2}, m = 0..n−1.
+    let chord: Vec<f64> = nodes.windows(2).map(|w| (w[1][1] - w[0][1]).atan2(w[1][0] - w[0][0])).collect();
     let mut curvature = vec![0.0; n];
     for m in 1..n {
         curvature[m] = wrap_angle(chord[m] - chord[m - 1]) / spacing;
     }
-    curvature[0] = curvature[1];
-    let tangent_angle_start = chord[0] - 0.5 * curvature[0] * spacing;
-    Ok(CurvatureSignal { spacing, start: resampled[0], tangent_angle_start, curvature, resampled })
+    if n >= 2 {
+        curvature[0] = curvature[1];
+    }
+    curvature
 }
 
 /// θ_{m+1} = θ_m + (κ_m + κ_{m+1})Δs/2 (eq 13), m = 0..N−2: N angles.

@@ -190,7 +190,7 @@ impl Web {
                 if let Some(i) = positions.iter().position(|q| q.len() != points + 1 || q.iter().flatten().any(|v| !v.is_finite())) {
                     return Err(WebError::TemplateNodes { template: i, nodes: positions[i].len(), expected: points + 1 });
                 }
-                Source::Matched { walk: LaidTemplates::new(&positions, &templates, spacing), curvature: templates, positions }
+                Source::Matched { walk: LaidTemplates::new(&positions, spacing), curvature: templates, positions }
             }
         };
         Ok(Self { params: WebParams { generator: Generator::LaidSegments, ..params }, source, points, segment_length: spacing * points as f64 })

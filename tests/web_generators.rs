@@ -16,9 +16,9 @@ use std::path::Path;
 // 11 % above its input there (and 17 % on seed 11): every template is walked to its end
 // but entered in its first half, so a fold at a template's end weighs up to 4/3 of its
 // share (src/stages/web/segments.rs). Over seeds 5-16 the generated e is on average
-// 2.5 % above the input's and S 1.4 % below it (`laydown run` of this pipeline with the
+// 2.5 % above the input's and S 1.35 % below it (`laydown run` of this pipeline with the
 // web stage alone, 2026-12-06); before the joins weighed bending energy the generated
-// fibres (measured on their nodes) carried 16 % more e and 3.3 % less S.
+// fibres (measured on their nodes) carried 16 % more e and 3.25 % less S.
 const PIPELINE: &str = "pipeline: gen
 archive: gen.h5
 seed: 6

@@ -40,6 +40,11 @@ pub fn centred(nodes: &[[f64; 2]]) -> Vec<[f64; 2]> {
     nodes.iter().map(|p| [p[0] - c[0], p[1] - c[1]]).collect()
 }
 
+/// Direction (rad, in (−π, π]) of the chord from `a` to `b` in the belt plane.
+pub fn chord_angle(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (b[1] - a[1]).atan2(b[0] - a[0])
+}
+
 /// Total arc length of the polyline.
 pub fn arc_length(nodes: &[[f64; 3]]) -> f64 {
     nodes.windows(2).map(|w| distance(&w[0], &w[1])).sum()

@@ -3,6 +3,7 @@
 use std::f64::consts::PI;
 
 use super::{CurvatureSpectrum, SpectraError};
+use crate::geometry::chord_angle;
 
 /// Curvature of a fibre sampled at uniform arc length, with the initial state
 /// needed to rebuild the curve by eq 13.
@@ -115,7 +116,7 @@ pub fn sample_fibre(nodes: &[[f64; 3]], spacing: f64, points: Option<usize>) -> 
         resampled.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
     }
     let curvature = turning_curvature(&resampled, spacing);
-    let first_chord = (resampled[1][1] - resampled[0][1]).atan2(resampled[1][0] - resampled[0][0]);
+    let first_chord = chord_angle(resampled[0], resampled[1]);
     let tangent_angle_start = first_chord - 0.5 * curvature[0] * spacing;
     Ok(CurvatureSignal { spacing, start: resampled[0], tangent_angle_start, curvature, resampled })
 }
@@ -123,7 +124,8 @@ pub fn sample_fibre(nodes: &[[f64; 3]], spacing: f64, points: Option<usize>) -> 
 /// Curvature samples (eq 9) of a polyline whose N + 1 nodes lie Δs = `spacing` apart
 /// along it, as [`sample_fibre`] reads them off the nodes it resampled: κ_m is the
 /// turning angle between the chords either side of node m, wrapped to (−π, π], over Δs,
-/// for m = 1..N−1, and κ_0 = κ_1 (a single chord, N = 1: κ_0 = 0).
+/// for m = 1..N−1, and κ_0 = κ_1 (a single chord, N = 1: κ_0 = 0). Nodes not exactly Δs
+/// apart are not resampled: the turning angles are theirs, divided by the nominal Δs.
 ///
 /// ```
 /// use laydown::stages::spectra::turning_curvature;
@@ -135,7 +137,7 @@ pub fn sample_fibre(nodes: &[[f64; 3]], spacing: f64, points: Option<usize>) -> 
 pub fn turning_curvature(nodes: &[[f64; 2]], spacing: f64) -> Vec<f64> {
     let n = nodes.len().saturating_sub(1);
     // Chord directions φ_{m+1/2}, m = 0..n−1.
-    let chord: Vec<f64> = nodes.windows(2).map(|w| (w[1][1] - w[0][1]).atan2(w[1][0] - w[0][0])).collect();
+    let chord: Vec<f64> = nodes.windows(2).map(|w| chord_angle(w[0], w[1])).collect();
     let mut curvature = vec![0.0; n];
     for m in 1..n {
         curvature[m] = wrap_angle(chord[m] - chord[m - 1]) / spacing;

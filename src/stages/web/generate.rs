@@ -276,7 +276,7 @@ impl Web {
                 let mut nodes = Vec::new();
                 walk.walk(&mut Draws::new(&mut rng), self.params.mirror, self.params.segments_per_fibre * self.points, &mut nodes, &mut scratch.curvature);
                 let first = &nodes[..2];
-                ((first[1][1] - first[0][1]).atan2(first[1][0] - first[0][0]), scratch.curvature)
+                (crate::geometry::chord_angle(first[0], first[1]), scratch.curvature)
             }
             _ => {
                 let theta = self.curvature_into(realisation, fibre, &mut scratch);

@@ -17,22 +17,27 @@
 //!   belt-removed nodes stay within 0.3 mm of their axis;
 //! - a fibre starts in a template drawn uniformly, at a uniform node; when the template
 //!   runs out, the next template is drawn (and its mirror flag), and entered at the node m
-//!   (among the first N − N/2) where the join adds the least bending energy: least
-//!   |Δr|² + ℓ²Δθ² with Δr the position and Δθ the tangent mismatch (wrapped);
+//!   (among the first N − N/2) whose join bends least: least |Δr|² + ℓ²Δθ² with Δr the
+//!   position and Δθ the tangent mismatch (wrapped);
 //! - the position mismatch is blended out over the next K = min(40, N/5) nodes with the
 //!   weight 1 − (3u² − 2u³), u = i/K, so the fibre is continuous in position and the blend
-//!   starts and ends without a kink; every node stays within the blend of its template's
-//!   place relative to the feed axis.
+//!   starts and ends without a kink (for N < 10, K = 1 and the offset is taken in the first
+//!   node after the join); every node stays within the blend of its template's place
+//!   relative to the feed axis.
 //!
-//! ℓ weighs the two mismatches by what they cost in ∫κ² ds: the tangent mismatch is a
-//! kink, Δθ²/Δs; the offset δ blended over B = KΔs adds at most δ²/B³ ∫₀¹ w″(u)² du =
-//! 12 δ²/B³; hence ℓ² = B³/(12 Δs). The joins were first made with ℓ = 5Δs and a linear
+//! ℓ weighs the two mismatches by the bending energy ∫κ² ds of the join itself, as on a
+//! straight fibre: the tangent mismatch is a kink, Δθ²/Δs; the offset δ blended over
+//! B = KΔs adds at most δ²/B³ ∫₀¹ w″(u)² du = 12 δ²/B³; hence ℓ² = B³/(12 Δs). (On a
+//! curved template the kink also adds the cross term 2κΔθ, of either sign, which the
+//! search leaves out; the blend's cross term averages out, ∫w″ du = 0.) The joins were
+//! first made with ℓ = 5Δs and a linear
 //! blend over min(20, N/10) nodes: the kinks left the generated fibres with 7-24 % more
 //! bending energy than the laid fibres they follow, in webs built from 0.3 m laydowns
 //! (N ≈ 250; `tests/web_generators.rs`), which the walk's curvature output, copied from the
 //! templates' samples, did not show. [`LaidTemplates::walk`] now measures the curvature of
-//! the nodes it generates, as the spectra stage measures the laid fibres'
-//! ([`crate::stages::spectra::turning_curvature`]).
+//! the nodes it generates with the spectra stage's function
+//! ([`crate::stages::spectra::turning_curvature`]; within a blend the chords differ from Δs
+//! by up to 1.5δ/K, which it does not resample).
 //!
 //! Each template is walked to its end but entered in its first half, so its second half is
 //! walked on every visit and its first only in part: a feature at the end of a laid fibre
@@ -83,7 +88,7 @@ impl LaidTemplates {
             .iter()
             .map(|nodes| {
                 // Tangent at a node: the direction of the chord leaving it (the last node's: the last chord's).
-                let chord = |m: usize| (nodes[m + 1][1] - nodes[m][1]).atan2(nodes[m + 1][0] - nodes[m][0]);
+                let chord = |m: usize| crate::geometry::chord_angle(nodes[m], nodes[m + 1]);
                 let n = nodes.len() - 1;
                 let angles = (0..=n).map(|m| chord(m.min(n - 1))).collect();
                 Template { positions: crate::geometry::centred(nodes), angles }

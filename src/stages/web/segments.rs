@@ -49,7 +49,6 @@
 //! drift of eq 14 like the other generators.
 use super::sde::Draws;
 use super::trig::widest_isa;
-use crate::stages::spectra::wrap_angle;
 
 /// One laid fibre ready to be walked along.
 #[derive(Debug, Clone)]
@@ -69,6 +68,14 @@ pub struct LaidTemplates {
     blend: usize,
     /// ℓ² (m²), the weight of the tangent mismatch in the entry search.
     angle_weight: f64,
+}
+
+/// Δθ² of a difference of tangent angles `a` (|a| < 4π), Δθ = a wrapped to [−π, π): by
+/// `floor`, which vectorises, where `wrap_angle`'s `round` does not (`crate::stages::spectra::wrap_angle`).
+#[inline(always)]
+fn turn_squared(a: f64) -> f64 {
+    let w = a - std::f64::consts::TAU * (a / std::f64::consts::TAU + 0.5).floor();
+    w * w
 }
 
 /// The part of a join's offset left at the i-th node after it (i ≥ 1) with a blend over
@@ -206,46 +213,33 @@ impl LaidTemplates {
 
     /// The node of template `t1` (mirrored with `sign1` = −1) among its first `candidates`
     /// at which the fibre, at `end` with tangent angle `end_angle`, enters it: the least
-    /// |Δr|² + ℓ²Δθ² (ℓ² = `angle_weight`, Δθ wrapped), the first such node on ties. The position
-    /// term of every candidate and their least are computed in one vectorisable pass; as
-    /// the angle term only adds, only candidates whose position term is at most the full
-    /// mismatch of the (first) nearest one can win, and only those are scanned, in order,
-    /// so ties go as in a plain scan of all candidates.
+    /// |Δr|² + ℓ²Δθ² (ℓ² = `angle_weight`, Δθ wrapped), the first such node on ties. The
+    /// mismatch of every candidate is computed in one pass that vectorises (with ℓ of tens
+    /// of Δs, skipping the candidates whose position term alone exceeds the nearest one's
+    /// mismatch skips few), then the first least is found.
     #[inline(always)]
-    fn entry(&self, t1: usize, sign1: f64, end: [f64; 2], end_angle: f64, candidates: usize, position: &mut Vec<f64>) -> usize {
+    fn entry(&self, t1: usize, sign1: f64, end: [f64; 2], end_angle: f64, candidates: usize, cost: &mut Vec<f64>) -> usize {
         const LANES: usize = 8;
         let template = &self.templates[t1];
         let weight = self.angle_weight;
-        let mismatch = |m1: usize, position: f64| position + weight * wrap_angle(sign1 * template.angles[m1] - end_angle).powi(2);
-        let distance = |p: &[f64; 2]| (p[0] - end[0]).powi(2) + (sign1 * p[1] - end[1]).powi(2);
-        position.clear();
-        position.resize(candidates, 0.0);
+        let mismatch = |p: &[f64; 2], angle: f64| (p[0] - end[0]).powi(2) + (sign1 * p[1] - end[1]).powi(2) + weight * turn_squared(sign1 * angle - end_angle);
+        cost.clear();
+        cost.resize(candidates, 0.0);
         let mut least = [f64::INFINITY; LANES];
-        let nodes = &template.positions[..candidates];
+        let (nodes, angles) = (&template.positions[..candidates], &template.angles[..candidates]);
         let whole = candidates - candidates % LANES;
-        for (out, p) in position[..whole].chunks_exact_mut(LANES).zip(nodes[..whole].chunks_exact(LANES)) {
+        for ((out, p), a) in cost[..whole].chunks_exact_mut(LANES).zip(nodes[..whole].chunks_exact(LANES)).zip(angles[..whole].chunks_exact(LANES)) {
             for l in 0..LANES {
-                out[l] = distance(&p[l]);
+                out[l] = mismatch(&p[l], a[l]);
                 least[l] = if out[l] < least[l] { out[l] } else { least[l] };
             }
         }
-        for (out, p) in position[whole..].iter_mut().zip(&nodes[whole..]) {
-            *out = distance(p);
+        for ((out, p), a) in cost[whole..].iter_mut().zip(&nodes[whole..]).zip(&angles[whole..]) {
+            *out = mismatch(p, *a);
             least[0] = if *out < least[0] { *out } else { least[0] };
         }
         let least = least.iter().fold(f64::INFINITY, |a, &b| if b < a { b } else { a });
-        let nearest = position.iter().position(|&d| d == least).expect("finite template nodes");
-        let bound = mismatch(nearest, position[nearest]);
-        let mut best = (f64::INFINITY, 0);
-        for (m1, &d) in position.iter().enumerate() {
-            if d <= bound {
-                let d = mismatch(m1, d);
-                if d < best.0 {
-                    best = (d, m1);
-                }
-            }
-        }
-        best.1
+        cost.iter().position(|&d| d == least).expect("finite template nodes")
     }
 }
 
@@ -290,7 +284,7 @@ mod tests {
                         if position >= best.0 {
                             continue;
                         }
-                        let d = position + weight * wrap_angle(angle(t1, sign1, m1) - end_angle).powi(2);
+                        let d = position + weight * turn_squared(angle(t1, sign1, m1) - end_angle);
                         if d < best.0 {
                             best = (d, m1);
                         }

@@ -250,7 +250,7 @@ mod tests {
 
     impl LaidTemplates {
         /// The walk as first written (one node at a time, every candidate scanned), which
-        /// the run-by-run walk and the pruned entry search must reproduce bit for bit.
+        /// the run-by-run walk and the vectorised entry search must reproduce bit for bit.
         fn walk_reference(&self, draws: &mut Draws, mirror: bool, samples: usize) -> Vec<[f64; 2]> {
             let n = self.points();
             let blend = self.blend;

@@ -332,7 +332,11 @@ fn fibre_resting_across_another_sags_to_the_belt_as_a_beam_over_a_prop() {
 /// and C keep a grid-scale vertical jitter along their whole length, fastest nodes
 /// 0.02-0.04 m/s at the default step (`time_step_factor` 0.8), 0.006-0.01 at 0.4 and
 /// 0.001-0.003 at 0.2; with C taking every correction (a scratch rule) 0.004 m/s at 0.8
-/// and at rest at 0.4. Without friction the jitter turns sideways at 1.5-1.9 m/s.
+/// and at rest at 0.4. Without friction the jitter turns sideways at 1.5-1.9 m/s: an
+/// in-plane grid-scale mode made unstable by the hold along a slightly tilted contact
+/// normal, above 0.5-0.6 of the bending step. All contacts of the cluster solved together
+/// (a scratch build) rest the three at 0.5 (`pipelines/studies/PHYSICAL_WEBS.md`, "The
+/// three fibres' motion has two parts").
 /// `cargo test --release --lib three_fibres -- --ignored --nocapture`.
 #[test]
 #[ignore = "issue 13: two simulated fibres sharing a contact do not come to rest (2-4 cm/s)"]

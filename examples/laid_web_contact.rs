@@ -9,6 +9,7 @@
 //! with `name` a laydown scene parameter, or `interval=` (s, contact preparation interval),
 //! `ramp=` (s, oscillation soft start), `mu_ff=` (fibre friction), `contact=0|1`,
 //! `self=1` (a fibre also meets its own laid loops that are not yet frozen: `self_contact`),
+//! `step=` (`contact_step_factor`, the largest step with contact as a fraction of the stable one),
 //! `coherent=1` (every fibre the same oscillation phase), `check=1`
 //! (after every interval, the true least distance between fibres from their positions,
 //! instead of what each rod saw in its own steps, and each landed node that rises above
@@ -223,6 +224,7 @@ fn main() {
     let seed: u64 = num.get(3).map_or(7, |s| s.parse().expect("seed"));
     let mut scene = LaydownParams::default();
     let (mut interval, mut ramp, mut mu_ff, mut contact, mut check, mut coherent, mut self_contact) = (2e-4, 0.01, 0.3, true, false, false, false);
+    let mut step_factor = laydown::rod::fibre_contact::CONTACT_STEP_FACTOR;
     let mut age_limit: Option<f64> = None;
     let mut front_margin: Option<f64> = None;
     for kv in args.iter().filter(|a| a.contains('=')) {
@@ -233,6 +235,7 @@ fn main() {
             "mu_ff" => mu_ff = v.parse().unwrap(),
             "contact" => contact = v != "0",
             "self" => self_contact = v != "0",
+            "step" => step_factor = v.parse().unwrap(),
             "check" => check = v != "0",
             "coherent" => coherent = v != "0",
             "drag" => scene.effects.drag = v != "0",
@@ -242,7 +245,7 @@ fn main() {
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
         }
     }
-    let settings = FibreContactSettings { friction: mu_ff, interval, self_contact };
+    let settings = FibreContactSettings { friction: mu_ff, interval, self_contact, step_factor };
     let turbulence = if coherent { Turbulence::Coherent } else { Turbulence::Independent };
     let mut p = LaidWebParams { scene, fibres_across: fibres, fibre_spacing: spacing, belt_travel: travel, turbulence, fibre_contact: contact.then(|| settings.clone()), ..LaidWebParams::default() };
     p.feed.oscillation_ramp = ramp;

@@ -324,6 +324,30 @@ fn fibre_resting_across_another_sags_to_the_belt_as_a_beam_over_a_prop() {
     }
 }
 
+/// The three fibres below without any friction (belt or fibre): C rests across B where
+/// B's span slopes, so their contact normal leans across C by B's slope, and the node held
+/// along it makes the explicit step's in-plane grid-scale mode unstable above 0.5-0.6 of
+/// the stable step. At 0.8 (the scenes' default) B and C zig-zag sideways at 1.7-1.8 m/s,
+/// at 0.6 at 0.53 and 0.39 m/s; at [`CONTACT_STEP_FACTOR`] the fastest nodes move at
+/// 2.6 and 2.4 mm/s (C's real slide off B's slope is 0.8 mm/s when C takes every
+/// correction; the half shares keep a little more, as with friction).
+#[test]
+fn a_tilted_contact_is_stable_at_the_contact_step_factor() {
+    let (mut p, _) = resting_scene(false);
+    let d = p.diameter;
+    let rods = vec![([0.0; 3], [1.0, 0.0, 0.0], 60), ([0.0, 0.0, d], [0.0, 1.0, 0.0], 80), ([0.0, 3e-3, 2.0 * d], [1.0, 0.0, 0.0], 80)];
+    let mut fastest_at = |factor: f64| {
+        p.time_step_factor = factor;
+        let (_, fastest) = settle(&p, rods.clone(), &[], None);
+        println!("three fibres without friction at {factor} of the stable step: fastest nodes of A, B, C {} m/s", speeds(&fastest));
+        fastest.iter().copied().fold(0.0, f64::max)
+    };
+    let default = fastest_at(0.8);
+    assert!(default > 0.1, "the tilted contact is stable at 0.8 of the stable step: fastest node {default:.3e} m/s");
+    let capped = fastest_at(CONTACT_STEP_FACTOR);
+    assert!(capped < 1e-2, "the tilted contact is unstable at the contact step factor: fastest node {capped:.3e} m/s");
+}
+
 /// Issue 13's open problem in its smallest form: fibre C (along x) lies across fibre B
 /// 3 mm from where B (along y) crosses fibre A on the belt, so C presses on B's span
 /// between A and the belt, where neither fibre is held and each takes half of every

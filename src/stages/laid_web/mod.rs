@@ -119,6 +119,18 @@ pub struct FibreContactSettings {
     /// Whether a fibre also collides with its own laid loops that are still simulated
     /// ([`ContactWorld::self_contact`]); its frozen stretch it always meets.
     pub self_contact: bool,
+    /// Largest time step with contact, as a fraction of the stable step (the scene's
+    /// `time_step_factor` where that is smaller; default
+    /// [`CONTACT_STEP_FACTOR`](crate::rod::fibre_contact::CONTACT_STEP_FACTOR)).
+    pub step_factor: f64,
+}
+
+impl FibreContactSettings {
+    /// `scene` with its time step held to [`Self::step_factor`] of the stable step.
+    pub fn stepped(&self, mut scene: LaydownParams) -> LaydownParams {
+        scene.time_step_factor = scene.time_step_factor.min(self.step_factor);
+        scene
+    }
 }
 
 /// Length of the hanging fibre in feed heights, for the work estimate (the fibre swings
@@ -150,7 +162,7 @@ pub const BROAD_PHASE_TRAVEL: f64 = 4.0;
 
 impl Default for FibreContactSettings {
     fn default() -> Self {
-        FibreContactSettings { friction: 0.3, interval: 2e-4, self_contact: false }
+        FibreContactSettings { friction: 0.3, interval: 2e-4, self_contact: false, step_factor: crate::rod::fibre_contact::CONTACT_STEP_FACTOR }
     }
 }
 
@@ -244,6 +256,7 @@ impl LaidWebParams {
     pub fn estimated_node_steps(&self) -> f64 {
         let ds = self.resolved_element_length();
         let scene = self.fibre_scene(1.0, 1.0);
+        let scene = self.fibre_contact.as_ref().map_or_else(|| scene.clone(), |c| c.stepped(scene.clone()));
         let dt = crate::rod::scene::time_step_limits(&scene, ds, true).chosen;
         let t = self.feed_time();
         let steps = t / dt;
@@ -324,6 +337,9 @@ impl LaidWebParams {
             }
             if !(c.friction >= 0.0 && c.friction.is_finite()) {
                 return Err(InvalidParam::new("fibre_friction".into(), format!("fibre_friction {} must be finite and ≥ 0", c.friction)));
+            }
+            if !(c.step_factor > 0.0 && c.step_factor <= 1.0) {
+                return Err(InvalidParam::new("contact_step_factor".into(), format!("contact_step_factor {} must lie in (0, 1] (a fraction of the stable step)", c.step_factor)));
             }
             if !(self.feed.oscillation_ramp > 0.0) {
                 return Err(InvalidParam::new("oscillation_ramp".into(), "fibre_contact needs oscillation_ramp > 0 (e.g. 0.01 s): starting at full amplitude, eq 7's spring throws the top of each fibre sideways at ~10 m/s in the first 0.1 ms, through its neighbours".into()));
@@ -473,6 +489,7 @@ impl ContactWeb {
         let feeders: Vec<Feeder> = (0..p.fibres_across)
             .map(|j| {
                 let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
+                let scene = c.stepped(scene);
                 let mut feeder = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
                 feeder.join_contact_world();
                 let mut contact = FibreContact::new(d, friction);

@@ -214,6 +214,7 @@ fn stage_table_is_its_typed_parameters() {
         fibre_friction: FibreContactSettings::default().friction,
         contact_interval: FibreContactSettings::default().interval,
         self_contact: FibreContactSettings::default().self_contact,
+        contact_step_factor: FibreContactSettings::default().step_factor,
     };
     let defaults = ParamSet::defaults(&table);
     assert_eq!(defaults.to_typed::<stage::LaidWebStageParams>().unwrap(), expected);
@@ -378,6 +379,27 @@ fn contact_web_parameters_are_checked() {
     p.validate().unwrap();
     p.fibre_contact = Some(FibreContactSettings { interval: 10.0, ..FibreContactSettings::default() });
     assert_eq!(p.validate().unwrap_err().key, "contact_interval");
+    for step_factor in [0.0, 1.5, f64::NAN] {
+        p.fibre_contact = Some(FibreContactSettings { step_factor, ..FibreContactSettings::default() });
+        assert_eq!(p.validate().unwrap_err().key, "contact_step_factor", "{step_factor}");
+    }
+}
+
+/// With fibre contact every fibre steps at most `contact_step_factor` of its stable step
+/// (the scene's `time_step_factor` where smaller), and the run-time estimate counts the
+/// steps that costs.
+#[test]
+fn contact_web_steps_at_the_contact_step_factor() {
+    let mut p = LaidWebParams { fibres_across: 2, belt_travel: 0.005, fibre_contact: Some(FibreContactSettings::default()), ..LaidWebParams::default() };
+    p.feed.oscillation_ramp = 0.01;
+    assert_eq!(p.scene.time_step_factor, 0.8);
+    let factors = |p: &LaidWebParams| ContactWeb::new(p, p.fibre_contact.as_ref().unwrap(), 7, 0).scenes.iter().map(|(s, _)| s.time_step_factor).collect::<Vec<_>>();
+    assert_eq!(factors(&p), vec![0.5; 2]);
+    let capped = p.estimated_node_steps();
+    p.fibre_contact.as_mut().unwrap().step_factor = 1.0;
+    assert_eq!(factors(&p), vec![0.8; 2]);
+    let ratio = capped / p.estimated_node_steps();
+    assert!((ratio - 1.6).abs() < 1e-9, "steps at 0.5 against 0.8 of the stable step: {ratio}");
 }
 
 /// The broad-phase interval is the user's `contact_interval` at the paper's speeds, and

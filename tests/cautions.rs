@@ -107,4 +107,7 @@ fn a_step_coarse_in_coil_times_warns_and_the_coil_step_rule_does_not() {
     // a thin fibre at Table 1's speed, at its diameter
     let w = only_warning("pipeline: thin\narchive: study.h5\nstages:\n  - name: web\n    kind: laid_web\n    params:\n      diameter: 16.2e-6\n");
     assert!(w.starts_with("warning: p.yaml:7:17: stages[0].params.diameter: 0.0000162 m: the time step"), "{w}");
+    // with fibre contact the step checked is the one taken, held to contact_step_factor
+    let w = only_warning("pipeline: thin\narchive: study.h5\nstages:\n  - name: web\n    kind: laid_web\n    params:\n      diameter: 16.2e-6\n      fibre_contact: true\n      oscillation_ramp: 0.01\n");
+    assert!(w.contains("is 0.062 of the inertial coil time"), "the contact web steps at 0.5 of the stable step, not 0.8: {w}");
 }

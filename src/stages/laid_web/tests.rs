@@ -386,20 +386,19 @@ fn contact_web_parameters_are_checked() {
 }
 
 /// With fibre contact every fibre steps at most `contact_step_factor` of its stable step
-/// (the scene's `time_step_factor` where smaller), and the run-time estimate counts the
-/// steps that costs.
+/// (the scene's `time_step_factor` where smaller): the step its feeder takes first.
 #[test]
 fn contact_web_steps_at_the_contact_step_factor() {
     let mut p = LaidWebParams { fibres_across: 2, belt_travel: 0.005, fibre_contact: Some(FibreContactSettings::default()), ..LaidWebParams::default() };
     p.feed.oscillation_ramp = 0.01;
     assert_eq!(p.scene.time_step_factor, 0.8);
-    let factors = |p: &LaidWebParams| ContactWeb::new(p, p.fibre_contact.as_ref().unwrap(), 7, 0).scenes.iter().map(|(s, _)| s.time_step_factor).collect::<Vec<_>>();
-    assert_eq!(factors(&p), vec![0.5; 2]);
-    let capped = p.estimated_node_steps();
+    let first_steps = |p: &LaidWebParams| ContactWeb::new(p, p.fibre_contact.as_ref().unwrap(), 7, 0).feeders.iter().map(|f| f.next_step()).collect::<Vec<_>>();
+    let capped = first_steps(&p);
     p.fibre_contact.as_mut().unwrap().step_factor = 1.0;
-    assert_eq!(factors(&p), vec![0.8; 2]);
-    let ratio = capped / p.estimated_node_steps();
-    assert!((ratio - 1.6).abs() < 1e-9, "steps at 0.5 against 0.8 of the stable step: {ratio}");
+    let scene = first_steps(&p);
+    for (c, s) in capped.iter().zip(&scene) {
+        assert!((c / s - 0.5 / 0.8).abs() < 1e-12, "first step {c:.3e} s at the contact step factor against {s:.3e} s at the scene's");
+    }
 }
 
 /// The broad-phase interval is the user's `contact_interval` at the paper's speeds, and

@@ -84,13 +84,9 @@ pub const MAX_SEPARATION_SPEED: f64 = 1.0;
 /// `contact_step_factor` of a laid web). Where a fibre rests on a sloping one, their
 /// contact normal (the cross product of the two tangents) is tilted across each fibre by
 /// the other's slope, and the node held along it in the length projection makes the
-/// in-plane grid-scale mode of the explicit step unstable above 0.5-0.6 of the stable step:
-/// three fibres stacked on a still belt without friction move at 1.7 m/s at 0.8 (the
-/// scenes' default), 0.5 m/s at 0.6, 0.003 m/s at 0.5
-/// (`a_tilted_contact_is_stable_at_the_contact_step_factor`). With friction the mode is
-/// bounded at a few cm/s; 13 webs at 0.5 crossed 139 laid pairs against 218 at 0.8 and
-/// threw landed fibre in one against four, for 1.1-1.4 times the wall time
-/// (`pipelines/studies/PHYSICAL_WEBS.md`, "The contact step").
+/// in-plane grid-scale mode of the explicit step unstable above 0.5-0.6 of the stable step
+/// (`a_tilted_contact_is_stable_at_the_contact_step_factor`; what it changes in webs, and
+/// costs: `pipelines/studies/PHYSICAL_WEBS.md`, "The contact step").
 pub const CONTACT_STEP_FACTOR: f64 = 0.5;
 
 /// Centreline distance, in diameters, below which a pair counts as crossed and is left alone.

@@ -29,21 +29,16 @@
 //! straight fibre: the tangent mismatch is a kink, Δθ²/Δs; the offset δ blended over
 //! B = KΔs adds at most δ²/B³ ∫₀¹ w″(u)² du = 12 δ²/B³; hence ℓ² = B³/(12 Δs). (On a
 //! curved template the kink also adds the cross term 2κΔθ, of either sign, which the
-//! search leaves out; the blend's cross term averages out, ∫w″ du = 0.) The joins were
-//! first made with ℓ = 5Δs and a linear
-//! blend over min(20, N/10) nodes: the kinks left the generated fibres with 7-24 % more
-//! bending energy than the laid fibres they follow, in webs built from 0.3 m laydowns
-//! (N ≈ 250; `tests/web_generators.rs`), which the walk's curvature output, copied from the
-//! templates' samples, did not show. [`LaidTemplates::walk`] now measures the curvature of
-//! the nodes it generates with the spectra stage's function
-//! ([`crate::stages::spectra::turning_curvature`]; within a blend the chords differ from Δs
-//! by up to 1.5δ/K, which it does not resample).
+//! search leaves out; the blend's cross term averages out, ∫w″ du = 0.) K was chosen by
+//! measuring the generated fibres' bending energy against the laid fibres'
+//! (`pipelines/studies/PHYSICAL_WEBS.md`, "The matched join weighs what a join bends").
+//! [`LaidTemplates::walk`] reads the curvature off the nodes it generates with the spectra
+//! stage's function ([`crate::stages::spectra::turning_curvature`]; within a blend the
+//! chords differ from Δs by up to 1.5δ/K, which it does not resample).
 //!
-//! Each template is walked to its end but entered in its first half, so its second half is
-//! walked on every visit and its first only in part: a feature at the end of a laid fibre
-//! (a fold near its last landed node) weighs up to 4/3 of its share. On two of twelve
-//! seeds of the 0.3 m laydowns of `tests/web_generators.rs` (5 and 11) this leaves e 11 %
-//! and 17 % above the input; with 1 m laydowns the generated e is within 4 %.
+//! Each template is walked to its end but entered in its first half, so a feature at the
+//! end of a laid fibre (a fold near its last landed node) weighs up to 4/3 of its share
+//! (e up to 17 % above the input in webs from 0.3 m laydowns; same section).
 //!
 //! The fibre's deposition point is its starting point's (0, y_j); the web adds the belt
 //! drift of eq 14 like the other generators.

@@ -32,7 +32,7 @@
 //! search leaves out; the blend's cross term averages out, ∫w″ du = 0.) K was chosen by
 //! measuring the generated fibres' bending energy against the laid fibres'
 //! (`pipelines/studies/PHYSICAL_WEBS.md`, "The matched join weighs what a join bends").
-//! [`LaidTemplates::walk`] reads the curvature off the nodes it generates with the spectra
+//! `LaidTemplates::walk` reads the curvature off the nodes it generates with the spectra
 //! stage's function ([`crate::stages::spectra::turning_curvature`]; within a blend the
 //! chords differ from Δs by up to 1.5δ/K, which it does not resample).
 //!

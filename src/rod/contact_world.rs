@@ -138,8 +138,10 @@ pub trait ContactBody: Send + Sync {
         let sim = self.simulator_mut();
         let Some(mut contact) = sim.fibre_contact.take() else { return };
         let mut predicted = std::mem::take(&mut contact.predicted);
-        let ok = sim.predict_velocities(dt, &mut predicted).is_ok();
+        let (mut free_v, mut free_w) = (std::mem::take(&mut contact.free_velocities), std::mem::take(&mut contact.free_mobility));
+        let ok = sim.predict_velocities(dt, &mut predicted, Some((&mut free_v, &mut free_w))).is_ok();
         contact.predicted = predicted;
+        (contact.free_velocities, contact.free_mobility) = (free_v, free_w);
         contact.predicted_at = ok.then_some(sim.t);
         sim.fibre_contact = Some(contact);
     }
@@ -302,7 +304,7 @@ impl ContactWorld {
             local[f] = groups[cluster_of[f]].len();
             groups[cluster_of[f]].push(body);
         }
-        let steps: u64 = groups.par_iter_mut().map(|group| lock_step(group, &local, t, t_next)).sum();
+        let steps: u64 = groups.par_iter_mut().map(|group| lock_step(group, &local, t, t_next, self.contact_top)).sum();
         stats.lock_steps += steps;
     }
 
@@ -586,7 +588,7 @@ const PARALLEL_CLUSTER: usize = 3;
 /// back, they all go back to t (the checkpoint each took there) and retake the interval,
 /// with the recovery scheme ([`super::recovery`]) up to as far again past the failure;
 /// otherwise the failed rod stops and the others go on. Returns the steps taken.
-fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_next: f64) -> u64 {
+fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_next: f64, contact_top: f64) -> u64 {
     let parallel = group.len() >= PARALLEL_CLUSTER;
     let each = |group: &mut [&mut B], work: &(dyn Fn(&mut B) + Sync)| {
         if parallel {
@@ -622,6 +624,12 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
         });
         if refreshed {
             refresh(group, local, now, parallel, &mut spare);
+            // the contacts of fibres in the air, for both fibres at once; the copies then
+            // carry the velocities they give
+            let mut sims: Vec<&mut Simulator> = group.iter_mut().map(|b| b.simulator_mut()).collect();
+            if super::fibre_contact::air::solve_in_air(&mut sims, local, now, until - now, contact_top) {
+                refresh_velocities(group, local, now);
+            }
         }
         each(group, &|b: &mut B| b.advance_to(until));
         now = until;
@@ -686,6 +694,36 @@ fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parall
     for (body, fresh) in group.iter_mut().zip(spare.iter_mut()) {
         if let Some(c) = body.simulator_mut().fibre_contact.as_mut() {
             std::mem::swap(&mut c.obstacles, fresh);
+        }
+    }
+}
+
+/// After the contacts in the air changed some rods' predicted velocities at `t`
+/// ([`air::solve_in_air`](super::fibre_contact::air::solve_in_air), which changes only
+/// nodes not laid): the velocities of every copy of those rods' segments, as [`refresh`]
+/// sets them; positions and the rest of each copy stay as they are.
+fn refresh_velocities<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64) {
+    // the velocities each changed rod is seen moving at (a node resting on a fibre at its
+    // current one, as in `refresh`)
+    let seen: Vec<Option<Vec<[f64; 3]>>> = group
+        .iter()
+        .map(|b| {
+            let sim = b.simulator();
+            let c = sim.fibre_contact.as_ref()?;
+            (c.air_change_at == Some(t) && c.predicted.len() == sim.rod.nodes()).then(|| (0..sim.rod.nodes()).map(|i| if c.resting.get(i) == Some(&true) { sim.rod.v[i] } else { c.predicted[i] }).collect())
+        })
+        .collect();
+    for b in group.iter_mut() {
+        let Some(c) = b.simulator_mut().fibre_contact.as_mut() else { continue };
+        for o in c.obstacles.iter_mut() {
+            if let Some((world, k)) = o.source {
+                if let Some(Some(v)) = seen.get(local[world as usize]) {
+                    let k = k as usize;
+                    if k + 1 < v.len() {
+                        (o.va, o.vb) = (v[k], v[k + 1]);
+                    }
+                }
+            }
         }
     }
 }

@@ -61,8 +61,11 @@
 //! itself, so the pair's approach was judged two ways and never removed. Otherwise,
 //! and side by side (heights within 0.1 d), each takes ½ (equal masses per length; where
 //! one meets the other off its nodes and the other at a node the two impulses differ and
-//! the pair's momentum changes, by 6 % at a quarter of an element:
-//! `a_collision_of_two_free_fibres_conserves_their_momentum`, ignored). A pair
+//! the pair's momentum changes, by 6 % at a quarter of an element). Where neither fibre is
+//! laid at the contact (two fibres meeting in the air), a [`ContactWorld`](super::contact_world)
+//! solves the velocity pass of the pair for both fibres at once instead ([`air`]), with
+//! equal and opposite impulses (`a_collision_of_two_free_fibres_conserves_their_momentum`);
+//! the position pass still takes ½ each. A pair
 //! closer than d/2 at the start of a step has crossed ([`CROSSED`]) and is left alone.
 //! Tunnelling needs a relative normal motion of more than d in one step while the pair
 //! is not yet a candidate; the candidate margins are twice the motion measured at the
@@ -238,6 +241,16 @@ pub struct FibreContact {
     /// a pair judge its approach alike.
     pub predicted: Vec<[f64; 3]>,
     pub predicted_at: Option<f64>,
+    /// The same step's velocities and inverse node matrices W before the belt (after the
+    /// node-wise implicit update): the basis of the contacts solved in the air ([`air`]).
+    pub free_velocities: Vec<[f64; 3]>,
+    pub free_mobility: Vec<[f64; 6]>,
+    /// The velocity change the contacts solved in the air ([`air`]) give each node in the
+    /// step from `air_change_at`, and which candidates they solved (the velocity pass
+    /// applies no impulse to those).
+    pub air_change: Vec<[f64; 3]>,
+    pub air_change_at: Option<f64>,
+    pub air_pairs: Vec<bool>,
 }
 
 /// The range of own nodes free to move (clamped leading nodes and a driven top excluded).
@@ -458,7 +471,11 @@ impl FibreContact {
                 // pass's (which would otherwise add up, step after step, while an
                 // overlap persists)
                 let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
-                if g >= d && vn >= target {
+                // solved in the air with the other fibre ([`air`]): no impulse here, but the
+                // node is held along n as for any contact (one brought to its target
+                // exactly is still in contact)
+                let in_air = self.air_change_at == Some(t) && self.air_pairs.get(c) == Some(&true);
+                if g >= d && vn >= target + if in_air { air::SOLVED_TOLERANCE } else { 0.0 } {
                     continue;
                 }
                 // in contact (or reaching it in this step): the node nearer the contact
@@ -495,7 +512,7 @@ impl FibreContact {
                     }
                 }
                 self.supported[near] = true;
-                if vn == target {
+                if vn == target || in_air {
                     continue;
                 }
                 let delta = target - vn;
@@ -723,8 +740,9 @@ pub const SIDE_BY_SIDE: f64 = 0.1;
 /// (the segment end nearer the contact point, at `u` along the obstacle, lies on the belt
 /// or rests on the web: [`FibreContact::rests`]), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
 /// each takes ½ (equal masses per length; momentum is exchanged, not made, only where the
-/// two contact points are alike, both at nodes or both mid-segment). Both rods evaluate
-/// the same rule on the same data, so a contact is shared once.
+/// two contact points are alike, both at nodes or both mid-segment; in the air such
+/// pairs are solved for both fibres at once, [`air`]). Both rods evaluate the same rule on
+/// the same data, so a contact is shared once.
 pub fn yield_share(ob: &ObstacleSegment, u: f64, dz: f64, d: f64, own_landed: bool) -> f64 {
     let ob_landed = ob.landed[usize::from(u >= 0.5)];
     if !ob.simulated {
@@ -882,6 +900,9 @@ pub(super) fn add_scaled(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
 pub(super) fn lerp(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
     [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]), a[2] + s * (b[2] - a[2])]
 }
+
+#[path = "fibre_contact_air.rs"]
+pub mod air;
 
 #[cfg(test)]
 #[path = "fibre_contact_tests.rs"]

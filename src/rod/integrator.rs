@@ -547,12 +547,17 @@ impl Simulator {
     /// the friction impulse of that landing, over 100 m/s for a span propped 18 d above
     /// the belt in a dense web (the crossing holds it up in the step itself), which the
     /// fibres around it met and were thrown by (`pipelines/studies/PHYSICAL_WEBS.md`).
-    pub fn predict_velocities(&mut self, dt: f64, out: &mut Vec<[f64; 3]>) -> Result<(), StepFailure> {
+    /// With `before_belt`, also the velocities and inverse node matrices W before the belt.
+    pub fn predict_velocities(&mut self, dt: f64, out: &mut Vec<[f64; 3]>, before_belt: Option<BeforeBelt>) -> Result<(), StepFailure> {
         let saved_dt = self.dt;
         self.dt = dt;
         self.evaluate_forces();
         out.clone_from(&self.rod.v);
         let solved = self.solve_velocities();
+        if let Some((v, w)) = before_belt {
+            v.clone_from(&self.rod.v);
+            w.clone_from(&self.ws.winv);
+        }
         if solved.is_ok() {
             // the belt holds what reaches it (fibre contact comes on top); without the
             // lagged axial force, which v* does not contain either
@@ -589,6 +594,16 @@ impl Simulator {
             self.ws.v_pred.clone_from(&self.rod.v);
         }
         let need_w = self.integrator != Integrator::Explicit;
+        // the contacts with other fibres in the air, solved for both fibres before the step
+        if let Some(c) = &self.fibre_contact {
+            if c.air_change_at == Some(t) && c.air_change.len() == n {
+                for (v, change) in self.rod.v.iter_mut().zip(&c.air_change) {
+                    v[0] += change[0];
+                    v[1] += change[1];
+                    v[2] += change[2];
+                }
+            }
+        }
         // 3. contact and friction: with other fibres first (a fibre lying on the belt
         // holds up a node that would otherwise reach the belt in this step), then the belt
         if self.fibre_contact.is_some() {
@@ -1075,6 +1090,10 @@ impl Simulator {
         Ok(())
     }
 }
+
+/// Where [`Simulator::predict_velocities`] puts the velocities and the inverse node
+/// matrices W of the step before the belt acts.
+pub type BeforeBelt<'a> = (&'a mut Vec<[f64; 3]>, &'a mut Vec<[f64; 6]>);
 
 /// The spring force P_k = EA (l0_k − l_k)/l0_k of every segment at the current positions
 /// (`inv_ea` = 1/EA), [`SPRING_LANES`] segments at a time (their square roots and

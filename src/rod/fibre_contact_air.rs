@@ -1,0 +1,267 @@
+//! Contacts between two fibres in the air, solved for both fibres at once.
+//!
+//! Where two simulated fibres meet and neither is laid at the contact (a collision of two
+//! hanging fibres), each rod's own velocity pass would take half the correction against
+//! where it sees the other moving. The two impulses then differ wherever one contact point
+//! lies at a node and the other between nodes, and the pair's momentum changes (by 6 % at
+//! a quarter of an element, `a_collision_of_two_free_fibres_conserves_their_momentum`).
+//!
+//! So before each lock step of a cluster ([`super::super::contact_world`]), after every rod
+//! has predicted its velocities, the contacts of such pairs are solved together: a
+//! projected Gauss-Seidel over their impulses, [`SWEEPS`] sweeps in a fixed order (rods,
+//! segments, candidates), so threads do not change the result. Each contact has a normal
+//! impulse λ ≥ 0 towards the velocity pass's target (reach d at the end of the step, or no
+//! approach while closer) and a friction impulse within μ_ff λ. Each is applied to the
+//! nodes of both rods through their inverse node matrices W before the belt (the
+//! velocity pass's own), equal and opposite, so the pair's momentum is kept; a side whose
+//! contact point can hardly move takes nothing, as `Mobility::shift` refuses. The change
+//! goes into each rod's predicted velocities (which the other rods' copies then carry) and
+//! into its step ([`FibreContact::air_change`]); the rod's own velocity pass applies no
+//! impulse to those pairs but still holds the node along n, and the position pass treats
+//! them as before.
+//!
+//! Contacts with laid fibre keep the yield rule ([`yield_share`]): solving every contact of
+//! a cluster together lays sparse webs better but heaves dense ones
+//! (`pipelines/studies/PHYSICAL_WEBS.md`, "The joint contact solve at the contact step").
+
+use super::super::integrator::Simulator;
+use super::super::Integrator;
+use super::{add_scaled, closest_points, dot, lerp, norm, scale, sub, yield_share, CROSSED, MAX_SEPARATION_SPEED};
+use rustc_hash::FxHashSet;
+
+/// Gauss-Seidel sweeps over the contacts of a cluster.
+pub const SWEEPS: usize = 4;
+
+/// Relative normal speed (m/s) by which a pair solved here may exceed its target and
+/// still count as in contact in the rod's velocity pass, which then holds its node along
+/// n: the solve brings a pair to its target up to round-off.
+pub const SOLVED_TOLERANCE: f64 = 1e-6;
+
+/// One contact of two fibres in the air: own segment `k` of rod `r` (closest point at
+/// `s`) against segment `kg` of rod `g` (at `u`), normal `n` from the other towards
+/// the own segment, and the impulses found so far.
+struct AirContact {
+    r: usize,
+    k: usize,
+    /// The candidate of own segment `k` it was found as.
+    cand: usize,
+    s: f64,
+    g: usize,
+    kg: usize,
+    u: f64,
+    n: [f64; 3],
+    gap: f64,
+    lambda: f64,
+    friction: [f64; 3],
+}
+
+/// The two pairs of segments (rod, segment), in a fixed order, as one key.
+fn key(a: (usize, usize), b: (usize, usize)) -> (usize, usize, usize, usize) {
+    if a < b {
+        (a.0, a.1, b.0, b.1)
+    } else {
+        (b.0, b.1, a.0, a.1)
+    }
+}
+
+/// Whether node `k` of `sim` is laid (on the belt or on the web).
+fn laid(sim: &Simulator, k: usize) -> bool {
+    sim.laid_time(k).is_finite()
+}
+
+/// Solve the contacts between fibres in the air of one cluster (`sims`, with `local[w]`
+/// the place of world rod w in it) for the step from `t` of length `dt`, each rod having
+/// predicted its velocities for that step. A pair with an end above `top` (the laydown
+/// height z0, where eq 7's oscillator holds the fibre: its W is about 150 times smaller
+/// across the fibre than along it) is left to the rods' own passes. Writes each rod's velocity change into its
+/// [`FibreContact::air_change`], adds it to its predicted velocities and marks the pairs
+/// solved ([`FibreContact::air_pairs`]). Returns whether any velocity changed (the other
+/// rods' copies are then out of date).
+pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64) -> bool {
+    let mut contacts: Vec<AirContact> = Vec::new();
+    let mut keys: FxHashSet<(usize, usize, usize, usize)> = FxHashSet::default();
+    for r in 0..sims.len() {
+        let sim = &*sims[r];
+        let Some(c) = sim.fibre_contact.as_ref() else { continue };
+        let n = sim.rod.nodes();
+        if c.predicted_at != Some(t) || c.free_velocities.len() != n || c.free_mobility.len() != n {
+            continue;
+        }
+        let d = c.diameter;
+        let (x, v) = (&sim.rod.x, &c.free_velocities);
+        for k in 0..sim.rod.rest.len() {
+            if laid(sim, k) || laid(sim, k + 1) {
+                continue;
+            }
+            for cand in c.row(k) {
+                let ob = &c.obstacles[c.candidates[cand] as usize];
+                let Some((world, kg)) = ob.source else { continue };
+                let (g, kg) = (local[world as usize], kg as usize);
+                let other = &*sims[g];
+                // (a rod that did not predict this step, having failed, takes no part)
+                let predicted = other.fibre_contact.as_ref().is_some_and(|o| o.predicted_at == Some(t) && o.free_velocities.len() == other.rod.nodes());
+                if g == r || !predicted || kg + 1 >= other.rod.nodes() || laid(other, kg) || laid(other, kg + 1) {
+                    continue;
+                }
+                let (q0, q1) = ob.at(t);
+                if x[k][2].max(x[k + 1][2]).max(q0[2]).max(q1[2]) > top {
+                    continue;
+                }
+                // how far the pair can close in the step, at the speeds of its four nodes
+                let speed = [v[k], v[k + 1], ob.va, ob.vb].iter().map(|&w| norm(w)).fold(0.0, f64::max);
+                let reach = d + 2.0 * dt * (speed + 1.0);
+                let apart = |a: usize| x[k][a].min(x[k + 1][a]) > q0[a].max(q1[a]) + reach || q0[a].min(q1[a]) > x[k][a].max(x[k + 1][a]) + reach;
+                if apart(0) || apart(1) || apart(2) {
+                    continue;
+                }
+                let (s, u, gap) = closest_points(x[k], x[k + 1], q0, q1);
+                let gl = norm(gap);
+                if !(gl >= CROSSED * d) || gl > reach {
+                    continue;
+                }
+                let near = if s < 0.5 { k } else { k + 1 };
+                if yield_share(ob, u, gap[2], d, c.resting.get(near) == Some(&true)) != 0.5 || !keys.insert(key((r, k), (g, kg))) {
+                    continue;
+                }
+                contacts.push(AirContact { r, k, cand, s, g, kg, u, n: scale(gap, 1.0 / gl), gap: gl, lambda: 0.0, friction: [0.0; 3] });
+            }
+        }
+    }
+    // each rod's solved pairs, seen from either side (the other rod's candidates of the
+    // pair are those of its segment whose obstacle copies the own segment)
+    for sim in sims.iter_mut() {
+        if let Some(c) = sim.fibre_contact.as_mut() {
+            c.air_pairs.clear();
+            c.air_pairs.resize(c.candidates.len(), false);
+            c.air_change.clear();
+            c.air_change_at = None;
+        }
+    }
+    for a in &contacts {
+        if let Some(c) = sims[a.r].fibre_contact.as_mut() {
+            c.air_pairs[a.cand] = true;
+        }
+        if let Some(c) = sims[a.g].fibre_contact.as_mut() {
+            for cand in c.row(a.kg) {
+                if c.obstacles[c.candidates[cand] as usize].source.is_some_and(|(world, k)| local[world as usize] == a.r && k as usize == a.k) {
+                    c.air_pairs[cand] = true;
+                }
+            }
+        }
+    }
+    if contacts.is_empty() {
+        return false;
+    }
+    let mut velocity: Vec<Vec<[f64; 3]>> = sims.iter().map(|sim| sim.fibre_contact.as_ref().map_or(Vec::new(), |c| c.free_velocities.clone())).collect();
+    let dt_inv = 1.0 / dt;
+    for _ in 0..SWEEPS {
+        for a in contacts.iter_mut() {
+            let (r, k, s, g, kg, u) = (a.r, a.k, a.s, a.g, a.kg, a.u);
+            let (own, other) = (&*sims[r], &*sims[g]);
+            let relative = |velocity: &[Vec<[f64; 3]>]| sub(lerp(velocity[r][k], velocity[r][k + 1], s), lerp(velocity[g][kg], velocity[g][kg + 1], u));
+            // the point mobility of the pair along `dir`, and each node's response
+            let respond = |dir: [f64; 3]| -> (f64, [[f64; 3]; 4]) {
+                let (e_own, ri, rj) = side(own, k, s, dir);
+                let (e_other, gi, gj) = side(other, kg, u, dir);
+                (e_own + e_other, [ri, rj, gi, gj])
+            };
+            // equal and opposite: +β J on the own nodes, −β J on the other's
+            let apply = |velocity: &mut [Vec<[f64; 3]>], w: [[f64; 3]; 4], amount: f64| {
+                velocity[r][k] = add_scaled(velocity[r][k], w[0], (1.0 - s) * amount);
+                velocity[r][k + 1] = add_scaled(velocity[r][k + 1], w[1], s * amount);
+                velocity[g][kg] = add_scaled(velocity[g][kg], w[2], -(1.0 - u) * amount);
+                velocity[g][kg + 1] = add_scaled(velocity[g][kg + 1], w[3], -u * amount);
+            };
+            let d = own.fibre_contact.as_ref().map_or(0.0, |c| c.diameter);
+            let vn = dot(relative(&velocity), a.n);
+            // the velocity pass's target: reach d at the end of the step, or (closer)
+            // no approach and a separation no faster than the position pass's
+            let target = if a.gap >= d { (d - a.gap) * dt_inv } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
+            let (e, w) = respond(a.n);
+            if !(e > 0.0) {
+                continue;
+            }
+            let lambda = (a.lambda + (target - vn) / e).max(0.0);
+            let change = lambda - a.lambda;
+            a.lambda = lambda;
+            if change != 0.0 {
+                apply(&mut velocity, w, change);
+            }
+            // Coulomb friction within μ_ff λ against the relative tangential velocity
+            let Some(mu) = own.fibre_contact.as_ref().and_then(|c| c.friction) else { continue };
+            let vrel = relative(&velocity);
+            let slip = sub(vrel, scale(a.n, dot(vrel, a.n)));
+            let slip_speed = norm(slip);
+            if !(slip_speed > 0.0) {
+                continue;
+            }
+            let along = scale(slip, 1.0 / slip_speed);
+            let (e_t, _) = respond(along);
+            if !(e_t > 0.0) {
+                continue;
+            }
+            let mut friction = add_scaled(a.friction, along, -slip_speed / e_t);
+            let (size, most) = (norm(friction), mu * a.lambda);
+            if size > most {
+                friction = scale(friction, most / size);
+            }
+            let step = sub(friction, a.friction);
+            let step_size = norm(step);
+            if step_size > 0.0 {
+                a.friction = friction;
+                let (_, w) = respond(scale(step, 1.0 / step_size));
+                apply(&mut velocity, w, step_size);
+            }
+        }
+    }
+    for a in &contacts {
+        if a.lambda > 0.0 {
+            for r in [a.r, a.g] {
+                if let Some(c) = sims[r].fibre_contact.as_mut() {
+                    c.impulses += 1;
+                }
+            }
+        }
+    }
+    let mut changed = false;
+    for (sim, solved) in sims.iter_mut().zip(velocity) {
+        let Some(c) = sim.fibre_contact.as_mut() else { continue };
+        if solved.len() != c.free_velocities.len() || solved == c.free_velocities {
+            continue;
+        }
+        c.air_change = solved.iter().zip(&c.free_velocities).map(|(a, b)| sub(*a, *b)).collect();
+        for (p, change) in c.predicted.iter_mut().zip(&c.air_change) {
+            *p = add_scaled(*p, *change, 1.0);
+        }
+        c.air_change_at = Some(t);
+        changed = true;
+    }
+    changed
+}
+
+/// How the point at `s` of segment `k` of `sim` responds to an impulse along the unit
+/// vector `dir`: its mobility Σ β² dirᵀ W dir (β = (1 − s, s)) and the responses W dir
+/// of the two nodes (1/m for the explicit scheme, which has no W; nothing for a clamped
+/// or driven node). A point below a quarter of its more mobile node's mobility takes
+/// nothing (near a held node the free one would need 1/s times the change).
+fn side(sim: &Simulator, k: usize, s: f64, dir: [f64; 3]) -> (f64, [f64; 3], [f64; 3]) {
+    let free = sim.free_nodes();
+    let w = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.free_mobility[..]);
+    let response = |i: usize| {
+        if !free.contains(&i) {
+            [0.0; 3]
+        } else if sim.integrator != Integrator::Explicit && i < w.len() {
+            super::super::forces::sym_mul(&w[i], &dir)
+        } else {
+            scale(dir, 1.0 / sim.rod.mass[i])
+        }
+    };
+    let (wi, wj) = (response(k), response(k + 1));
+    let (mi, mj) = (dot(dir, wi), dot(dir, wj));
+    let e = (1.0 - s) * (1.0 - s) * mi + s * s * mj;
+    if mi.max(mj) > 0.0 && e >= 0.25 * mi.max(mj) {
+        (e, wi, wj)
+    } else {
+        (0.0, [0.0; 3], [0.0; 3])
+    }
+}

@@ -61,11 +61,12 @@
 //! itself, so the pair's approach was judged two ways and never removed. Otherwise,
 //! and side by side (heights within 0.1 d), each takes ½ (equal masses per length; where
 //! one meets the other off its nodes and the other at a node the two impulses differ and
-//! the pair's momentum changes, by 6 % at a quarter of an element). Where neither fibre is
-//! laid at the contact (two fibres meeting in the air), a [`ContactWorld`](super::contact_world)
-//! solves the velocity pass of the pair for both fibres at once instead ([`air`]), with
-//! equal and opposite impulses (`a_collision_of_two_free_fibres_conserves_their_momentum`);
-//! the position pass still takes ½ each. A pair
+//! the pair's momentum changes, by 6 % at a quarter of an element). Where such a ½ pair
+//! meets in the air (neither fibre laid at the contact, below z0), a
+//! [`ContactWorld`](super::contact_world) solves its velocity pass for both fibres at once
+//! instead ([`air`]), with equal and opposite impulses
+//! (`a_collision_of_two_free_fibres_conserves_their_momentum`); the position pass still
+//! takes ½ each. A pair
 //! closer than d/2 at the start of a step has crossed ([`CROSSED`]) and is left alone.
 //! Tunnelling needs a relative normal motion of more than d in one step while the pair
 //! is not yet a candidate; the candidate margins are twice the motion measured at the
@@ -245,11 +246,12 @@ pub struct FibreContact {
     /// node-wise implicit update): the basis of the contacts solved in the air ([`air`]).
     pub free_velocities: Vec<[f64; 3]>,
     pub free_mobility: Vec<[f64; 6]>,
-    /// The velocity change the contacts solved in the air ([`air`]) give each node in the
-    /// step from `air_change_at`, and which candidates they solved (the velocity pass
-    /// applies no impulse to those).
+    /// The step (t, Δt) the contacts in the air ([`air`]) were solved for, with this rod
+    /// in at least one of them; the velocity change they give each node in that step
+    /// (empty: none); and which candidates they solved (the velocity pass applies no
+    /// impulse to those). A step retaken smaller at the same t is not that step.
+    pub air_step: Option<(f64, f64)>,
     pub air_change: Vec<[f64; 3]>,
-    pub air_change_at: Option<f64>,
     pub air_pairs: Vec<bool>,
 }
 
@@ -472,9 +474,10 @@ impl FibreContact {
                 // overlap persists)
                 let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
                 // solved in the air with the other fibre ([`air`]): no impulse here, but the
-                // node is held along n as for any contact (one brought to its target
-                // exactly is still in contact)
-                let in_air = self.air_change_at == Some(t) && self.air_pairs.get(c) == Some(&true);
+                // node is held along n as for any contact (one the solve brought to its
+                // target is still in contact; what the solve's sweeps and the impulses
+                // after it leave of an approach, the position pass corrects)
+                let in_air = self.air_step == Some((t, dt)) && self.air_pairs.get(c) == Some(&true);
                 if g >= d && vn >= target + if in_air { air::SOLVED_TOLERANCE } else { 0.0 } {
                     continue;
                 }

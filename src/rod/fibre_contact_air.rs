@@ -9,16 +9,19 @@
 //! So before each lock step of a cluster ([`super::super::contact_world`]), after every rod
 //! has predicted its velocities, the contacts of such pairs are solved together: a
 //! projected Gauss-Seidel over their impulses, [`SWEEPS`] sweeps in a fixed order (rods,
-//! segments, candidates), so threads do not change the result. Each contact has a normal
-//! impulse λ ≥ 0 towards the velocity pass's target (reach d at the end of the step, or no
+//! segments, candidates), so threads do not change the result. A pair is solved so when
+//! neither fibre's nodes at it are laid, all four ends lie below z0, the yield rule shares
+//! it ½ each, and both rods have predicted the step. Each contact has a normal impulse
+//! λ ≥ 0 towards the velocity pass's target (reach d at the end of the step, or no
 //! approach while closer) and a friction impulse within μ_ff λ. Each is applied to the
-//! nodes of both rods through their inverse node matrices W before the belt (the
-//! velocity pass's own), equal and opposite, so the pair's momentum is kept; a side whose
-//! contact point can hardly move takes nothing, as `Mobility::shift` refuses. The change
-//! goes into each rod's predicted velocities (which the other rods' copies then carry) and
-//! into its step ([`FibreContact::air_change`]); the rod's own velocity pass applies no
-//! impulse to those pairs but still holds the node along n, and the position pass treats
-//! them as before.
+//! nodes of both rods through their inverse node matrices W before the belt (the velocity
+//! pass's own), equal and opposite, so the pair's momentum is kept; a side whose contact
+//! point can hardly move takes nothing, as `Mobility::shift` refuses, and the impulse then
+//! acts on the other side alone. The change goes into each rod's predicted velocities
+//! (the other rods' copies then carry it, except for nodes resting on a fibre, which they
+//! see at their current velocity) and into its step ([`FibreContact::air_change`]); the
+//! rod's own velocity pass applies no impulse to those pairs but still holds the node along
+//! n, and the position pass treats them as before.
 //!
 //! Contacts with laid fibre keep the yield rule ([`yield_share`]): solving every contact of
 //! a cluster together lays sparse webs better but heaves dense ones
@@ -34,7 +37,7 @@ pub const SWEEPS: usize = 4;
 
 /// Relative normal speed (m/s) by which a pair solved here may exceed its target and
 /// still count as in contact in the rod's velocity pass, which then holds its node along
-/// n: the solve brings a pair to its target up to round-off.
+/// n: a pair the solve pushed ends at its target (up to round-off).
 pub const SOLVED_TOLERANCE: f64 = 1e-6;
 
 /// One contact of two fibres in the air: own segment `k` of rod `r` (closest point at
@@ -75,8 +78,8 @@ fn laid(sim: &Simulator, k: usize) -> bool {
 /// height z0, where eq 7's oscillator holds the fibre: its W is about 150 times smaller
 /// across the fibre than along it) is left to the rods' own passes. Writes each rod's velocity change into its
 /// [`FibreContact::air_change`], adds it to its predicted velocities and marks the pairs
-/// solved ([`FibreContact::air_pairs`]). Returns whether any velocity changed (the other
-/// rods' copies are then out of date).
+/// solved ([`FibreContact::air_pairs`], [`FibreContact::air_step`]). Returns whether any
+/// velocity changed (the other rods' copies are then out of date).
 pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64) -> bool {
     let mut contacts: Vec<AirContact> = Vec::new();
     let mut keys: FxHashSet<(usize, usize, usize, usize)> = FxHashSet::default();
@@ -134,14 +137,16 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             c.air_pairs.clear();
             c.air_pairs.resize(c.candidates.len(), false);
             c.air_change.clear();
-            c.air_change_at = None;
+            c.air_step = None;
         }
     }
     for a in &contacts {
         if let Some(c) = sims[a.r].fibre_contact.as_mut() {
             c.air_pairs[a.cand] = true;
+            c.air_step = Some((t, dt));
         }
         if let Some(c) = sims[a.g].fibre_contact.as_mut() {
+            c.air_step = Some((t, dt));
             for cand in c.row(a.kg) {
                 if c.obstacles[c.candidates[cand] as usize].source.is_some_and(|(world, k)| local[world as usize] == a.r && k as usize == a.k) {
                     c.air_pairs[cand] = true;
@@ -208,9 +213,11 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             let step = sub(friction, a.friction);
             let step_size = norm(step);
             if step_size > 0.0 {
-                a.friction = friction;
-                let (_, w) = respond(scale(step, 1.0 / step_size));
-                apply(&mut velocity, w, step_size);
+                let (e_step, w) = respond(scale(step, 1.0 / step_size));
+                if e_step > 0.0 {
+                    a.friction = friction;
+                    apply(&mut velocity, w, step_size);
+                }
             }
         }
     }
@@ -233,7 +240,6 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
         for (p, change) in c.predicted.iter_mut().zip(&c.air_change) {
             *p = add_scaled(*p, *change, 1.0);
         }
-        c.air_change_at = Some(t);
         changed = true;
     }
     changed

@@ -365,7 +365,7 @@ fn a_tilted_contact_is_stable_at_the_contact_step_factor() {
 /// among them: 0.014 and 0.022 m/s at 0.8 (0.034 and 0.026 before).
 /// `cargo test --release --lib three_fibres -- --ignored --nocapture`.
 #[test]
-#[ignore = "issue 13: two simulated fibres sharing a contact do not come to rest (1-3 cm/s)"]
+#[ignore = "issue 13: two simulated fibres sharing a contact do not come to rest (1.4-2.2 cm/s)"]
 fn three_fibres_stacked_across_one_another_come_to_rest() {
     let (p, _) = resting_scene(true);
     let d = p.diameter;

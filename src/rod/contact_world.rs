@@ -710,7 +710,7 @@ fn refresh_velocities<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: 
         .map(|b| {
             let sim = b.simulator();
             let c = sim.fibre_contact.as_ref()?;
-            (c.air_step.is_some_and(|(at, _)| at == t) && !c.air_change.is_empty() && c.predicted.len() == sim.rod.nodes()).then(|| (0..sim.rod.nodes()).map(|i| if c.resting.get(i) == Some(&true) { sim.rod.v[i] } else { c.predicted[i] }).collect())
+            (c.air_at == Some(t) && !c.air_change.is_empty() && c.predicted.len() == sim.rod.nodes()).then(|| (0..sim.rod.nodes()).map(|i| if c.resting.get(i) == Some(&true) { sim.rod.v[i] } else { c.predicted[i] }).collect())
         })
         .collect();
     for b in group.iter_mut() {

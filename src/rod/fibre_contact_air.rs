@@ -78,7 +78,7 @@ fn laid(sim: &Simulator, k: usize) -> bool {
 /// height z0, where eq 7's oscillator holds the fibre: its W is about 150 times smaller
 /// across the fibre than along it) is left to the rods' own passes. Writes each rod's velocity change into its
 /// [`FibreContact::air_change`], adds it to its predicted velocities and marks the pairs
-/// solved ([`FibreContact::air_pairs`], [`FibreContact::air_step`]). Returns whether any
+/// solved ([`FibreContact::air_pairs`], [`FibreContact::air_at`]). Returns whether any
 /// velocity changed (the other rods' copies are then out of date).
 pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64) -> bool {
     let mut contacts: Vec<AirContact> = Vec::new();
@@ -137,16 +137,16 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             c.air_pairs.clear();
             c.air_pairs.resize(c.candidates.len(), false);
             c.air_change.clear();
-            c.air_step = None;
+            c.air_at = None;
         }
     }
     for a in &contacts {
         if let Some(c) = sims[a.r].fibre_contact.as_mut() {
             c.air_pairs[a.cand] = true;
-            c.air_step = Some((t, dt));
+            c.air_at = Some(t);
         }
         if let Some(c) = sims[a.g].fibre_contact.as_mut() {
-            c.air_step = Some((t, dt));
+            c.air_at = Some(t);
             for cand in c.row(a.kg) {
                 if c.obstacles[c.candidates[cand] as usize].source.is_some_and(|(world, k)| local[world as usize] == a.r && k as usize == a.k) {
                     c.air_pairs[cand] = true;

@@ -596,7 +596,7 @@ impl Simulator {
         let need_w = self.integrator != Integrator::Explicit;
         // the contacts with other fibres in the air, solved for both fibres before the step
         if let Some(c) = &self.fibre_contact {
-            if c.air_step == Some((t, dt)) && c.air_change.len() == n {
+            if c.air_at == Some(t) && c.air_change.len() == n {
                 for (v, change) in self.rod.v.iter_mut().zip(&c.air_change) {
                     v[0] += change[0];
                     v[1] += change[1];

@@ -362,10 +362,10 @@ fn a_tilted_contact_is_stable_at_the_contact_step_factor() {
 /// (a scratch build) rest the three at 0.5 (`pipelines/studies/PHYSICAL_WEBS.md`, "The
 /// three fibres' motion has two parts"). Since the contacts of fibres not laid are solved
 /// for both fibres at once (`fibre_contact::air`, 2026-12-06), C's contact on B's span
-/// among them: 0.014 and 0.022 m/s at 0.8 (0.034 and 0.026 before).
+/// among them: 0.015 and 0.021 m/s at 0.8 (0.034 and 0.026 before).
 /// `cargo test --release --lib three_fibres -- --ignored --nocapture`.
 #[test]
-#[ignore = "issue 13: two simulated fibres sharing a contact do not come to rest (1.4-2.2 cm/s)"]
+#[ignore = "issue 13: two simulated fibres sharing a contact do not come to rest (1.5-2.1 cm/s)"]
 fn three_fibres_stacked_across_one_another_come_to_rest() {
     let (p, _) = resting_scene(true);
     let d = p.diameter;

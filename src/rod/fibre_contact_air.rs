@@ -76,10 +76,11 @@ fn laid(sim: &Simulator, k: usize) -> bool {
 /// the place of world rod w in it) for the step from `t` of length `dt`, each rod having
 /// predicted its velocities for that step. A pair with an end above `top` (the laydown
 /// height z0, where eq 7's oscillator holds the fibre: its W is about 150 times smaller
-/// across the fibre than along it) is left to the rods' own passes. Writes each rod's velocity change into its
-/// [`FibreContact::air_change`], adds it to its predicted velocities and marks the pairs
-/// solved ([`FibreContact::air_pairs`], [`FibreContact::air_at`]). Returns whether any
-/// velocity changed (the other rods' copies are then out of date).
+/// across the fibre than along it) is left to the rods' own passes. Writes each rod's
+/// velocity change into its [`FibreContact::air_change`], adds it to its predicted
+/// velocities and marks the pairs solved ([`FibreContact::air_pairs`],
+/// [`FibreContact::air_at`]). Returns whether any velocity changed (the other rods'
+/// copies are then out of date).
 pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64) -> bool {
     let mut contacts: Vec<AirContact> = Vec::new();
     let mut keys: FxHashSet<(usize, usize, usize, usize)> = FxHashSet::default();

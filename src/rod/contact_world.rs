@@ -669,18 +669,9 @@ fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parall
                         let sim = group[local[g as usize]].simulator();
                         let k = k as usize;
                         let x = &sim.rod.x;
-                        // the velocities it reaches before contact in this step, if known
-                        let v = match &sim.fibre_contact {
-                            Some(c) if c.predicted_at == Some(sim.t) && c.predicted.len() == x.len() => &c.predicted,
-                            _ => &sim.rod.v,
-                        };
                         let shift = |p: [f64; 3]| [p[0], p[1] + o.cd_shift, p[2]];
-                        // a node held up by another fibre moves as it did in the last
-                        // step: its velocity before contact would carry it into that fibre
-                        let on_fibre = |i: usize| sim.fibre_contact.as_ref().is_some_and(|c| c.resting.get(i) == Some(&true));
-                        let velocity = |i: usize| if on_fibre(i) { sim.rod.v[i] } else { v[i] };
                         let rests = |i: usize| rests_on_web(sim, i);
-                        ObstacleSegment { a: shift(x[k]), b: shift(x[k + 1]), va: velocity(k), vb: velocity(k + 1), t_ref: t, landed: [rests(k), rests(k + 1)], ..*o }
+                        ObstacleSegment { a: shift(x[k]), b: shift(x[k + 1]), va: seen_velocity(sim, k), vb: seen_velocity(sim, k + 1), t_ref: t, landed: [rests(k), rests(k + 1)], ..*o }
                     }
                     _ => *o,
                 }),
@@ -698,19 +689,29 @@ fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parall
     }
 }
 
+/// The velocity the other rods see node `i` of `sim` move at in the step from its time:
+/// the one it reaches before contact, if predicted; a node held up by another fibre moves
+/// as it did in the last step (its velocity before contact would carry it into that fibre).
+fn seen_velocity(sim: &Simulator, i: usize) -> [f64; 3] {
+    match &sim.fibre_contact {
+        Some(c) if c.resting.get(i) == Some(&true) => sim.rod.v[i],
+        Some(c) if c.predicted_at == Some(sim.t) && c.predicted.len() == sim.rod.nodes() => c.predicted[i],
+        _ => sim.rod.v[i],
+    }
+}
+
 /// After the contacts in the air changed some rods' predicted velocities at `t`
 /// ([`air::solve_in_air`](super::fibre_contact::air::solve_in_air), which changes only
 /// nodes not laid): the velocities of every copy of those rods' segments, as [`refresh`]
 /// sets them; positions and the rest of each copy stay as they are.
 fn refresh_velocities<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64) {
-    // the velocities each changed rod is seen moving at (a node resting on a fibre at its
-    // current one, as in `refresh`)
+    // the velocities each changed rod is seen moving at
     let seen: Vec<Option<Vec<[f64; 3]>>> = group
         .iter()
         .map(|b| {
             let sim = b.simulator();
             let c = sim.fibre_contact.as_ref()?;
-            (c.air_at == Some(t) && !c.air_change.is_empty() && c.predicted.len() == sim.rod.nodes()).then(|| (0..sim.rod.nodes()).map(|i| if c.resting.get(i) == Some(&true) { sim.rod.v[i] } else { c.predicted[i] }).collect())
+            (c.air_at == Some(t) && !c.air_change.is_empty()).then(|| (0..sim.rod.nodes()).map(|i| seen_velocity(sim, i)).collect())
         })
         .collect();
     for b in group.iter_mut() {

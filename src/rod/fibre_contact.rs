@@ -831,16 +831,23 @@ impl Mobility<'_> {
         }
         let u = scale(change, 1.0 / size);
         let (wi, wj) = (self.along(i, u), self.along(j, u));
-        let (mi, mj) = (dot(u, wi), dot(u, wj));
-        let effective = (1.0 - s) * (1.0 - s) * mi + s * s * mj;
-        if !(mi.max(mj) > 0.0 && effective >= 0.25 * mi.max(mj)) {
-            return false;
-        }
+        let Some(effective) = point_mobility(u, wi, wj, s) else { return false };
         let lambda = size / effective;
         q[i] = add_scaled(q[i], wi, (1.0 - s) * lambda);
         q[j] = add_scaled(q[j], wj, s * lambda);
         true
     }
+}
+
+/// The mobility along the unit vector `u` of the point at `s` of a segment whose nodes
+/// respond to a unit impulse along u with `wi` and `wj`: Σ β_k² uᵀW_k u (β = (1 − s, s)).
+/// None where the point can hardly move: below a quarter of the more mobile node's
+/// mobility (near a held node the free one would need 1/s times the change), such a
+/// contact is left to the held node.
+pub(super) fn point_mobility(u: [f64; 3], wi: [f64; 3], wj: [f64; 3], s: f64) -> Option<f64> {
+    let (mi, mj) = (dot(u, wi), dot(u, wj));
+    let effective = (1.0 - s) * (1.0 - s) * mi + s * s * mj;
+    (mi.max(mj) > 0.0 && effective >= 0.25 * mi.max(mj)).then_some(effective)
 }
 
 /// Closest points of segments p0-p1 and q0-q1: (s, u, P(s) − Q(u)) with

@@ -29,7 +29,7 @@
 
 use super::super::integrator::Simulator;
 use super::super::Integrator;
-use super::{add_scaled, closest_points, dot, lerp, norm, scale, sub, yield_share, CROSSED, MAX_SEPARATION_SPEED};
+use super::{add_scaled, closest_points, dot, lerp, norm, point_mobility, scale, sub, yield_share, CROSSED, MAX_SEPARATION_SPEED};
 use rustc_hash::FxHashSet;
 
 /// Gauss-Seidel sweeps over the contacts of a cluster.
@@ -249,8 +249,7 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
 /// How the point at `s` of segment `k` of `sim` responds to an impulse along the unit
 /// vector `dir`: its mobility Σ β² dirᵀ W dir (β = (1 − s, s)) and the responses W dir
 /// of the two nodes (1/m for the explicit scheme, which has no W; nothing for a clamped
-/// or driven node). A point below a quarter of its more mobile node's mobility takes
-/// nothing (near a held node the free one would need 1/s times the change).
+/// or driven node); nothing where [`point_mobility`] refuses the point.
 fn side(sim: &Simulator, k: usize, s: f64, dir: [f64; 3]) -> (f64, [f64; 3], [f64; 3]) {
     let free = sim.free_nodes();
     let w = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.free_mobility[..]);
@@ -264,11 +263,8 @@ fn side(sim: &Simulator, k: usize, s: f64, dir: [f64; 3]) -> (f64, [f64; 3], [f6
         }
     };
     let (wi, wj) = (response(k), response(k + 1));
-    let (mi, mj) = (dot(dir, wi), dot(dir, wj));
-    let e = (1.0 - s) * (1.0 - s) * mi + s * s * mj;
-    if mi.max(mj) > 0.0 && e >= 0.25 * mi.max(mj) {
-        (e, wi, wj)
-    } else {
-        (0.0, [0.0; 3], [0.0; 3])
+    match point_mobility(dir, wi, wj, s) {
+        Some(e) => (e, wi, wj),
+        None => (0.0, [0.0; 3], [0.0; 3]),
     }
 }

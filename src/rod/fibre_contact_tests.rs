@@ -352,27 +352,30 @@ fn a_tilted_contact_is_stable_at_the_contact_step_factor() {
 /// 3 mm from where B (along y) crosses fibre A on the belt, so C presses on B's span
 /// between A and the belt, where neither fibre is held and each takes half of every
 /// correction. With friction (belt and μ_ff = 0.3), mass damping of 500 1/s and a still
-/// belt, the three should come to rest as the pair above does, at every step a contact
-/// web takes: [`CONTACT_STEP_FACTOR`] of the stable step and below. Measured
-/// (2026-12-06, after the contacts in the air were solved for both fibres, `air`): at 0.5,
-/// 0.45, 0.38 and 0.3 of the stable step B and C end at rest (2-7e-5 m/s); at 0.42, 0.4
-/// and 0.35 in a sustained grid-scale vertical jitter of C's free span and of B under it,
-/// 0.4-5 mm/s. Which of the two a run ends in turns on details as small as the length of
-/// the last step of each 0.1 ms interval (`pipelines/studies/PHYSICAL_WEBS.md`, "The three
-/// fibres at the steps a contact web takes"). At 0.8, a step the contact web no longer
-/// takes, 0.8-2.2 cm/s. `cargo test --release --lib three_fibres -- --ignored --nocapture`.
+/// belt, the three should come to rest as the pair above does, at the steps a contact
+/// web takes: [`CONTACT_STEP_FACTOR`] of the stable step and below, sampled here at six
+/// factors. At rest the fastest nodes move at 1-7e-5 m/s (the still scene's floor), so the
+/// test asks for below 2e-4 m/s. Measured (2026-12-06, after the contacts in the air were
+/// solved for both fibres, `air`; runs of 0.6 s, twice the test's, in a scratch build):
+/// at 0.5, 0.45 and 0.3 of the stable step B and C end at rest; at 0.42, 0.4 and 0.35 in a
+/// sustained grid-scale vertical jitter of C's free span and of B under it, 0.4-5 mm/s.
+/// Which of the two a run ends in turns on details as small as the length of the last
+/// step of each 0.1 ms interval (`pipelines/studies/PHYSICAL_WEBS.md`, "The three fibres
+/// at the steps a contact web takes"). At 0.8, a step the contact web no longer takes,
+/// this test measured 1.5 and 2.1 cm/s before it moved to the contact steps.
+/// `cargo test --release --lib three_fibres -- --ignored --nocapture`.
 #[test]
-#[ignore = "issue 13: at some steps below the contact step two simulated fibres sharing a contact jitter at 0.4-5 mm/s instead of resting"]
+#[ignore = "issue 13: at some steps below the contact step two simulated fibres sharing a contact jitter at mm/s instead of resting"]
 fn three_fibres_stacked_across_one_another_come_to_rest() {
     let (mut p, _) = resting_scene(true);
     let d = p.diameter;
     let rods = vec![([0.0; 3], [1.0, 0.0, 0.0], 60), ([0.0, 0.0, d], [0.0, 1.0, 0.0], 80), ([0.0, 3e-3, 2.0 * d], [1.0, 0.0, 0.0], 80)];
     let mut moving = Vec::new();
-    for factor in [CONTACT_STEP_FACTOR, 0.45, 0.4, 0.35, 0.3] {
+    for factor in [CONTACT_STEP_FACTOR, 0.45, 0.42, 0.4, 0.35, 0.3] {
         p.time_step_factor = factor;
         let (_, fastest) = settle(&p, rods.clone(), &[], Some(0.3));
         println!("three fibres at {factor} of the stable step: fastest nodes of A, B, C {} m/s", speeds(&fastest));
-        if !fastest.iter().all(|&v| v < 1e-3) {
+        if !fastest.iter().all(|&v| v < 2e-4) {
             moving.push((factor, fastest));
         }
     }

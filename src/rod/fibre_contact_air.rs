@@ -29,7 +29,7 @@
 
 use super::super::integrator::Simulator;
 use super::super::Integrator;
-use super::{add_scaled, closest_points, dot, lerp, norm, point_mobility, scale, sub, yield_share, CROSSED, MAX_SEPARATION_SPEED};
+use super::{add_scaled, closest_points, dot, lerp, norm, point_mobility, scale, sub, yield_share, FibreContact, CROSSED, MAX_SEPARATION_SPEED};
 use rustc_hash::FxHashSet;
 
 /// Gauss-Seidel sweeps over the contacts of a cluster.
@@ -132,25 +132,31 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
         }
     }
     // each rod's solved pairs, seen from either side (the other rod's candidates of the
-    // pair are those of its segment whose obstacle copies the own segment)
+    // pair are those of its segment whose obstacle copies the own segment); a rod in no
+    // pair keeps an empty list (emptying it costs nothing, sizing it is left to a pair)
     for sim in sims.iter_mut() {
         if let Some(c) = sim.fibre_contact.as_mut() {
             c.air_pairs.clear();
-            c.air_pairs.resize(c.candidates.len(), false);
             c.air_change.clear();
             c.air_at = None;
         }
     }
+    let mark = |c: &mut FibreContact, cand: usize| {
+        if c.air_pairs.len() != c.candidates.len() {
+            c.air_pairs.resize(c.candidates.len(), false);
+        }
+        c.air_pairs[cand] = true;
+        c.air_at = Some(t);
+    };
     for a in &contacts {
         if let Some(c) = sims[a.r].fibre_contact.as_mut() {
-            c.air_pairs[a.cand] = true;
-            c.air_at = Some(t);
+            mark(c, a.cand);
         }
         if let Some(c) = sims[a.g].fibre_contact.as_mut() {
             c.air_at = Some(t);
             for cand in c.row(a.kg) {
                 if c.obstacles[c.candidates[cand] as usize].source.is_some_and(|(world, k)| local[world as usize] == a.r && k as usize == a.k) {
-                    c.air_pairs[cand] = true;
+                    mark(c, cand);
                 }
             }
         }
@@ -160,6 +166,8 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
     }
     let mut velocity: Vec<Vec<[f64; 3]>> = sims.iter().map(|sim| sim.fibre_contact.as_ref().map_or(Vec::new(), |c| c.free_velocities.clone())).collect();
     let dt_inv = 1.0 / dt;
+    // one world: every rod has its diameter and friction
+    let (d, friction) = sims[contacts[0].r].fibre_contact.as_ref().map_or((0.0, None), |c| (c.diameter, c.friction));
     for _ in 0..SWEEPS {
         for a in contacts.iter_mut() {
             let (r, k, s, g, kg, u) = (a.r, a.k, a.s, a.g, a.kg, a.u);
@@ -178,7 +186,6 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
                 velocity[g][kg] = add_scaled(velocity[g][kg], w[2], -(1.0 - u) * amount);
                 velocity[g][kg + 1] = add_scaled(velocity[g][kg + 1], w[3], -u * amount);
             };
-            let d = own.fibre_contact.as_ref().map_or(0.0, |c| c.diameter);
             let vn = dot(relative(&velocity), a.n);
             // the velocity pass's target: reach d at the end of the step, or (closer)
             // no approach and a separation no faster than the position pass's
@@ -194,7 +201,7 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
                 apply(&mut velocity, w, change);
             }
             // Coulomb friction within μ_ff λ against the relative tangential velocity
-            let Some(mu) = own.fibre_contact.as_ref().and_then(|c| c.friction) else { continue };
+            let Some(mu) = friction else { continue };
             let vrel = relative(&velocity);
             let slip = sub(vrel, scale(a.n, dot(vrel, a.n)));
             let slip_speed = norm(slip);

@@ -84,8 +84,8 @@ pub struct FeedSettings {
 }
 
 impl FeedSettings {
-    /// The default `front_margin` of the laid web and of `start: fed` (m): two elements
-    /// of the Table 1 mesh. A laid node lying this far downstream of the farthest
+    /// The default `front_margin` of the laid web (m): two elements of the Table 1 mesh
+    /// (`start: fed` takes two of its own scene's, [`fed_settings`]). A laid node lying this far downstream of the farthest
     /// touchdown point so far, laid at least the settle time ago, freezes even if it
     /// still creeps. A contact web's laid fibre creeps, and a single fibre's start-up end
     /// (its first ~20 nodes at Table 1) slides for the whole run, up to 60 mm/s at its
@@ -195,12 +195,23 @@ const FED_SETTLE_COILS: f64 = 28.0;
 /// takes to feed, 0.2 s at Table 1's 5 m/s (the `laid_web` default), 20 ms at 50 m/s.
 const FED_AGE_LENGTH: f64 = 1.0;
 
+/// The fed start's freezing front in elements of the scene's (coil-resolved) mesh: two,
+/// which is [`FeedSettings::FRONT_MARGIN`] (2 mm) at Table 1's 1 mm elements and follows
+/// the coil scale where the mesh resolves it (0.91 mm at 20 m/s, 0.36 mm at 50 m/s,
+/// 1.18 mm for d = 16.2 µm at 5 m/s). At 50 m/s a fixed 2 mm kept about 1 ms of laid fibre
+/// active past the touchdown; two elements take 0.84 times its time there, with S and e
+/// against the front off as before (`pipelines/studies/FIBRE_SPEED.md`, "The fed start's
+/// freezing front in elements").
+const FED_FRONT_ELEMENTS: f64 = 2.0;
+
 /// The freezing settings of `start: fed` for the scene `p`: the settle time as the time
 /// `FED_SETTLE_COILS` coil scales take to feed, the age limit as the time
-/// `FED_AGE_LENGTH` takes, the front at [`FeedSettings::FRONT_MARGIN`].
+/// `FED_AGE_LENGTH` takes, the front `FED_FRONT_ELEMENTS` elements past the farthest
+/// touchdown.
 pub fn fed_settings(p: &LaydownParams) -> FeedSettings {
     let settle_time = FED_SETTLE_COILS * p.coil_scale() / p.fibre_speed;
-    FeedSettings { settle_time, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin: FeedSettings::FRONT_MARGIN, ..FeedSettings::default() }
+    let front_margin = FED_FRONT_ELEMENTS * p.element_length();
+    FeedSettings { settle_time, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin, ..FeedSettings::default() }
 }
 
 /// One replicate of the laydown scene with `start: fed` ([`fed_settings`]).

@@ -11,6 +11,8 @@
 //! `cargo run --release --example fed_freezing_accuracy -- [replicates] [margins,comma,separated] [name=value ...]`
 //! e.g. `... -- 32 0.002,0.005` (Table 1), or the 50 m/s scene
 //! `... -- 16 0.002 fibre_speed=50 air_speed=150 belt_speed=2 oscillation_frequency=100`.
+//! The fed start itself puts the front two elements of the scene's mesh past the farthest
+//! touchdown, at most 2 mm (`fed_settings`); each margin given here replaces that.
 //! A margin of `inf` is the front off (the reference, always run first). `settle_time=`
 //! (s) gives the candidates (not the reference) another settle time than the fed start's
 //! (28 coil scales of fed fibre, `FED_SETTLE_COILS`: 20 ms at 5 m/s, 0.2 ms at 50 m/s),

@@ -84,13 +84,14 @@ pub struct FeedSettings {
 }
 
 impl FeedSettings {
-    /// The default `front_margin` of the laid web (m): two elements of the Table 1 mesh
-    /// (`start: fed` takes two of its own scene's, [`fed_settings`]). A laid node lying this far downstream of the farthest
-    /// touchdown point so far, laid at least the settle time ago, freezes even if it
-    /// still creeps. A contact web's laid fibre creeps, and a single fibre's start-up end
-    /// (its first ~20 nodes at Table 1) slides for the whole run, up to 60 mm/s at its
-    /// tip; freezing takes only a leading run, so without the front either held up the
-    /// whole laid fibre behind it. The cost changes little from 0 to 5 mm
+    /// The default `front_margin` of the laid web (m): two elements of the Table 1 mesh.
+    /// `start: fed` takes two of its own scene's, at most this ([`fed_settings`]). A laid
+    /// node lying this far downstream of the farthest touchdown point so far, laid at least
+    /// the settle time ago, freezes even if it still creeps. A contact web's laid fibre
+    /// creeps, and a single fibre's start-up end (its first ~20 nodes at Table 1) slides
+    /// for the whole run, up to 60 mm/s at its tip; freezing takes only a leading run, so
+    /// without the front either held up the whole laid fibre behind it. The cost changes
+    /// little from 0 to 5 mm at Table 1
     /// (`pipelines/studies/freezing_front.yaml`; PHYSICAL_WEBS.md, "A freezing front";
     /// FIBRE_SPEED.md, "A freezing front for the fed start").
     pub const FRONT_MARGIN: f64 = 0.002;
@@ -196,21 +197,22 @@ const FED_SETTLE_COILS: f64 = 28.0;
 const FED_AGE_LENGTH: f64 = 1.0;
 
 /// The fed start's freezing front in elements of the scene's (coil-resolved) mesh: two,
-/// which is [`FeedSettings::FRONT_MARGIN`] (2 mm) at Table 1's 1 mm elements and follows
-/// the coil scale where the mesh resolves it (0.91 mm at 20 m/s, 0.36 mm at 50 m/s,
-/// 1.18 mm for d = 16.2 µm at 5 m/s). At 50 m/s a fixed 2 mm kept about 1 ms of laid fibre
-/// active past the touchdown; two elements take 0.84 times its time there, with S and e
-/// against the front off as before (`pipelines/studies/FIBRE_SPEED.md`, "The fed start's
+/// at most [`FeedSettings::FRONT_MARGIN`] (2 mm, two of Table 1's 1 mm elements). So Table 1
+/// keeps 2 mm, and so does the coarser mesh of its `mesh_error_estimate`; where the mesh
+/// resolves the coil scale the front follows it (0.91 mm at 20 m/s, 0.36 mm at 50 m/s,
+/// 1.18 mm for d = 16.2 µm at 5 m/s). At 50 m/s the fixed 2 mm kept about 1 ms of laid
+/// fibre active past the touchdown; two elements take 0.84 times its time there, with S and
+/// e against the front off as before (`pipelines/studies/FIBRE_SPEED.md`, "The fed start's
 /// freezing front in elements").
 const FED_FRONT_ELEMENTS: f64 = 2.0;
 
 /// The freezing settings of `start: fed` for the scene `p`: the settle time as the time
 /// `FED_SETTLE_COILS` coil scales take to feed, the age limit as the time
-/// `FED_AGE_LENGTH` takes, the front `FED_FRONT_ELEMENTS` elements past the farthest
-/// touchdown.
+/// `FED_AGE_LENGTH` takes, the front `FED_FRONT_ELEMENTS` elements of `p`'s mesh past the
+/// farthest touchdown, at most [`FeedSettings::FRONT_MARGIN`].
 pub fn fed_settings(p: &LaydownParams) -> FeedSettings {
     let settle_time = FED_SETTLE_COILS * p.coil_scale() / p.fibre_speed;
-    let front_margin = FED_FRONT_ELEMENTS * p.element_length();
+    let front_margin = (FED_FRONT_ELEMENTS * p.element_length()).min(FeedSettings::FRONT_MARGIN);
     FeedSettings { settle_time, age_limit: FED_AGE_LENGTH / p.fibre_speed, front_margin, ..FeedSettings::default() }
 }
 

@@ -678,11 +678,12 @@ fn fed_start_at_high_fibre_speed_keeps_freezing() {
     assert!(fibre.frozen_nodes as f64 > 0.75 * laid as f64, "freezing stalled: {} of {laid} laid nodes frozen", fibre.frozen_nodes);
 }
 
-/// The fed start's freezing front lies two elements past the farthest touchdown
-/// ([`super::feed::fed_settings`]): 2 mm at Table 1 (so Table 1's fed replicates are the
-/// same bits as with the fixed 2 mm before) and 0.36 mm on the coil-resolved mesh at
-/// 50 m/s, where the fixed 2 mm kept about 1 ms of laid fibre simulated. There it costs
-/// fewer node-steps and lays the same fibre: S within 2 % replicate by replicate (over 64
+/// The fed start's freezing front lies two elements past the farthest touchdown, at most
+/// 2 mm ([`super::feed::fed_settings`]): 2 mm at Table 1 and on the half mesh of its
+/// `mesh_error_estimate` (so both are the same bits as with the fixed 2 mm before) and
+/// 0.36 mm on the coil-resolved mesh at 50 m/s, where the fixed 2 mm kept about 1 ms of
+/// laid fibre simulated. There it costs fewer node-steps and lays the same fibre: S
+/// within 2 % replicate by replicate (over 64
 /// replicates S +0.04 ± 0.07 %, e −0.04 ± 0.79 % against the front off, where 2 mm read
 /// +0.04 ± 0.06 % and −0.08 ± 0.88 %; `examples/fed_freezing_accuracy.rs`). e is not
 /// compared per replicate: at 50 m/s two runs that differ in round-off already part.
@@ -690,7 +691,10 @@ fn fed_start_at_high_fibre_speed_keeps_freezing() {
 fn fed_start_front_follows_the_mesh() {
     use super::feed::{fed_scene, fed_settings, feed_fibre};
     use super::scene::replicate_rng;
-    assert_eq!(fed_settings(&LaydownParams::default()).front_margin, FeedSettings::FRONT_MARGIN);
+    let table1 = LaydownParams::default();
+    assert_eq!(fed_settings(&table1).front_margin, FeedSettings::FRONT_MARGIN);
+    let half_mesh = LaydownParams { elements: table1.elements / 2, ..table1 };
+    assert_eq!(fed_settings(&half_mesh).front_margin, FeedSettings::FRONT_MARGIN);
     let p = LaydownParams { fibre_speed: 50.0, air_speed: 150.0, belt_speed: 2.0, oscillation_frequency: 100.0, ..LaydownParams::default() };
     let mesh = fed_settings(&p);
     assert!((mesh.front_margin - 2.0 * p.element_length()).abs() < 1e-15 && mesh.front_margin < 4e-4, "front {}", mesh.front_margin);
@@ -702,7 +706,7 @@ fn fed_start_front_follows_the_mesh() {
         assert!(a.error.is_none() && b.error.is_none(), "{:?} {:?}", a.error, b.error);
         let (sa, sb) = (a.shape(&p).1 .0, b.shape(&p).1 .0);
         println!("replicate {r}: node-steps {} with the front at 2 mm, {} at two elements; S {sa:.5e} against {sb:.5e} m", a.node_steps, b.node_steps);
-        assert!((b.node_steps as f64) < 0.9 * a.node_steps as f64, "replicate {r}: two elements should save work");
+        assert!((b.node_steps as f64) < 0.95 * a.node_steps as f64, "replicate {r}: two elements should save work");
         assert!((sb - sa).abs() < 0.02 * sa, "replicate {r}: S moved from {sa} to {sb}");
     }
 }

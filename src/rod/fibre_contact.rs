@@ -249,10 +249,11 @@ pub struct FibreContact {
     /// The time t of the step the contacts in the air ([`air`]) were solved for, with this
     /// rod in at least one of them; the velocity change they give each node in that step
     /// (empty: none); and which candidates they solved (the velocity pass applies no
-    /// impulse to those; empty when none). A step retaken smaller from t keeps them: their impulses then
-    /// let a pair close less than the shorter step would allow, and their equal and
-    /// opposite impulses keep momentum (with the rods' own ½ shares instead, the three
-    /// fibres without friction moved at 2.8 cm/s at the contact step, against 0.08 cm/s).
+    /// impulse to those; empty when none). A step retaken smaller from t keeps them: their
+    /// impulses then let a pair close less than the shorter step would allow, and their
+    /// equal and opposite impulses keep momentum (with the rods' own ½ shares instead, the
+    /// three fibres without friction moved at 2.8 cm/s at the contact step, against
+    /// 0.08 cm/s).
     pub air_at: Option<f64>,
     pub air_change: Vec<[f64; 3]>,
     pub air_pairs: Vec<bool>,

@@ -201,9 +201,8 @@ const FED_AGE_LENGTH: f64 = 1.0;
 /// keeps 2 mm, and so does the coarser mesh of its `mesh_error_estimate`; where the mesh
 /// resolves the coil scale the front follows it (0.91 mm at 20 m/s, 0.36 mm at 50 m/s,
 /// 1.18 mm for d = 16.2 µm at 5 m/s). At 50 m/s the fixed 2 mm kept about 1 ms of laid
-/// fibre active past the touchdown; two elements take 0.84 times its time there, with S and
-/// e against the front off as before (`pipelines/studies/FIBRE_SPEED.md`, "The fed start's
-/// freezing front in elements").
+/// fibre active past the touchdown; two elements save time there at the same S and e
+/// (`pipelines/studies/FIBRE_SPEED.md`, "The fed start's freezing front in elements").
 const FED_FRONT_ELEMENTS: f64 = 2.0;
 
 /// The freezing settings of `start: fed` for the scene `p`: the settle time as the time

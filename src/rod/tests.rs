@@ -711,7 +711,6 @@ fn fed_start_front_follows_the_mesh() {
     }
 }
 
-
 /// The step bounded in coil times converges e where the default step does not. At 10 m/s
 /// (V_air 30 m/s, v_b 0.4 m/s, f 20 Hz, the coil-resolved mesh, the fed start) the default
 /// step is 0.1 ℓ_c/v_f and read the mean e of 16 replicates 7.7 ± 0.9 % below a tenth of

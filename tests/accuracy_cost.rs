@@ -70,11 +70,13 @@ fn accuracy_stage_records_error_and_time_per_candidate() {
             assert!(standard_error[[c, m]].is_finite() && standard_error[[c, m]] >= 0.0);
         }
     }
-    // The others differ but stay finite and are not wildly off for a short fibre.
+    // The others differ but stay finite and are not wildly off for a short fibre: S within
+    // half of the reference's. e of this 0.08 m fibre (its start-up pile) is a few units
+    // with a standard deviation as large as its mean (16 replicates of seed 2024: explicit
+    // 2 ± 2, trapezoidal_axial 4 ± 4), so its error over two replicates is only bounded.
     for c in 1..4 {
-        for m in 0..2 {
-            assert!(error[[c, m]].is_finite() && error[[c, m]].abs() < 1.0, "candidate {c} metric {m}: {}", error[[c, m]]);
-        }
+        assert!(error[[c, 0]].is_finite() && error[[c, 0]].abs() < 0.5, "candidate {c} S: {}", error[[c, 0]]);
+        assert!(error[[c, 1]].is_finite() && error[[c, 1]].abs() < 5.0, "candidate {c} e: {}", error[[c, 1]]);
         assert!(wall[[c]] > 0.0);
     }
     // The markdown table is beside the archive.

@@ -369,13 +369,14 @@ mod tests {
     /// existed: a 0.15 m replicate (seed 2024, replicate 0) reproduces, bit for bit, S, e,
     /// the step count, every node position and the drag work recorded by the commit
     /// before it (b538bfb), as re-recorded when a repeated length projection began to
-    /// keep the step's multipliers (a change of the scheme, not of the field). An
+    /// keep the step's multipliers and again when the explicit forces began to kick over
+    /// ½(Δt_prev + Δt) (changes of the scheme, not of the field). An
     /// impinging field with φ = 1 is that same run; with φ = 0 it is not.
     #[test]
     fn uniform_default_is_unchanged() {
         let p = LaydownParams { length: 0.15, elements: 150, ..LaydownParams::default() };
         let r = simulate(&p, &mut replicate_rng(2024, 0));
-        let before = (0x3f83_b493_3776_342d, 0x4060_6c60_db7e_d8c5, 1048, 0xd74e_15a0_39bb_b8b1, "9.392798050142679e-8".to_string());
+        let before = (0x3f80_4868_2766_1e4b, 0x405a_dccd_bbae_c1a8, 1000, 0x1e1b_5843_b91b_ea1f, "-4.199127199210719e-8".to_string());
         assert_eq!(fingerprint(&r), before);
         for field in [AirField::Impinging, AirField::ImpingingSlot] {
             let q = LaydownParams { air_field: field, belt_permeability: 1.0, ..p.clone() };

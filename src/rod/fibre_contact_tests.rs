@@ -355,17 +355,15 @@ fn a_tilted_contact_is_stable_at_the_contact_step_factor() {
 /// belt, the three should come to rest as the pair above does, at the steps a contact
 /// web takes: [`CONTACT_STEP_FACTOR`] of the stable step and below, sampled here at six
 /// factors. At rest the fastest nodes move at 1-7e-5 m/s (the still scene's floor), so the
-/// test asks for below 2e-4 m/s. Measured (2026-12-06, after the contacts in the air were
-/// solved for both fibres, `air`; runs of 0.6 s, twice the test's, in a scratch build):
-/// at 0.5, 0.45 and 0.3 of the stable step B and C end at rest; at 0.42, 0.4 and 0.35 in a
-/// sustained grid-scale vertical jitter of C's free span and of B under it, 0.4-5 mm/s.
-/// Which of the two a run ends in turns on details as small as the length of the last
-/// step of each 0.1 ms interval (`pipelines/studies/PHYSICAL_WEBS.md`, "The three fibres
-/// at the steps a contact web takes"). At 0.8, a step the contact web no longer takes,
-/// this test measured 1.5 and 2.1 cm/s before it moved to the contact steps.
-/// `cargo test --release --lib three_fibres -- --ignored --nocapture`.
+/// test asks for below 2e-4 m/s. Until 2026-12-06 (session 48) B and C ended at 0.42, 0.4
+/// and 0.35 of the stable step in a sustained grid-scale vertical jitter, 0.2-5 mm/s, and
+/// which of rest or jitter a run ended in turned on the length of the last step of each
+/// 0.1 ms interval. The cause was the kick: the explicit forces kicked the velocities over
+/// the step just taken instead of ½(Δt_prev + Δt) ([`crate::rod::Simulator::kick_time`]), so
+/// every change of step (the last step of each interval cut short, the step control's own
+/// changes) kicked the grid-scale modes (`pipelines/studies/PHYSICAL_WEBS.md`, "Changes of
+/// step kicked the grid-scale modes"). `cargo test --release --lib three_fibres -- --nocapture`.
 #[test]
-#[ignore = "issue 13: at some steps below the contact step two simulated fibres sharing a contact jitter at mm/s instead of resting"]
 fn three_fibres_stacked_across_one_another_come_to_rest() {
     let (mut p, _) = resting_scene(true);
     let d = p.diameter;

@@ -4,8 +4,15 @@
 //! One step t → t + Δt:
 //! 1. explicit forces F (elasticity, gravity) and implicit node matrices
 //!    A_i = m I + Δt G_drag + Δt α_R m I + (Δt c + Δt² k) P_xy from the enabled [`Term`]s;
-//! 2. v* = A_i⁻¹ (m v + Δt F + r_i) per node (semi-implicit / symplectic Euler);
-//!    kinematic top node (v_z = −v_f) and clamped nodes imposed;
+//! 2. v* = A_i⁻¹ (m v + Δt̄ F + r_i) per node (semi-implicit / symplectic Euler);
+//!    kinematic top node (v_z = −v_f) and clamped nodes imposed. v is the velocity of
+//!    a step's interval (x' = x + Δt v'), so the explicit forces F(x) kick it over
+//!    Δt̄ = ½(Δt_prev + Δt), from the middle of the last step to the middle of this one
+//!    (the variable-step leapfrog; Δt̄ = Δt while the step is constant, and in
+//!    `ImplicitBending`). With a kick of Δt every change of step, a step cut short to
+//!    meet a lock time or retaken smaller, kicked each mode by ½(Δt_prev − Δt)ω²x: at
+//!    0.8 of the bending limit (ωΔt ≈ 1.6) up to 0.8 of its amplitude, which pumped
+//!    the grid-scale modes ([`Simulator::kick_time`]);
 //! 3. belt contact and Coulomb friction as velocity impulses (see [`super::contact`]);
 //! 4. x ← x + Δt v;
 //! 5. projection schemes only: segment lengths projected (XPBD form solved exactly).
@@ -47,15 +54,16 @@
 //!   checkpoint and the stretch retaken ([`super::recovery`]).
 //!
 //! Work ([`Work`], the energy diagnostics). Over a step node i obeys
-//! m(v' − v) = Δt F + I(v') + G/Δt + R (v, v' its start- and end-of-step velocities,
+//! m(v' − v) = Δt̄ F + I(v') + G/Δt + R (v, v' its start- and end-of-step velocities,
 //! I(v') = r − (A − m I)v' the implicit terms, G = Σ λ e the projection's, R the reaction
 //! of whatever held it: belt, kinematic drive, clamp). The force terms are booked at v'
 //! (Δt F·v': exact for gravity, x' − x = Δt v'; the elastic ones are ΔU). R is an
 //! impulse (a landing stops a node within a step), booked at ½(v + v'): then
-//! m(v' − v)·½(v + v') = ΔK exactly, and ΔK + ΔU − ΣW = −½(Δt F + I + G/Δt)·(v' − v) +
-//! (ΔU + the elastic impulses' work at v') is the scheme's own error, on the belt or off
-//! it (`explicit`: O(Δt²) a step). R is the residual of the node's equation,
-//! R = A v' − b − G/Δt (b = m v + Δt F + r, step 2), so it includes what the step does
+//! m(v' − v)·½(v + v') = ΔK exactly, and ΔK + ΔU − ΣW = −½(Δt̄ F + I + G/Δt)·(v' − v) +
+//! (ΔU + the elastic impulses' work at v') + (Δt̄ − Δt) F·v' (at a change of step only) is
+//! the scheme's own error, on the belt or off it (`explicit`: O(Δt²) a step). R is the
+//! residual of the node's equation,
+//! R = A v' − b − G/Δt (b = m v + Δt̄ F + r, step 2), so it includes what the step does
 //! not apply: the projection's pull along the directions a held node cannot move, the
 //! push-up of nodes it drove below the belt, the clip at z = 0. R_z → `contact` (≤ 0 on
 //! landing, −½ m v_z² in total), R_xy → `friction`, R_z of the driven top → `feed`
@@ -240,6 +248,8 @@ pub struct Simulator {
     /// (t, Δt, nodes) of the forces in the workspace when [`Self::predict_velocities`]
     /// left them for the step that follows; None: the step evaluates them.
     pub(super) forces_for: Option<(f64, f64, usize)>,
+    /// The last accepted step (s); None before the first. [`Self::kick_time`] reads it.
+    pub previous_step: Option<f64>,
 }
 
 /// State needed to retake a rejected step.
@@ -257,6 +267,7 @@ pub struct Snapshot {
     projection_residual: f64,
     steps: u64,
     fibre_penetration: f64,
+    previous_step: Option<f64>,
 }
 
 /// Adaptive step control of the projection schemes: Δt ≤ the stable step Δt_max,
@@ -340,6 +351,7 @@ impl Simulator {
         s.max_penetration = self.max_penetration;
         s.projection_residual = self.projection_residual;
         s.steps = self.steps;
+        s.previous_step = self.previous_step;
         s.fibre_penetration = self.fibre_contact.as_ref().map_or(0.0, |c| c.max_penetration);
     }
 
@@ -355,6 +367,7 @@ impl Simulator {
         self.max_penetration = s.max_penetration;
         self.projection_residual = s.projection_residual;
         self.steps = s.steps;
+        self.previous_step = s.previous_step;
         if let Some(c) = &mut self.fibre_contact {
             c.max_penetration = s.fibre_penetration;
         }
@@ -768,6 +781,7 @@ impl Simulator {
         }
         self.t = t_new;
         self.steps += 1;
+        self.previous_step = Some(dt);
         Ok(())
     }
 
@@ -776,7 +790,7 @@ impl Simulator {
     /// (normal → `contact`, tangential → `friction`), the drive's on the top node
     /// (`feed`), the clamps' (`clamp`). A free node's R is round-off and is not booked.
     fn book_reactions(&mut self) {
-        let (dt, n) = (self.dt, self.rod.nodes());
+        let (dt, n, kick) = (self.dt, self.rod.nodes(), self.kick_time());
         let projected = self.integrator != Integrator::Explicit;
         let implicit_bending = self.integrator == Integrator::ImplicitBending;
         let idt = 1.0 / dt;
@@ -799,7 +813,7 @@ impl Simulator {
             }
             let mut out = [[0.0; 3]; 2];
             for k in 0..3 {
-                out[0][k] = av[k] - (m * v0[k] + dt * f[k] + r[k]) - g[k];
+                out[0][k] = av[k] - (m * v0[k] + kick * f[k] + r[k]) - g[k];
                 out[1][k] = 0.5 * (v0[k] + v[k]);
             }
             out
@@ -843,12 +857,25 @@ impl Simulator {
         c.apply(&mut self.rod, &mut self.ws, self.dt, self.clamped.len()..skip_top, need_w, lag, supported)
     }
 
+    /// The time Δt̄ over which the explicit forces F kick the velocities in this step
+    /// (module docs, step 2): ½(Δt_prev + Δt), the variable-step leapfrog, so that a
+    /// change of step does not kick the stiff modes; Δt on the first step and in
+    /// `ImplicitBending`, whose bending is backward Euler (F and its Hessian at the
+    /// same Δt).
+    pub fn kick_time(&self) -> f64 {
+        match self.previous_step {
+            Some(previous) if self.integrator != Integrator::ImplicitBending => 0.5 * (previous + self.dt),
+            _ => self.dt,
+        }
+    }
+
     /// Step 2: the node-wise implicit velocity update from the forces and node matrices
-    /// in the workspace, v = A⁻¹ (m v + Δt f + r), with the driven top's v_z imposed and
-    /// the clamped nodes carried; the projection schemes keep A⁻¹ as the nodes' inverse
-    /// masses.
+    /// in the workspace, v = A⁻¹ (m v + Δt̄ f + r) (Δt̄ = [`Self::kick_time`]), with the
+    /// driven top's v_z imposed and the clamped nodes carried; the projection schemes
+    /// keep A⁻¹ as the nodes' inverse masses.
     fn solve_velocities(&mut self) -> Result<(), StepFailure> {
-        let (dt, t, n) = (self.dt, self.t, self.rod.nodes());
+        let (t, n) = (self.t, self.rod.nodes());
+        let kick = self.kick_time();
         let need_w = self.integrator != Integrator::Explicit;
         let driven = if self.driven_top.is_some() { n - 1 } else { usize::MAX };
         for i in 0..n {
@@ -856,7 +883,7 @@ impl Simulator {
             let v = self.rod.v[i];
             let f = self.ws.force[i];
             let r = self.ws.rhs[i];
-            let b = [m * v[0] + dt * f[0] + r[0], m * v[1] + dt * f[1] + r[1], m * v[2] + dt * f[2] + r[2]];
+            let b = [m * v[0] + kick * f[0] + r[0], m * v[1] + kick * f[1] + r[1], m * v[2] + kick * f[2] + r[2]];
             let a = &self.ws.amat[i];
             self.ws.contact[i] = NodeContact::Free;
             if i == driven {

@@ -336,21 +336,21 @@ mod tests {
     }
 
     /// A real failure, not a planted one: the Table 1 fibre at belt friction μ = 10
-    /// (replicate 1 of seed 2024, `implicit_bending_timing 40 trapezoidal_axial
-    /// friction_coefficient=10 duration=0.01 rollbacks=0`) stops with an unstable step at
-    /// 3.3 ms under the default
-    /// scheme without rollbacks; with them it is laid. (The runs are chaotic: a change of
-    /// the physics or the scheme may move this failure elsewhere, and then the first
-    /// assertion says so.)
+    /// (replicate 18 of seed 2024, `implicit_bending_timing 60 trapezoidal_axial
+    /// friction_coefficient=10 duration=0.01 rollbacks=0`; 6 of those 60 fail) stops with
+    /// an unstable step at 6.2 ms under the default scheme without rollbacks; with them
+    /// it is laid. (The runs are chaotic: a change of the physics or the scheme may move
+    /// this failure elsewhere, and then the first assertion says so. It moved from
+    /// replicate 1 when the kick became ½(Δt_prev + Δt).)
     #[test]
     fn a_real_high_friction_failure_is_rolled_back() {
         let run = |rollbacks| {
             let p = LaydownParams { friction_coefficient: 10.0, duration: 0.01, rollbacks, ..LaydownParams::default() };
-            crate::rod::simulate(&p, &mut replicate_rng(2024, 1))
+            crate::rod::simulate(&p, &mut replicate_rng(2024, 18))
         };
         let lost = run(0);
         let reason = lost.error.as_deref().unwrap_or("");
-        assert!(reason.contains("unstable step at t = 3.2687"), "the case no longer fails as recorded: {:?}", lost.error);
+        assert!(reason.contains("unstable step at t = 6.2306"), "the case no longer fails as recorded: {:?}", lost.error);
         let saved = run(ROLLBACKS);
         println!("{}", saved.summary());
         assert!(saved.error.is_none() && saved.rollbacks >= 1, "{:?} after {} rollbacks", saved.error, saved.rollbacks);

@@ -230,6 +230,7 @@ pub(crate) fn build(p: &LaydownParams, start: CustomStart) -> Simulator {
         fibre_contact: None,
         twist,
         forces_for: None,
+        previous_step: None,
         compliance: match p.integrator {
             Integrator::ImplicitAxial | Integrator::TrapezoidalAxial | Integrator::ImplicitBending => 1.0 / p.axial_stiffness(),
             _ => 0.0,

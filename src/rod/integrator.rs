@@ -4,15 +4,16 @@
 //! One step t → t + Δt:
 //! 1. explicit forces F (elasticity, gravity) and implicit node matrices
 //!    A_i = m I + Δt G_drag + Δt α_R m I + (Δt c + Δt² k) P_xy from the enabled [`Term`]s;
-//! 2. v* = A_i⁻¹ (m v + Δt̄ F + r_i) per node (semi-implicit / symplectic Euler);
-//!    kinematic top node (v_z = −v_f) and clamped nodes imposed. v is the velocity of
-//!    a step's interval (x' = x + Δt v'), so the explicit forces F(x) kick it over
-//!    Δt̄ = ½(Δt_prev + Δt), from the middle of the last step to the middle of this one
-//!    (the variable-step leapfrog; Δt̄ = Δt while the step is constant, and in
-//!    `ImplicitBending`). With a kick of Δt every change of step, a step cut short to
-//!    meet a lock time or retaken smaller, kicked each mode by ½(Δt_prev − Δt)ω²x: at
-//!    0.8 of the bending limit (ωΔt ≈ 1.6) up to 0.8 of its amplitude, which pumped
-//!    the grid-scale modes ([`Simulator::kick_time`]);
+//! 2. v* = A_i⁻¹ (m v + Δt̄ F + r_i) per node (semi-implicit: symplectic Euler while the
+//!    step is constant, the variable-step leapfrog where it changes); kinematic top node
+//!    (v_z = −v_f) and clamped nodes imposed. v is the velocity of a step's interval
+//!    (x' = x + Δt v'), so the explicit forces F(x) kick it over Δt̄ = ½(Δt_prev + Δt),
+//!    from the middle of the last step to the middle of this one (Δt̄ = Δt while the
+//!    step is constant, on the first step and in `ImplicitBending`). With a kick of Δt
+//!    every change of step, a step cut short to meet a lock time or retaken smaller,
+//!    kicked each mode by ½(Δt_prev − Δt)ω²x: at 0.8 of the bending limit (ωΔt ≈ 1.6)
+//!    up to 0.8 of its velocity amplitude, which pumped the grid-scale modes
+//!    ([`Simulator::kick_time`]);
 //! 3. belt contact and Coulomb friction as velocity impulses (see [`super::contact`]);
 //! 4. x ← x + Δt v;
 //! 5. projection schemes only: segment lengths projected (XPBD form solved exactly).
@@ -248,7 +249,8 @@ pub struct Simulator {
     /// (t, Δt, nodes) of the forces in the workspace when [`Self::predict_velocities`]
     /// left them for the step that follows; None: the step evaluates them.
     pub(super) forces_for: Option<(f64, f64, usize)>,
-    /// The last accepted step (s); None before the first. [`Self::kick_time`] reads it.
+    /// The last accepted step (s); None before the first, and after a step failed, until
+    /// one is accepted. [`Self::kick_time`] reads it.
     pub previous_step: Option<f64>,
 }
 
@@ -324,6 +326,8 @@ impl StepControl {
                 }
                 Err(f) => {
                     sim.restore(&self.snapshot);
+                    // the retake restarts the leapfrog: its kick spans its own step
+                    sim.previous_step = None;
                     self.rejected += 1;
                     if this <= self.dt_min {
                         return Err(f);
@@ -527,7 +531,6 @@ impl Simulator {
         EnergySample { time: self.t, kinetic: self.rod.kinetic_energy(), elastic: axial + bending + twist, axial, bending, twist, work: self.work }
     }
 
-    /// Advance one step. On failure the state is left as it was after the failing step.
     /// Step 1 alone: segment geometry, explicit forces and implicit node matrices of
     /// every enabled term at the current state (the hot kernel, exposed for benches).
     pub fn evaluate_forces(&mut self) {
@@ -582,6 +585,7 @@ impl Simulator {
         solved
     }
 
+    /// Advance one step. On failure the state is left as it was after the failing step.
     pub fn step(&mut self) -> Result<(), StepFailure> {
         let dt = self.dt;
         let t = self.t;
@@ -859,8 +863,10 @@ impl Simulator {
 
     /// The time Δt̄ over which the explicit forces F kick the velocities in this step
     /// (module docs, step 2): ½(Δt_prev + Δt), the variable-step leapfrog, so that a
-    /// change of step does not kick the stiff modes; Δt on the first step and in
-    /// `ImplicitBending`, whose bending is backward Euler (F and its Hessian at the
+    /// change of step does not kick the stiff modes; Δt on the first step, on a step
+    /// retaken after a failure or a rollback (the smaller retake then also kicks less;
+    /// `pipelines/studies/PHYSICAL_WEBS.md`, "Changes of step kicked the grid-scale
+    /// modes") and in `ImplicitBending`, whose bending is backward Euler (F and its Hessian at the
     /// same Δt).
     pub fn kick_time(&self) -> f64 {
         match self.previous_step {

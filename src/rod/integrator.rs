@@ -9,11 +9,11 @@
 //!    (v_z = −v_f) and clamped nodes imposed. v is the velocity of a step's interval
 //!    (x' = x + Δt v'), so the explicit forces F(x) kick it over Δt̄ = ½(Δt_prev + Δt),
 //!    from the middle of the last step to the middle of this one (Δt̄ = Δt while the
-//!    step is constant, on the first step and in `ImplicitBending`). With a kick of Δt
-//!    every change of step, a step cut short to meet a lock time or retaken smaller,
-//!    kicked each mode by ½(Δt_prev − Δt)ω²x: at 0.8 of the bending limit (ωΔt ≈ 1.6)
-//!    up to 0.8 of its velocity amplitude, which pumped the grid-scale modes
-//!    ([`Simulator::kick_time`]);
+//!    step is constant, on the first step, on a retaken step and in `ImplicitBending`).
+//!    With a kick of Δt, every change of step (a step cut short to meet a lock time, the
+//!    step control's ramp and buckling limit) kicked each mode by ½(Δt_prev − Δt)ω²x: at
+//!    0.8 of the bending limit (ωΔt ≈ 1.6) up to 0.8 of its velocity amplitude, which
+//!    pumped the grid-scale modes ([`Simulator::kick_time`]);
 //! 3. belt contact and Coulomb friction as velocity impulses (see [`super::contact`]);
 //! 4. x ← x + Δt v;
 //! 5. projection schemes only: segment lengths projected (XPBD form solved exactly).
@@ -866,8 +866,8 @@ impl Simulator {
     /// change of step does not kick the stiff modes; Δt on the first step, on a step
     /// retaken after a failure or a rollback (the smaller retake then also kicks less;
     /// `pipelines/studies/PHYSICAL_WEBS.md`, "Changes of step kicked the grid-scale
-    /// modes") and in `ImplicitBending`, whose bending is backward Euler (F and its Hessian at the
-    /// same Δt).
+    /// modes") and in `ImplicitBending`, whose bending is backward Euler (F and its
+    /// Hessian at the same Δt).
     pub fn kick_time(&self) -> f64 {
         match self.previous_step {
             Some(previous) if self.integrator != Integrator::ImplicitBending => 0.5 * (previous + self.dt),

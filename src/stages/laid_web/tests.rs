@@ -555,11 +555,10 @@ fn a_contact_web_goes_back_together_when_a_fibre_fails() {
 /// are not taken while the step has collapsed (`recovery::COLLAPSED_STEP`), so a rollback
 /// goes back to before the collapse, and with rollbacks the fibre is laid (whether a
 /// checkpoint fell due inside this case's collapse was not checked, as it was for the
-/// case recorded before). (The runs are
-/// chaotic: a change of the physics or the scheme moves such failures elsewhere, as it
-/// moved the cases recorded before: fibre 5 of seed 2032 when a repeated length
-/// projection began to keep its multipliers, fibre 34 of seed 2037 when the kick became
-/// ½(Δt_prev + Δt); then the first assertion says so.)
+/// case recorded before). (The runs are chaotic: a change of the physics or the scheme
+/// moves such failures elsewhere, as it moved the cases recorded before: fibre 5 of seed
+/// 2032 when a repeated length projection began to keep its multipliers, fibre 34 of seed
+/// 2037 when the kick became ½(Δt_prev + Δt); then the first assertion says so.)
 #[test]
 fn a_fibre_whose_step_collapsed_before_it_failed_is_rolled_back_to_before_the_collapse() {
     use crate::params::{ParamSet, ParamValue};

@@ -269,7 +269,6 @@ pub struct Snapshot {
     projection_residual: f64,
     steps: u64,
     fibre_penetration: f64,
-    previous_step: Option<f64>,
 }
 
 /// Adaptive step control of the projection schemes: Δt ≤ the stable step Δt_max,
@@ -355,7 +354,6 @@ impl Simulator {
         s.max_penetration = self.max_penetration;
         s.projection_residual = self.projection_residual;
         s.steps = self.steps;
-        s.previous_step = self.previous_step;
         s.fibre_penetration = self.fibre_contact.as_ref().map_or(0.0, |c| c.max_penetration);
     }
 
@@ -371,7 +369,6 @@ impl Simulator {
         self.max_penetration = s.max_penetration;
         self.projection_residual = s.projection_residual;
         self.steps = s.steps;
-        self.previous_step = s.previous_step;
         if let Some(c) = &mut self.fibre_contact {
             c.max_penetration = s.fibre_penetration;
         }

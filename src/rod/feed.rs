@@ -427,6 +427,14 @@ impl Feeder {
     }
     /// Advance to `until` (s); does nothing once the fibre has failed.
     pub fn advance_to(&mut self, until: f64) {
+        self.advance_observed(until, |_| {});
+    }
+
+    /// [`Self::advance_to`], calling `observe` with the simulator after every accepted step
+    /// (after its settling bookkeeping; a rollback then shows as a step back in time). A
+    /// run observed so is bit-identical to one that is not, where sampling it by advancing
+    /// in pieces cuts a step short at the end of each piece.
+    pub fn advance_observed(&mut self, until: f64, mut observe: impl FnMut(&Simulator)) {
         if self.error.is_some() {
             return;
         }
@@ -480,6 +488,7 @@ impl Feeder {
             // the step's bookkeeping is done: a checkpoint holds all of it
             let (frozen, book) = (&self.frozen, &self.book);
             self.recovery.after_step(&mut self.sim, &mut self.control, || (frozen.len(), book.clone()));
+            observe(&self.sim);
         }
         self.wall_seconds += clock.elapsed().as_secs_f64();
     }

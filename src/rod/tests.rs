@@ -642,6 +642,38 @@ fn fed_pair(p: &LaydownParams, scene: &LaydownParams, t_end: f64, settings: [(&s
     (a, b)
 }
 
+/// An observed fed run ([`super::feed::Feeder::advance_observed`]) is the same run to the
+/// bit, and the observer sees every accepted step once, in time order (no rollback here),
+/// where advancing in pieces to sample it cuts a step short at the end of each piece and
+/// so is a different run (`examples/fed_arches.rs`).
+#[test]
+fn an_observed_fed_run_is_the_same_run_and_sees_every_step() {
+    use super::feed::{fed_settings, Feeder};
+    use super::scene::replicate_rng;
+    let p = LaydownParams::default();
+    let t_end = 0.02;
+    let scene = LaydownParams { length: p.fibre_speed * t_end, elements: 100, ..p.clone() };
+    let settings = fed_settings(&p);
+    let feeder = || Feeder::new(&scene, 0.0, &settings, &mut replicate_rng(2024, 0));
+    let mut plain = feeder();
+    plain.advance_to(t_end);
+    let mut observed = feeder();
+    let mut seen: Vec<(u64, f64)> = Vec::new();
+    observed.advance_observed(t_end, |sim| seen.push((sim.steps, sim.t)));
+    let mut pieces = feeder();
+    for k in 1..=20 {
+        pieces.advance_to(t_end * k as f64 / 20.0);
+    }
+    let (a, b, c) = (plain.finish(), observed.finish(), pieces.finish());
+    assert!(a.error.is_none(), "{:?}", a.error);
+    assert_eq!(a.positions, b.positions, "observing changed the run");
+    assert_eq!(a.steps, b.steps);
+    assert_eq!(seen.len() as u64, b.steps, "one call per accepted step");
+    assert!(seen.windows(2).all(|w| w[1].0 == w[0].0 + 1 && w[1].1 > w[0].1), "steps in order");
+    assert_eq!(seen.last().map(|s| s.1), Some(b.end_time));
+    assert_ne!(a.positions, c.positions, "pieces cut steps short: a different run");
+}
+
 /// The fed start's settle time in coil scales ([`super::feed::fed_settings`]): at 20 m/s
 /// the old settle time (the time 0.1 m takes to feed, 5 ms) left laid nodes upstream of
 /// the front simulated for the whole run, and the fed replicate cost nearly as much as

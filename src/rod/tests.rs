@@ -665,7 +665,8 @@ fn an_observed_fed_run_is_the_same_run_and_sees_every_step() {
         pieces.advance_to(t_end * k as f64 / 20.0);
     }
     let (a, b, c) = (plain.finish(), observed.finish(), pieces.finish());
-    assert!(a.error.is_none(), "{:?}", a.error);
+    assert!(a.error.is_none() && c.error.is_none(), "{:?} {:?}", a.error, c.error);
+    assert_eq!(b.rollbacks, 0, "the step checks below assume a run without rollbacks");
     assert_eq!(a.positions, b.positions, "observing changed the run");
     assert_eq!(a.steps, b.steps);
     assert_eq!(seen.len() as u64, b.steps, "one call per accepted step");

@@ -26,6 +26,11 @@
 //! switches the air drag off; `age_limit=` (s) freezes laid nodes that old whatever they do;
 //! `front_margin=` (m) freezes laid nodes that far downstream of where any fibre has landed
 //! (with `contact=0`, of where each fibre itself has landed, and only nodes on the belt).
+//! `feed_stop=` (s) stops the feed then: each fibre is cut at the feed point and falls,
+//! and nothing drives the web any more; `speeds=k` prints, every k contact intervals, the
+//! speed of the laid nodes still simulated relative to the belt (median, 90th percentile,
+//! largest) and the highest of them (with `front_margin=1e9 age_limit=10` nothing freezes:
+//! whether a web left alone comes to rest).
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::{closest_points, laid_self_gaps};
@@ -109,6 +114,33 @@ fn laid_but_active(feeders: &[Feeder], belt_speed: f64, d: f64) -> String {
         .map(|(k, (speed, z))| format!("{}-{} mm: {} nodes, |v - v_b| {:.3} m/s, z {:.1} d", 2 * k, 2 * k + 2, speed.len(), median(speed), median(z)))
         .collect();
     format!("laid nodes still simulated, by distance downstream of the feed point (medians): {}", rows.join("; "))
+}
+
+/// The laid nodes still simulated at time `t`: how many, their speed relative to the belt
+/// (median, 90th percentile, largest), the highest of them, and how many nodes are neither
+/// on the belt nor resting on laid fibre (hanging, or spans over crossings).
+fn laid_speeds(feeders: &[Feeder], d: f64, t: f64) -> String {
+    let mut speeds: Vec<f64> = feeders.iter().flat_map(Feeder::laid_speeds).collect();
+    let (mut others, mut top) = (0, 0.0f64);
+    for sim in feeders.iter().map(Feeder::simulator) {
+        for i in 0..sim.rod.nodes() {
+            if sim.laid_time(i).is_finite() {
+                top = top.max(sim.rod.x[i][2]);
+            } else {
+                others += 1;
+            }
+        }
+    }
+    speeds.sort_by(f64::total_cmp);
+    let q = |p: f64| speeds.get(((speeds.len() as f64 - 1.0) * p) as usize).copied().unwrap_or(f64::NAN);
+    format!(
+        "t {t:.4} s: {} laid nodes simulated, |v - v_b| median {:.4} / 90 % {:.4} / largest {:.3} m/s, highest {:.2} d; {others} nodes neither on the belt nor resting on laid fibre",
+        speeds.len(),
+        q(0.5),
+        q(0.9),
+        q(1.0),
+        top / d
+    )
 }
 
 /// Every `every`-th laid node still simulated of the first two fibres: position, height,
@@ -227,6 +259,8 @@ fn main() {
     let mut step_factor = laydown::rod::fibre_contact::CONTACT_STEP_FACTOR;
     let mut age_limit: Option<f64> = None;
     let mut front_margin: Option<f64> = None;
+    let mut feed_stop: Option<f64> = None;
+    let mut speeds_every = 0usize;
     for kv in args.iter().filter(|a| a.contains('=')) {
         let (k, v) = kv.split_once('=').unwrap();
         match k {
@@ -241,6 +275,8 @@ fn main() {
             "drag" => scene.effects.drag = v != "0",
             "age_limit" => age_limit = Some(v.parse().unwrap()),
             "front_margin" => front_margin = Some(v.parse().unwrap()),
+            "feed_stop" => feed_stop = Some(v.parse().unwrap()),
+            "speeds" => speeds_every = v.parse().unwrap(),
             "integrator" => scene.integrator = serde_json::from_str(&format!("\"{v}\"")).expect("integrator"),
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
         }
@@ -254,6 +290,9 @@ fn main() {
     }
     if let Some(a) = age_limit {
         p.feed.age_limit = a;
+    }
+    if let Some(t) = feed_stop {
+        p.feed.feed_stop = t;
     }
     p.validate().unwrap_or_else(|e| panic!("{e}"));
     let t_end = p.feed_time();
@@ -278,6 +317,9 @@ fn main() {
         let vb = p.scene.belt_speed;
         for k in 0..n {
             let (_, t1) = web.run_interval(k);
+            if speeds_every > 0 && (k + 1) % speeds_every == 0 {
+                println!("{}", laid_speeds(&web.feeders, d, t1));
+            }
             if disp_window > 0.0 && snapshot.is_none() && t1 >= t_end - disp_window {
                 snapshot = Some(laid_in_belt_frame(&web.feeders, vb, t1));
             }

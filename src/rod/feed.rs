@@ -7,7 +7,8 @@
 //! eq 7, so a short buffer there carries what the paper's long vertical fibre carries.
 //! The top node is driven down at v_f; whenever it has descended one element a new
 //! node is added above it at z_f (same x, y and velocity), so material enters at the
-//! feed point at v_f for as long as the run lasts.
+//! feed point at v_f for as long as the run lasts, or until `feed_stop`, when the fibre is
+//! cut at the feed point and the rest of it falls.
 //!
 //! **Freezing.** A landed node that has settled (no more than `lift_tolerance` above
 //! the belt, or resting on laid fibre with fibre contact, and crept less than `creep_tolerance`·Δs relative to it for `settle_time`;
@@ -81,6 +82,13 @@ pub struct FeedSettings {
     /// frozen even if it still creeps (no fibre lands on it any more); without fibre
     /// contact only if it lies on the belt (within `lift_tolerance`); ∞: off.
     pub front_margin: f64,
+    /// Time at which the feed stops (s): from the first step at or after it, no node is
+    /// added and the top node is no longer driven, as if the fibre were cut at the feed
+    /// point; the rest of it falls onto the belt. ∞ (default): fed to the end of the run.
+    /// With nothing left to drive it, a laid fibre (or web) must come to rest: the test of
+    /// whether its motion is driven by the laydown or made by the integration
+    /// (PHYSICAL_WEBS.md, "A contact web moves on after its feed stops").
+    pub feed_stop: f64,
 }
 
 impl FeedSettings {
@@ -99,7 +107,7 @@ impl FeedSettings {
 
 impl Default for FeedSettings {
     fn default() -> Self {
-        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0, front_margin: f64::INFINITY }
+        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0, front_margin: f64::INFINITY, feed_stop: f64::INFINITY }
     }
 }
 
@@ -421,6 +429,19 @@ impl Feeder {
     pub fn simulator_mut(&mut self) -> &mut Simulator {
         &mut self.sim
     }
+    /// Speed relative to the belt (m/s) of each laid node still simulated
+    /// ([`Simulator::laid_time`]), in fibre order: 0 for laid fibre at rest on the belt.
+    pub fn laid_speeds(&self) -> Vec<f64> {
+        let sim = &self.sim;
+        let vb = self.belt_speed;
+        (0..sim.rod.nodes())
+            .filter(|&i| sim.laid_time(i).is_finite())
+            .map(|i| {
+                let v = sim.rod.v[i];
+                ((v[0] - vb).powi(2) + v[1] * v[1] + v[2] * v[2]).sqrt()
+            })
+            .collect()
+    }
     /// Frozen nodes so far: position at freezing (lab frame), freezing time, landing time.
     pub fn frozen(&self) -> &[([f64; 3], f64, f64)] {
         &self.frozen
@@ -493,8 +514,14 @@ impl Feeder {
         self.wall_seconds += clock.elapsed().as_secs_f64();
     }
 
-    /// Feed: a new top node whenever the driven one has descended an element.
+    /// Feed: a new top node whenever the driven one has descended an element; from
+    /// `feed_stop` on, the top is released instead (at every step, so that a rollback to
+    /// before the stop feeds again until it).
     fn feed_top(&mut self) {
+        if self.sim.t >= self.settings.feed_stop {
+            self.sim.driven_top = None;
+            return;
+        }
         let (sim, ds) = (&mut self.sim, self.element_length);
         let top = sim.rod.nodes() - 1;
         if sim.rod.x[top][2] <= self.feed_height - ds {

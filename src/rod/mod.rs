@@ -138,7 +138,7 @@ pub mod twist;
 #[cfg(test)]
 mod energy_tests;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, BeltMotion, BeltRemoval, LaydownResult};

@@ -675,6 +675,52 @@ fn an_observed_fed_run_is_the_same_run_and_sees_every_step() {
     assert_ne!(a.positions, c.positions, "pieces cut steps short: a different run");
 }
 
+/// The median and 90th percentile of `speeds`.
+pub(crate) fn median_and_p90(mut speeds: Vec<f64>) -> (f64, f64) {
+    speeds.sort_by(f64::total_cmp);
+    let q = |p: f64| speeds[((speeds.len() - 1) as f64 * p) as usize];
+    (q(0.5), q(0.9))
+}
+
+/// `feed_stop` cuts the fibre at the feed point: no node is added from then on, the top
+/// is released, the rest of the fibre falls onto the belt, and with nothing left to drive
+/// it the laid fibre comes to rest, but for its two free ends, which still slide (here its
+/// first 17 and last 15 or so nodes, at up to 8 cm/s); while fed, the fibre just laid
+/// moves at tenths of a m/s. Before the stop the run is the fed run, to the bit.
+#[test]
+fn a_fibre_whose_feed_stops_falls_and_comes_to_rest() {
+    use super::feed::Feeder;
+    use super::scene::replicate_rng;
+    let p = LaydownParams::default();
+    let (t_stop, t_end) = (0.04, 0.1);
+    let scene = LaydownParams { length: p.fibre_speed * t_end, elements: 500, ..p.clone() };
+    let fed = FeedSettings { freeze: false, ..FeedSettings::default() };
+    let stopping = FeedSettings { feed_stop: t_stop, ..fed.clone() };
+    let feeder = |s: &FeedSettings| Feeder::new(&scene, 0.0, s, &mut replicate_rng(2024, 0));
+    let (mut a, mut b) = (feeder(&fed), feeder(&stopping));
+    a.advance_to(t_stop);
+    b.advance_to(t_stop);
+    assert_eq!(a.simulator().rod.x, b.simulator().rod.x, "the run before the stop changed");
+    let nodes = b.simulator().rod.nodes();
+    // the fibre laid by the stop, but for its start-up end (the cut end lands after it)
+    let laid = a.laid_speeds().len();
+    let fastest_inside = |f: &Feeder| f.laid_speeds()[20..laid].iter().copied().fold(0.0, f64::max);
+    let fed_fastest = fastest_inside(&a);
+    a.advance_to(t_end);
+    b.advance_to(t_end);
+    let sim = b.simulator();
+    assert!(sim.driven_top.is_none(), "the top is still driven");
+    assert_eq!(sim.rod.nodes(), nodes, "nodes were fed after the stop");
+    assert!(a.simulator().rod.nodes() > nodes + 100, "the run without a stop fed on");
+    assert!((0..nodes).all(|i| sim.laid_time(i).is_finite()), "the cut fibre did not all land");
+    let (median, _) = median_and_p90(b.laid_speeds());
+    let fastest = fastest_inside(&b);
+    println!("fibre laid by the stop, but its start-up end: fastest node {fed_fastest:.3} m/s relative to the belt while fed, {fastest:.2e} m/s after the stop (median of every laid node {median:.1e})");
+    assert!(fed_fastest > 0.1, "the laid fibre was at rest while fed ({fed_fastest} m/s): the test shows nothing");
+    assert!(fastest < 5e-3 && median < 1e-4, "the laid fibre still moves: fastest {fastest} m/s, median {median} m/s");
+    assert!(b.finish().error.is_none());
+}
+
 /// The fed start's settle time in coil scales ([`super::feed::fed_settings`]): at 20 m/s
 /// the old settle time (the time 0.1 m takes to feed, 5 ms) left laid nodes upstream of
 /// the front simulated for the whole run, and the fed replicate cost nearly as much as

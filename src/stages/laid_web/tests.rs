@@ -408,8 +408,8 @@ fn contact_web_speeds_after_the_feed_stops(fibres: usize) -> ([f64; 3], [f64; 3]
 }
 
 /// A fibre alone in a contact world comes to rest once its feed stops: the fibre physics
-/// with contact on makes no motion of its own (the two free ends of the fibre still slide,
-/// a few per cent of its laid nodes; with freezing off here, this one's ends rest too).
+/// with contact on makes no motion of its own (the fibre's two free ends may still slide:
+/// a few per cent of its laid nodes, which the 90th percentile leaves out).
 #[test]
 fn one_fibre_in_a_contact_world_comes_to_rest_after_its_feed_stops() {
     let ([_, _, fed_largest], [median, p90, _]) = contact_web_speeds_after_the_feed_stops(1);

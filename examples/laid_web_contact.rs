@@ -27,10 +27,12 @@
 //! `front_margin=` (m) freezes laid nodes that far downstream of where any fibre has landed
 //! (with `contact=0`, of where each fibre itself has landed, and only nodes on the belt).
 //! `feed_stop=` (s) stops the feed then: each fibre is cut at the feed point and falls,
-//! and nothing drives the web any more; `speeds=k` prints, every k contact intervals, the
+//! and nothing drives the web any more; `freeze=0` freezes no laid node (settled, old or
+//! behind the front); `speeds=k` (with contact only) prints, every k contact intervals, the
 //! speed of the laid nodes still simulated relative to the belt (median, 90th percentile,
-//! largest) and the highest of them (with `front_margin=1e9 age_limit=10` nothing freezes:
-//! whether a web left alone comes to rest).
+//! largest), the highest of them, and how many nodes are neither on the belt nor resting
+//! on laid fibre (hanging, or spans over crossings): with `feed_stop=` and `freeze=0`,
+//! whether a web left alone comes to rest.
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::{closest_points, laid_self_gaps};
@@ -119,7 +121,7 @@ fn laid_but_active(feeders: &[Feeder], belt_speed: f64, d: f64) -> String {
 /// The laid nodes still simulated at time `t`: how many, their speed relative to the belt
 /// (median, 90th percentile, largest), the highest of them, and how many nodes are neither
 /// on the belt nor resting on laid fibre (hanging, or spans over crossings).
-fn laid_speeds(feeders: &[Feeder], d: f64, t: f64) -> String {
+fn speeds_line(feeders: &[Feeder], d: f64, t: f64) -> String {
     let mut speeds: Vec<f64> = feeders.iter().flat_map(Feeder::laid_speeds).collect();
     let (mut others, mut top) = (0, 0.0f64);
     for sim in feeders.iter().map(Feeder::simulator) {
@@ -260,6 +262,7 @@ fn main() {
     let mut age_limit: Option<f64> = None;
     let mut front_margin: Option<f64> = None;
     let mut feed_stop: Option<f64> = None;
+    let mut freeze = true;
     let mut speeds_every = 0usize;
     for kv in args.iter().filter(|a| a.contains('=')) {
         let (k, v) = kv.split_once('=').unwrap();
@@ -276,6 +279,7 @@ fn main() {
             "age_limit" => age_limit = Some(v.parse().unwrap()),
             "front_margin" => front_margin = Some(v.parse().unwrap()),
             "feed_stop" => feed_stop = Some(v.parse().unwrap()),
+            "freeze" => freeze = v != "0",
             "speeds" => speeds_every = v.parse().unwrap(),
             "integrator" => scene.integrator = serde_json::from_str(&format!("\"{v}\"")).expect("integrator"),
             _ => scene.set(k, v.parse().expect("a number")).unwrap_or_else(|e| panic!("{e}")),
@@ -294,6 +298,7 @@ fn main() {
     if let Some(t) = feed_stop {
         p.feed.feed_stop = t;
     }
+    p.feed.freeze = freeze;
     p.validate().unwrap_or_else(|e| panic!("{e}"));
     let t_end = p.feed_time();
     let d = p.scene.diameter;
@@ -318,7 +323,7 @@ fn main() {
         for k in 0..n {
             let (_, t1) = web.run_interval(k);
             if speeds_every > 0 && (k + 1) % speeds_every == 0 {
-                println!("{}", laid_speeds(&web.feeders, d, t1));
+                println!("{}", speeds_line(&web.feeders, d, t1));
             }
             if disp_window > 0.0 && snapshot.is_none() && t1 >= t_end - disp_window {
                 snapshot = Some(laid_in_belt_frame(&web.feeders, vb, t1));

@@ -84,10 +84,12 @@ pub struct FeedSettings {
     pub front_margin: f64,
     /// Time at which the feed stops (s): from the first step at or after it, no node is
     /// added and the top node is no longer driven, as if the fibre were cut at the feed
-    /// point; the rest of it falls onto the belt. ∞ (default): fed to the end of the run.
-    /// With nothing left to drive it, a laid fibre (or web) must come to rest: the test of
-    /// whether its motion is driven by the laydown or made by the integration
-    /// (PHYSICAL_WEBS.md, "A contact web moves on after its feed stops").
+    /// point; the rest of it falls onto the belt (eq 7's spring still acts on it above z0,
+    /// and the step limits stay those of the fed fibre). ∞ (default) or NaN: fed to the end
+    /// of the run; 0 or less: never fed. With nothing left to drive it, a laid fibre (or
+    /// web) must come to rest: the test of whether its motion is driven by the laydown or
+    /// made by the integration (PHYSICAL_WEBS.md, "A contact web moves on after its feed
+    /// stops"). Not a stage parameter: a laid web's length and density assume the full feed.
     pub feed_stop: f64,
 }
 

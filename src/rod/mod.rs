@@ -138,7 +138,9 @@ pub mod twist;
 #[cfg(test)]
 mod energy_tests;
 #[cfg(test)]
-pub(crate) mod tests;
+mod tests;
+#[cfg(test)]
+pub(crate) mod test_support;
 
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, BeltMotion, BeltRemoval, LaydownResult};

@@ -286,11 +286,10 @@ fn self_contact_keeps_fibres_off_their_own_loops_on_any_thread_count() {
 
 /// Least centreline distance between laid segments (both ends landed) of different
 /// fibres (nearest CD image), and the pairs closer than d/2 (crossed).
-fn laid_pairs(web: &LaidWeb, p: &LaidWebParams) -> (f64, usize) {
+fn laid_pairs(fibres: &[LaidFibre], p: &LaidWebParams) -> (f64, usize) {
     use crate::rod::fibre_contact::closest_points;
     let (d, period) = (p.scene.diameter, p.cd_period());
-    let segments: Vec<Vec<([f64; 3], [f64; 3])>> = web
-        .fibres
+    let segments: Vec<Vec<([f64; 3], [f64; 3])>> = fibres
         .iter()
         .map(|f| {
             let at = |i: usize| [f.fed.positions[i][0], f.fed.positions[i][1] + f.feed_cd, f.fed.positions[i][2]];
@@ -334,8 +333,8 @@ fn contact_web_keeps_laid_fibres_apart_on_any_thread_count() {
         assert!((0.5..2.0).contains(&ratio), "estimated node-steps {:.3e}, done {done}", p.estimated_node_steps());
     }
     let impulses: u64 = one.fibres.iter().map(|f| f.contact_impulses).sum();
-    let (least, crossed) = laid_pairs(&one, &p);
-    let (least_without, crossed_without) = laid_pairs(&without, &p);
+    let (least, crossed) = laid_pairs(&one.fibres, &p);
+    let (least_without, crossed_without) = laid_pairs(&without.fibres, &p);
     println!("contact: {impulses} impulses, least laid distance {least:.3} d, {crossed} crossed; without: {least_without:.3} d, {crossed_without} crossed");
     assert!(impulses > 0, "no contact happened");
     assert!(least >= 0.95 && crossed == 0, "least {least:.3} d, {crossed} crossed pairs");
@@ -362,8 +361,8 @@ fn dense_contact_web_keeps_every_fibre_valid() {
     let without = lay_web(&p, 7, 0, &indicatif::ProgressBar::hidden());
     p.fibre_contact = Some(FibreContactSettings::default());
     let web = lay_web(&p, 7, 0, &indicatif::ProgressBar::hidden());
-    let (least, crossed) = laid_pairs(&web, &p);
-    let (_, crossed_without) = laid_pairs(&without, &p);
+    let (least, crossed) = laid_pairs(&web.fibres, &p);
+    let (_, crossed_without) = laid_pairs(&without.fibres, &p);
     let lift = web.fibres.iter().map(|f| f.fed.final_lift_of_landed).fold(0.0, f64::max);
     println!("dense web with contact: {crossed} crossed laid pairs (without contact {crossed_without}), least {least:.3} d, top lift {:.3} mm", 1e3 * lift);
     for (j, f) in web.fibres.iter().enumerate() {
@@ -377,26 +376,22 @@ fn dense_contact_web_keeps_every_fibre_valid() {
     assert!(20 * crossed < crossed_without, "contact left {crossed} of {crossed_without} crossed pairs");
 }
 
-/// Laid-node speeds relative to the belt (median, 90th percentile, largest; m/s) of a contact web of
-/// `fibres` fibres 8 mm apart (Table 1 scene, nothing frozen) 60 ms after its feed stopped
-/// at 60 ms ([`crate::rod::feed::FeedSettings::feed_stop`]), and the same while fed at 60 ms.
-fn contact_web_speeds_after_the_feed_stops(fibres: usize) -> ([f64; 3], [f64; 3]) {
-    use crate::rod::tests::median_and_p90;
+/// A contact web of `fibres` fibres 8 mm apart (Table 1 scene, nothing frozen) whose feed
+/// stopped at 60 ms ([`crate::rod::feed::FeedSettings::feed_stop`]), left alone to 120 ms:
+/// the laid-node speeds relative to the belt (median, 90th percentile; m/s) while fed at 60
+/// ms and at 120 ms, and the least distance (in d) and crossed pairs of its laid fibres.
+fn contact_web_after_its_feed_stops(fibres: usize) -> ((f64, f64), (f64, f64), (f64, usize)) {
+    use crate::rod::test_support::median_and_p90;
     let mut p = LaidWebParams { fibres_across: fibres, fibre_spacing: 0.008, belt_travel: 0.024, fibre_contact: Some(FibreContactSettings::default()), ..LaidWebParams::default() };
     p.feed.oscillation_ramp = 0.01;
     p.feed.freeze = false;
     p.feed.feed_stop = 0.06;
     let mut web = ContactWeb::new(&p, p.fibre_contact.as_ref().unwrap(), 7, 0);
-    let speeds = |web: &ContactWeb| {
-        let all: Vec<f64> = web.feeders.iter().flat_map(|f| f.laid_speeds()).collect();
-        let largest = all.iter().copied().fold(0.0, f64::max);
-        let (median, p90) = median_and_p90(all);
-        [median, p90, largest]
-    };
-    let mut fed = [f64::NAN; 3];
+    let speeds = |web: &ContactWeb| median_and_p90(web.feeders.iter().flat_map(|f| f.laid_speeds()).collect());
+    let mut fed = (f64::NAN, f64::NAN);
     for k in 0..web.intervals() {
         let (_, t1) = web.run_interval(k);
-        if fed[0].is_nan() && t1 >= p.feed.feed_stop {
+        if fed.0.is_nan() && t1 >= p.feed.feed_stop {
             fed = speeds(&web);
         }
     }
@@ -404,29 +399,33 @@ fn contact_web_speeds_after_the_feed_stops(fibres: usize) -> ([f64; 3], [f64; 3]
         assert!(f.simulator().driven_top.is_none(), "the top is still driven");
         assert!(f.laid_speeds().len() > 300, "{} laid nodes: the web is not laid", f.laid_speeds().len());
     }
-    (fed, speeds(&web))
+    let left_alone = speeds(&web);
+    let laid: Vec<LaidFibre> = web.into_fibres().into_iter().enumerate().map(|(j, (feeder, scene, turbulence))| finish_fibre(&p, &scene, j, feeder.finish(), turbulence, [0; 3])).collect();
+    (fed, left_alone, laid_pairs(&laid, &p))
 }
 
-/// A fibre alone in a contact world comes to rest once its feed stops: the fibre physics
-/// with contact on makes no motion of its own (the fibre's two free ends may still slide:
-/// a few per cent of its laid nodes, which the 90th percentile leaves out).
+/// A fibre alone in a contact world comes to rest once its feed stops. It meets no other
+/// fibre, so this checks that the world's lock steps and predictions add no motion of their
+/// own, the control for the two fibres below.
 #[test]
 fn one_fibre_in_a_contact_world_comes_to_rest_after_its_feed_stops() {
-    let ([_, _, fed_largest], [median, p90, _]) = contact_web_speeds_after_the_feed_stops(1);
-    println!("one fibre: fastest laid node while fed {fed_largest:.3} m/s; 60 ms after the stop median {median:.1e}, 90 % {p90:.1e} m/s");
-    assert!(median < 1e-4 && p90 < 2e-2, "median {median} m/s, 90 % {p90} m/s");
+    let (_, (median, p90), _) = contact_web_after_its_feed_stops(1);
+    println!("one fibre, 60 ms after the stop: laid-node speed median {median:.1e}, 90 % {p90:.1e} m/s");
+    assert!(median < 1e-4 && p90 < 1e-3, "median {median} m/s, 90 % {p90} m/s");
 }
 
 /// The target for a contact web at rest (PHYSICAL_WEBS.md, "A contact web moves on after
 /// its feed stops"): two fibres 8 mm apart, left alone for 60 ms after their feed stopped,
-/// should come to rest as one fibre does. Fails: their laid nodes keep a median 0.1 m/s
-/// relative to the belt, mostly vertical, as much as while fed.
+/// should come to rest as one fibre does, and without sinking through each other (no laid
+/// pair closer than 0.95 d). Fails: their laid nodes keep a median 0.088 m/s relative to the
+/// belt at 120 ms, 0.071 m/s while fed (and a laid pair ends 0.933 d apart).
 #[test]
 #[ignore = "fails: a contact web of two simulated fibres does not come to rest"]
 fn a_contact_web_comes_to_rest_after_its_feed_stops() {
-    let ([fed, _, _], [median, p90, _]) = contact_web_speeds_after_the_feed_stops(2);
-    println!("two fibres: laid-node speed while fed median {fed:.3} m/s; 60 ms after the stop median {median:.1e}, 90 % {p90:.1e} m/s");
+    let ((fed, _), (median, p90), (least, crossed)) = contact_web_after_its_feed_stops(2);
+    println!("two fibres: laid-node speed median {fed:.3} m/s while fed; 60 ms after the stop median {median:.1e}, 90 % {p90:.1e} m/s; least laid distance {least:.3} d, {crossed} crossed");
     assert!(median < 1e-3, "median {median} m/s, 90 % {p90} m/s");
+    assert!(least >= 0.95 && crossed == 0, "least laid distance {least:.3} d, {crossed} crossed pairs");
 }
 
 /// Fibre contact needs the soft start of the oscillation, and a contact interval

@@ -90,18 +90,20 @@ fn least_between(segs: &[Vec<Segment>], period: f64, d: f64, top: f64) -> (f64, 
 /// downstream of the feed point: how many, the median speed relative to the belt and the
 /// median height. A laid web at rest moves with the belt (speed 0) and freezes; one that
 /// keeps moving far downstream stays simulated, and its cost grows with its length.
-fn laid_but_active(feeders: &[Feeder], belt_speed: f64, d: f64) -> String {
+fn laid_but_active(feeders: &[Feeder], d: f64) -> String {
     const BIN: f64 = 2e-3;
     let mut bins: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
     for f in feeders {
         let sim = f.simulator();
-        for i in (0..sim.rod.nodes()).filter(|&i| sim.laid_time(i).is_finite()) {
-            let (x, v) = (sim.rod.x[i], sim.rod.v[i]);
+        // the same laid nodes, in the same order, as `Feeder::laid_speeds`
+        let laid = (0..sim.rod.nodes()).filter(|&i| sim.laid_time(i).is_finite());
+        for (i, speed) in laid.zip(f.laid_speeds()) {
+            let x = sim.rod.x[i];
             let b = (x[0] / BIN).floor().max(0.0) as usize;
             if bins.len() <= b {
                 bins.resize(b + 1, (Vec::new(), Vec::new()));
             }
-            bins[b].0.push(((v[0] - belt_speed).powi(2) + v[1] * v[1] + v[2] * v[2]).sqrt());
+            bins[b].0.push(speed);
             bins[b].1.push(x[2] / d);
         }
     }
@@ -481,7 +483,7 @@ fn main() {
     let pen = worst;
     let (tests, skipped) = feeders.iter().filter_map(|f| f.simulator().fibre_contact.as_ref()).fold((0, 0), |(a, b), c| (a + c.pair_tests, b + c.pairs_skipped));
     eprintln!("narrow phase: {tests} pair tests, {skipped} skipped by the gap bound");
-    println!("{}", laid_but_active(&feeders, p.scene.belt_speed, d));
+    println!("{}", laid_but_active(&feeders, d));
     not_laid_downstream(&feeders, d);
     if let Some(every) = std::env::var("DUMP_LAID").ok().and_then(|v| v.parse().ok()) {
         dump_laid(&feeders, every, p.scene.belt_speed, d);

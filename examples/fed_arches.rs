@@ -36,7 +36,7 @@ struct Replicate {
 
 /// The highest landed, unfrozen node above the belt (m).
 fn highest_landed_node(sim: &Simulator) -> f64 {
-    (0..sim.rod.nodes()).filter(|&i| sim.laid_time(i).is_finite()).map(|i| sim.rod.x[i][2]).fold(0.0, f64::max)
+    sim.highest_laid_node().map_or(0.0, |n| n.1.max(0.0))
 }
 
 fn main() {

@@ -10,7 +10,8 @@
 //! `... -- 2 trapezoidal_axial,implicit_bending fibre_speed=50 air_speed=150 belt_speed=2 oscillation_frequency=100`.
 //! A scheme may carry its own setting after a colon: `implicit_bending:implicit_step_travel=0.5`,
 //! switch on the opt-in twist (feed clamped), `trapezoidal_axial:twist=1`, or start
-//! the fibre as a continuous feed, `trapezoidal_axial:start=fed`.
+//! the fibre as a continuous feed, `trapezoidal_axial:start=fed`, or judge validity over
+//! the last oscillation period, `trapezoidal_axial:bounce_check=last_period`.
 use laydown::stages::laydown::{replicate_rng, simulate, Integrator, LaydownParams, LaydownResult};
 
 fn main() {
@@ -39,6 +40,7 @@ fn main() {
                 match k {
                     "twist" => p.effects.twist = v != "0",
                     "start" => p.start = laydown::rod::Start::from_name(v).expect("vertical or fed"),
+                    "bounce_check" => p.bounce_check = laydown::rod::BounceCheck::from_name(v).expect("final, transient or last_period"),
                     _ => p.set(k, v.parse().unwrap()).unwrap(),
                 }
             }

@@ -44,7 +44,9 @@ use super::integrator::{Simulator, StepControl};
 use super::state::NodeContact;
 use super::recovery::Recovery;
 use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
-use super::params::LaydownParams;
+use super::lift_watch::LiftWatch;
+use super::params::{BounceCheck, LaydownParams};
+use super::scene::last_period_reason;
 use crate::geometry::arc_length;
 use super::scene::{build, CustomStart};
 use rand::Rng;
@@ -91,6 +93,10 @@ pub struct FeedSettings {
     /// made by the integration (PHYSICAL_WEBS.md, "A contact web moves on after its feed
     /// stops"). Not a stage parameter: a laid web's length and density assume the full feed.
     pub feed_stop: f64,
+    /// The watch of `bounce_check: last_period` ([`super::lift_watch`]), kept through the
+    /// run and its rollbacks. [`feed_fibre`] and the laid web's contact web set it from the
+    /// scene ([`LaydownParams::lift_watch_until`] their end time); None: not watched.
+    pub lift_watch: Option<LiftWatch>,
 }
 
 impl FeedSettings {
@@ -109,7 +115,7 @@ impl FeedSettings {
 
 impl Default for FeedSettings {
     fn default() -> Self {
-        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0, front_margin: f64::INFINITY, feed_stop: f64::INFINITY }
+        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0, front_margin: f64::INFINITY, feed_stop: f64::INFINITY, lift_watch: None }
     }
 }
 
@@ -130,6 +136,8 @@ pub struct FedFibre {
     pub final_lift_of_landed: f64,
     /// Index of that node.
     pub final_lift_node: usize,
+    /// The lift watch at the end ([`FeedSettings::lift_watch`]).
+    pub lift_watch: Option<LiftWatch>,
     /// Simulated time reached (s).
     pub end_time: f64,
     /// Element length Δs (m).
@@ -175,10 +183,20 @@ impl FedFibre {
     }
 
     /// Why the fibre is not valid (None: valid): the run's error, a landed node above
-    /// `bounce_tolerance` at the end (the paper's test), or fewer than two laid nodes.
+    /// `bounce_tolerance` at the end (the paper's test) or, with `bounce_check:
+    /// last_period`, for more than half the last oscillation period, or fewer than two
+    /// laid nodes.
     pub fn invalid_reason(&self, p: &LaydownParams) -> Option<String> {
+        let last_period = p.bounce_check == BounceCheck::LastPeriod;
         if let Some(err) = &self.error {
             Some(err.clone())
+        } else if last_period {
+            match &self.lift_watch {
+                Some(watch) if watch.bounced() => Some(last_period_reason(watch)),
+                Some(_) if self.laid_nodes() < 2 => Some("fewer than two nodes landed".into()),
+                Some(_) => None,
+                None => Some("bounce_check last_period, but the run kept no lift watch (FeedSettings::lift_watch)".into()),
+            }
         } else if self.final_lift_of_landed > p.bounce_tolerance {
             Some(format!(
                 "bounced: landed node {} is {:.3e} m above the belt at the end (bounce_tolerance {:.3e} m)",
@@ -263,6 +281,7 @@ pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSett
         valid: invalid_reason.is_none(),
         invalid_reason,
         final_lift_of_landed: fed.final_lift_of_landed,
+        lifted_fraction: fed.lift_watch.map_or(f64::NAN, |w| w.lifted_fraction()),
         // lifts are not kept for frozen nodes (bounce_check transient needs start: vertical)
         max_lift_after_landing: f64::NAN,
         lift: Vec::new(),
@@ -296,7 +315,8 @@ pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSett
 /// the oscillation u0 sin(ωt + φ). Imperfections are drawn from `rng` as in the paper's
 /// scene. Never panics on bad input: errors are reported in [`FedFibre::error`].
 pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64, settings: &FeedSettings, rng: &mut R) -> FedFibre {
-    let mut feeder = Feeder::new(p, phase, settings, rng);
+    let settings = FeedSettings { lift_watch: p.lift_watch_until(end_time), ..settings.clone() };
+    let mut feeder = Feeder::new(p, phase, &settings, rng);
     feeder.advance_to(end_time);
     feeder.finish()
 }
@@ -338,6 +358,7 @@ struct FeedBook {
     /// The farthest downstream this fibre's touchdown point has been (m, lab frame), as
     /// noted at each preparation ([`ContactBody::landing_reach`]).
     landing_reach: f64,
+    lift_watch: Option<LiftWatch>,
 }
 
 impl Feeder {
@@ -376,7 +397,7 @@ impl Feeder {
         let control = StepControl::new(sim.limits.chosen, mpl);
         let nodes = sim.rod.nodes();
         let last_good = sim.rod.x.clone();
-        let book = FeedBook { stuck_since: vec![f64::NAN; nodes], anchors: vec![[0.0; 2]; nodes], landing_reach: f64::NEG_INFINITY };
+        let book = FeedBook { stuck_since: vec![f64::NAN; nodes], anchors: vec![[0.0; 2]; nodes], landing_reach: f64::NEG_INFINITY, lift_watch: settings.lift_watch };
         let recovery = Recovery::new(&mut sim, &control, p.rollbacks, (0, book.clone()));
         Feeder {
             control,
@@ -508,6 +529,9 @@ impl Feeder {
                     *anchor = here;
                 }
             }
+            if let Some(watch) = &mut self.book.lift_watch {
+                watch.observe(t, sim.highest_laid_node().map(|n| n.1));
+            }
             // the step's bookkeeping is done: a checkpoint holds all of it
             let (frozen, book) = (&self.frozen, &self.book);
             self.recovery.after_step(&mut self.sim, &mut self.control, || (frozen.len(), book.clone()));
@@ -562,6 +586,7 @@ impl Feeder {
             frozen_nodes,
             final_lift_of_landed,
             final_lift_node,
+            lift_watch: self.book.lift_watch,
             end_time: t_end,
             element_length: self.element_length,
             steps: sim.steps,

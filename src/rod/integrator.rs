@@ -404,6 +404,18 @@ impl Simulator {
         self.landing_time[i].min(web)
     }
 
+    /// The highest node laid so far ([`Self::laid_time`] finite) and its height above the
+    /// belt (m): the first of the highest; None when no node has been laid.
+    pub fn highest_laid_node(&self) -> Option<(usize, f64)> {
+        (0..self.rod.nodes())
+            .filter(|&i| self.laid_time(i).is_finite())
+            .map(|i| (i, self.rod.x[i][2]))
+            .fold(None, |best, node| match best {
+                Some(b) if b.1 >= node.1 => Some(b),
+                _ => Some(node),
+            })
+    }
+
     /// [`Self::laid_time`] of every node into `out`, with the spans of a contact web: a
     /// node followed along the fibre by a laid node lies in a span the fibre has laid
     /// over a crossing (propped off the belt, resting on nothing that holds it) from the

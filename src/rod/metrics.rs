@@ -43,6 +43,10 @@ pub struct LaydownResult {
     /// Highest landed node above the belt in the final profile (m); compared with
     /// `bounce_tolerance` for `valid` when `bounce_check` = final (the default).
     pub final_lift_of_landed: f64,
+    /// Share of the last oscillation period in which a landed node stood above
+    /// `bounce_tolerance` (`bounce_check` = last_period, which invalidates the replicate
+    /// above one half; NaN with the other checks).
+    pub lifted_fraction: f64,
     /// Per node: highest rise above the belt after landing (m, 0 = never rose or never landed).
     pub lift: Vec<f64>,
     /// Per node: time of that highest rise (s, NaN = never rose).
@@ -117,6 +121,7 @@ impl LaydownResult {
             max_lift_after_landing: 0.0,
             lift: Vec::new(),
             final_lift_of_landed: 0.0,
+            lifted_fraction: f64::NAN,
             lift_time: Vec::new(),
             landed_nodes: 0,
             laid_length: 0.0,

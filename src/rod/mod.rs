@@ -89,7 +89,11 @@
 //! are measured on. `bounce_check` = `transient` applies the tolerance to the highest
 //! rise of a landed node at any time after its landing
 //! ([`LaydownResult::max_lift_after_landing`]; per node in [`LaydownResult::lift`] and
-//! [`LaydownResult::lift_time`]).
+//! [`LaydownResult::lift_time`]). `bounce_check` = `last_period` applies the paper's test
+//! after every step of the last oscillation period and invalidates the replicate when it
+//! fails for more than half of that time ([`LaydownResult::lifted_fraction`];
+//! [`lift_watch`]): at 50 m/s arches behind the touchdown rise and settle in step with the
+//! sweep, so the final profile reads the sweep's phase at the end.
 //!
 //! Why the final profile, measured: `pipelines/paper/LAYDOWN_MEASUREMENTS.md` ("Which
 //! bounce test"). A step that cannot be taken (non-finite state, node faster than
@@ -127,6 +131,7 @@ pub mod feed;
 pub mod fibre_contact;
 pub mod forces;
 pub mod integrator;
+pub mod lift_watch;
 pub mod metrics;
 pub mod params;
 pub mod recovery;
@@ -142,6 +147,7 @@ mod tests;
 #[cfg(test)]
 pub(crate) mod test_support;
 
+pub use lift_watch::LiftWatch;
 pub use integrator::{stable_time_step, EnergySample, Simulator, Snapshot, StepControl, TimeStepLimits, Work};
 pub use metrics::{laid_polyline, shape_measures, BeltMotion, BeltRemoval, LaydownResult};
 pub use params::{parameter_table_markdown, AirField, BounceCheck, Effects, FeedEnd, Integrator, LaydownParams, ParamError, Start, PARAMETERS};

@@ -6,6 +6,7 @@
 //! checks against that table so the pipeline can reuse it for YAML validation,
 //! `--help` and a JSON schema.
 
+use super::lift_watch::LiftWatch;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -54,6 +55,11 @@ crate::params::choice_enum! {
         /// Stricter: the highest rise of any landed node at any time after its landing,
         /// including rises that settle back before the end.
         Transient = "transient",
+        /// The paper's test at every step of the run's last oscillation period: invalid when
+        /// landed fibre stood above `bounce_tolerance` for more than half of it. At process
+        /// speeds arches rise and settle in step with the sweep, and the final profile reads
+        /// where in the sweep the run ends ([`super::lift_watch`]).
+        LastPeriod = "last_period",
     }
 }
 
@@ -329,7 +335,7 @@ pub const PARAMETERS: &[ParamSpec] = &[
     real("time_step_factor", "1", 0.8, 1e-3, 1.0, "safety factor on the automatic stable time step; at 0.8 S and e are within about 2 % of their step-converged values at Table 1 and 20 m/s, but e reads 7-11 % low at 10 m/s, S about 2-2.7 % high at 30-50 m/s and e 2-7 % low at 50 m/s (0.2 there, at four times the time, or coil_step: 0.04, at three; pipelines/studies/FIBRE_SPEED.md, \"The time step at 50 m/s, and at 5-30 m/s\")"),
     int("rollbacks", super::recovery::ROLLBACKS as i64, 0, 1000, "adaptive-step schemes: times a run whose step failed even at the smallest step goes back to a checkpoint 64-128 steps earlier (or from before the step collapsed below 1/16 of the largest) and retakes the stretch with the axial springs by backward Euler (as implicit_axial has anyway) and a quarter of the step (src/rod/recovery.rs); with fibre_contact the fibres that can touch go back together to the start of the broad-phase interval; 0 = the first failure ends the replicate or fibre"),
     int("diagnostic_stride", 1000, 1, 1_000_000_000, "record energy diagnostics every this many steps"),
-    real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end, or at any time with bounce_check = transient) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
+    real("bounce_tolerance", "m", 1e-3, 0.0, 1.0, "a landed node higher than this (at the end; at any time with bounce_check = transient; for more than half the last oscillation period with last_period) invalidates the replicate; 1 mm = 20 d = one element at the baseline"),
     real("penetration_tolerance", "m", 1e-5, 0.0, 1.0, "belt penetration deeper than this is a numerical failure"),
     real("coil_resolution", "1", 2.0, 0.0, 100.0, "minimum elements per inertial coil scale sqrt(EI/(rho A v_f^2)); 0 = off"),
     real("coil_step", "1", 0.0, 0.0, 1.0, "largest time step as a fraction of the inertial coil time l_c/v_f = sqrt(EI/(rho A))/v_f^2, times time_step_factor; 0 = off. 0.04 leaves Table 1 as it is, holds S within 0.6 % of its step-converged value at 10-50 m/s and e within about 2 % at 10-30 m/s and for thin fibres at 5 m/s (at 50 m/s e moves by a few % with any step), at about 3 times the steps there (pipelines/studies/FIBRE_SPEED.md, \"Where the step error comes from\")"),
@@ -476,6 +482,7 @@ impl LaydownParams {
                 "bounce_check transient needs start: vertical (a fed fibre keeps no lift history of its frozen nodes); use bounce_check: final".into(),
             ));
         }
+        self.check_lift_watch(self.end_time())?;
         if self.duration > self.length / self.fibre_speed {
             return Err(ParamError::Inconsistent(format!(
                 "duration ({} s) must not exceed length/fibre_speed = {} s: the driven top node would pass through the belt",
@@ -577,6 +584,42 @@ impl LaydownParams {
             (self.length - self.laydown_height) / self.fibre_speed
         }
     }
+
+    /// The watch of `bounce_check: last_period`: the last oscillation period 1/f before
+    /// [`Self::end_time`], at `bounce_tolerance`; None for the other checks.
+    pub fn lift_watch(&self) -> Option<LiftWatch> {
+        self.lift_watch_until(self.end_time())
+    }
+
+    /// Whether `bounce_check: last_period` can watch a run that ends at `end_time` (s): it
+    /// needs the oscillation, and fibre laid for at least one period 1/f before the end
+    /// (the first node lands about z0/v_f after the start). Watched for less, a fibre the
+    /// air holds up only after it landed could pass.
+    pub fn check_lift_watch(&self, end_time: f64) -> Result<(), ParamError> {
+        if self.bounce_check != BounceCheck::LastPeriod {
+            return Ok(());
+        }
+        if !(self.effects.oscillation && self.oscillation_frequency > 0.0) {
+            return Err(ParamError::Inconsistent(format!(
+                "bounce_check last_period watches the last oscillation period and needs the oscillation (effects.oscillation {}, oscillation_frequency {} Hz); use bounce_check: final",
+                self.effects.oscillation, self.oscillation_frequency
+            )));
+        }
+        let (laid_for, period) = (end_time - self.laydown_height / self.fibre_speed, 1.0 / self.oscillation_frequency);
+        if !(laid_for >= period) {
+            return Err(ParamError::Inconsistent(format!(
+                "bounce_check last_period watches the last oscillation period (1/f = {period:.4e} s) of laid fibre, but the run lays fibre for about {laid_for:.4e} s \
+                 (end time {end_time:.4e} s less the fall z0/v_f = {:.4e} s); run longer (duration, length), raise oscillation_frequency, or use bounce_check: final",
+                self.laydown_height / self.fibre_speed
+            )));
+        }
+        Ok(())
+    }
+
+    /// [`Self::lift_watch`] for a run that ends at `end_time` (s), as a fed fibre's does.
+    pub fn lift_watch_until(&self, end_time: f64) -> Option<LiftWatch> {
+        (self.bounce_check == BounceCheck::LastPeriod).then(|| LiftWatch::new(end_time - 1.0 / self.oscillation_frequency, self.bounce_tolerance))
+    }
 }
 
 fn check(spec: &ParamSpec, value: f64) -> Result<(), ParamError> {
@@ -595,7 +638,7 @@ pub fn parameter_table_markdown() -> String {
     }
     // a choice parameter: its default and its words, then what it picks
     let mut choice = |name: &str, default: &str, words: &[&str], doc: &str| s += &format!("| {name} | | {default} | | one of {}{doc} |\n", words.join(", "));
-    choice("bounce_check", BounceCheck::default().name(), BounceCheck::NAMES, ": lift of landed nodes in the final profile (paper) or at any time");
+    choice("bounce_check", BounceCheck::default().name(), BounceCheck::NAMES, ": lift of landed nodes in the final profile (paper), at any time, or for more than half of the last oscillation period");
     choice(
         "belt_removal",
         super::metrics::BeltRemoval::default().name(),
@@ -664,5 +707,27 @@ mod tests {
         let mut p = LaydownParams::default();
         p.duration = 0.5;
         assert!(p.validate().unwrap_err().to_string().contains("duration"));
+    }
+
+    #[test]
+    fn last_period_watches_the_last_oscillation_period_and_needs_the_oscillation() {
+        let mut p = LaydownParams { bounce_check: BounceCheck::LastPeriod, ..LaydownParams::default() };
+        p.validate().unwrap();
+        // Table 1: f = 10 Hz, end time 0.19 s
+        let watch = p.lift_watch().unwrap();
+        assert!((watch.from - 0.09).abs() < 1e-12 && watch.tolerance == p.bounce_tolerance);
+        assert!((p.lift_watch_until(0.5).unwrap().from - 0.4).abs() < 1e-12);
+        assert!(LaydownParams::default().lift_watch().is_none());
+        p.effects.oscillation = false;
+        let err = p.validate().unwrap_err().to_string();
+        assert!(err.contains("last_period") && err.contains("effects.oscillation false"), "{err}");
+        p.effects.oscillation = true;
+        p.oscillation_frequency = 0.0;
+        assert!(p.validate().unwrap_err().to_string().contains("oscillation_frequency 0 Hz"));
+        // laid for 0.19 - 0.01 s, less than a period at 5 Hz
+        p.oscillation_frequency = 5.0;
+        let err = p.validate().unwrap_err().to_string();
+        assert!(err.contains("lays fibre for about 1.8000e-1 s"), "{err}");
+        assert!(p.check_lift_watch(0.22).is_ok());
     }
 }

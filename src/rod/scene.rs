@@ -6,6 +6,7 @@ use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
 use super::recovery::Recovery;
 use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
+use super::lift_watch::LiftWatch;
 use super::params::{BounceCheck, FeedEnd, Integrator, LaydownParams, CONVERGED_COIL_STEP};
 use crate::params::ParamCaution;
 use super::twist::Twist;
@@ -274,6 +275,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     let limits = sim.limits;
     let stride = p.diagnostic_stride.max(1) as u64;
     let mut diagnostics = vec![sim.energy_sample()];
+    let mut watch = p.lift_watch();
     let mut last_good = sim.rod.x.clone();
     let mut error = None;
     let mut rejected = 0u64;
@@ -288,6 +290,9 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             if let Err(f) = sim.step() {
                 error = Some(f.to_string());
                 break;
+            }
+            if let Some(w) = &mut watch {
+                w.observe(sim.t, sim.highest_laid_node().map(|n| n.1));
             }
             if s % stride == 0 || s == steps {
                 let sample = sim.energy_sample();
@@ -313,12 +318,13 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
         // checkpoint (with the energy samples recorded by then) and retakes the stretch
         // with the recovery scheme (super::recovery).
         let mut control = StepControl::new(limits.chosen, p.mass_per_length());
-        let mut recovery = Recovery::new(sim, &control, p.rollbacks, diagnostics.len());
+        let mut recovery = Recovery::new(sim, &control, p.rollbacks, (diagnostics.len(), watch));
         let tol = end_time * 1e-12;
         while sim.t < end_time - tol {
             if let Err(f) = control.advance(sim, end_time) {
-                if let Some(samples) = recovery.roll_back(sim, &mut control) {
+                if let Some((samples, watched)) = recovery.roll_back(sim, &mut control) {
                     diagnostics.truncate(samples);
+                    watch = watched;
                     continue;
                 }
                 error = Some(recovery.failure(&f));
@@ -328,7 +334,10 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
                 diagnostics.push(sim.energy_sample());
                 last_good.copy_from_slice(&sim.rod.x);
             }
-            let samples = diagnostics.len();
+            if let Some(w) = &mut watch {
+                w.observe(sim.t, sim.highest_laid_node().map(|n| n.1));
+            }
+            let samples = (diagnostics.len(), watch);
             recovery.after_step(sim, &mut control, || samples);
         }
         recovery.finish(sim, &mut control);
@@ -355,15 +364,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             .filter(|(_, (_, t))| t.is_finite())
             .map(|(i, (h, _))| (i, *h))
             .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
-    let final_worst = sim
-        .rod
-        .x
-        .iter()
-        .zip(&sim.landing_time)
-        .enumerate()
-        .filter(|(_, (_, t))| t.is_finite())
-        .map(|(i, (x, _))| (i, x[2]))
-        .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+    let final_worst = sim.highest_laid_node().map_or((0, 0.0), |(i, h)| (i, h.max(0.0)));
     if invalid_reason.is_none() {
         match p.bounce_check {
             BounceCheck::Final if final_worst.1 > p.bounce_tolerance => {
@@ -378,12 +379,14 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
                     worst.0, worst.1, p.bounce_tolerance
                 ))
             }
+            BounceCheck::LastPeriod if watch.is_some_and(|w| w.bounced()) => invalid_reason = Some(last_period_reason(&watch.expect("checked"))),
             _ => {}
         }
     }
     LaydownResult {
         max_lift_after_landing: worst.1,
         final_lift_of_landed: final_worst.1,
+        lifted_fraction: watch.map_or(f64::NAN, |w| w.lifted_fraction()),
         lift: sim.max_lift.iter().zip(&sim.landing_time).map(|(h, t)| if t.is_finite() { *h } else { 0.0 }).collect(),
         lift_time: sim.lift_time.clone(),
         landed_nodes: laid.len(),
@@ -483,4 +486,14 @@ mod tests {
         let coarse = LaydownParams { elements: 250, ..table1.clone() };
         assert!(step_caution(&coarse, ds(&coarse)).is_none(), "a coarse mesh at Table 1: its error is the mesh estimate's");
     }
+}
+
+/// Why a replicate failed `bounce_check: last_period`.
+pub(crate) fn last_period_reason(watch: &LiftWatch) -> String {
+    format!(
+        "bounced: landed fibre stood above the belt by more than bounce_tolerance ({:.3e} m) for {:.0} % of the last oscillation period (more than {:.0} %, bounce_check last_period)",
+        watch.tolerance,
+        100.0 * watch.lifted_fraction(),
+        100.0 * super::lift_watch::LIFTED_MAJORITY
+    )
 }

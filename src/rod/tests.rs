@@ -814,3 +814,56 @@ fn coil_step_converges_e_at_10_m_s() {
     assert!(off(ruled).1.abs() < 0.03, "e with coil_step {:+.4} off the reference", off(ruled).1);
     assert!(off(ruled).0.abs() < 0.015, "S with coil_step {:+.4} off the reference", off(ruled).0);
 }
+
+/// At 50 m/s landed fibre rises in arches behind the touchdown and settles again in step
+/// with the oscillation's sweep, so the paper's test at the end instant counts where in
+/// the sweep the run stops: over replicates 0-23 of seed 2024 (`start: fed`) it failed 0
+/// when the run stopped at 18.5 ms and 7 at 19 ms (FIBRE_SPEED.md, "Arches come with the
+/// sweep"). `bounce_check: last_period` asks whether the fibre stood up for most of the
+/// last period, and must give one verdict at both ends; a fibre the air holds up for good
+/// (V_air = v_f, lifted 4-6 mm near the touchdown) must stay invalid.
+#[test]
+fn last_period_validity_does_not_depend_on_where_the_sweep_ends() {
+    use super::lift_watch::LIFTED_MAJORITY;
+    use super::params::{BounceCheck, Start};
+    use super::replicate::simulate;
+    use super::scene::replicate_rng;
+    use rayon::prelude::*;
+    let fast = LaydownParams {
+        start: Start::Fed,
+        fibre_speed: 50.0,
+        air_speed: 150.0,
+        belt_speed: 2.0,
+        oscillation_frequency: 100.0,
+        bounce_check: BounceCheck::LastPeriod,
+        ..LaydownParams::default()
+    };
+    let run = |p: &LaydownParams, replicates: u64| (0..replicates).into_par_iter().map(|r| simulate(p, &mut replicate_rng(2024, r))).collect::<Vec<_>>();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let mut shares = Vec::new();
+    let mut final_fails = Vec::new();
+    for duration in [0.0185, 0.019] {
+        let results = run(&LaydownParams { duration, ..fast.clone() }, 8);
+        let share: Vec<f64> = results.iter().map(|r| r.lifted_fraction).collect();
+        let fails = results.iter().filter(|r| r.final_lift_of_landed > fast.bounce_tolerance).count();
+        println!("end {duration} s: lifted share {share:.3?}; final profile fails {fails} of 8");
+        for r in &results {
+            assert!(r.error.is_none(), "{:?}", r.error);
+            assert!(r.valid, "{:?}", r.invalid_reason);
+        }
+        shares.push(mean(&share));
+        final_fails.push(fails);
+    }
+    // the end instant matters to the paper's test here, and the watch sees the arches
+    assert!(final_fails[1] > final_fails[0], "the final profile should fail more often on the burst: {final_fails:?}");
+    for share in &shares {
+        assert!(*share > 0.05 && *share < LIFTED_MAJORITY, "mean lifted share {share}");
+    }
+    assert!((shares[0] - shares[1]).abs() < 0.08, "mean lifted shares {shares:?}");
+    let held_up = run(&LaydownParams { air_speed: 50.0, ..fast.clone() }, 2);
+    for r in &held_up {
+        println!("V_air = v_f: lifted share {:.3}, final lift {:.2e} m", r.lifted_fraction, r.final_lift_of_landed);
+        assert!(!r.valid && r.lifted_fraction > 0.9, "{:?}", r.invalid_reason);
+        assert!(r.invalid_reason.as_deref().unwrap().contains("last_period"));
+    }
+}

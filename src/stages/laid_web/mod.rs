@@ -62,7 +62,7 @@ use crate::error::InvalidParam;
 use crate::rod::contact_world::{ContactStats, ContactWorld};
 use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings, Feeder};
 use crate::rod::fibre_contact::FibreContact;
-use crate::rod::LaydownParams;
+use crate::rod::{BounceCheck, LaydownParams};
 use crate::rng::stream_rng;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -305,8 +305,9 @@ impl LaidWebParams {
             return Err(InvalidParam::new("belt_speed".into(), "a laid web needs a moving belt (belt_speed > 0): its length is the belt travel".into()));
         }
         // the scene's own checks; its length and elements are the laid web's (fed
-        // length, element length), checked below
-        let s = LaydownParams { length: 1.0, elements: 1000, duration: 0.0, ..self.scene.clone() };
+        // length, element length), checked below, and so is the lift watch, over the
+        // feed time
+        let s = LaydownParams { length: 1.0, elements: 1000, duration: 0.0, bounce_check: BounceCheck::Final, ..self.scene.clone() };
         s.validate().map_err(|e| {
             let name = match &e {
                 crate::rod::ParamError::Range(r) => r.name.to_string(),
@@ -314,6 +315,13 @@ impl LaidWebParams {
             };
             InvalidParam::new(name, e.to_string())
         })?;
+        if self.scene.bounce_check == BounceCheck::Transient {
+            return Err(InvalidParam::new(
+                "bounce_check".into(),
+                "bounce_check transient needs every landed node's lift history, which a laid web does not keep for frozen fibre; use final or last_period".into(),
+            ));
+        }
+        self.scene.check_lift_watch(self.feed_time()).map_err(|e| InvalidParam::new("bounce_check".into(), e.to_string()))?;
         if self.fed_length() <= 2.0 * self.scene.laydown_height {
             return Err(InvalidParam::new("belt_travel".into(), format!(
                 "belt_travel {} m feeds only {:.4} m of fibre at v_f/v_b = {:.1}, less than twice the laydown height {} m: nothing would be laid",
@@ -492,7 +500,8 @@ impl ContactWeb {
             .map(|j| {
                 let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
                 let scene = c.stepped(scene);
-                let mut feeder = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
+                let settings = FeedSettings { lift_watch: scene.lift_watch_until(p.feed_time()), ..p.feed.clone() };
+                let mut feeder = Feeder::new(&scene, turbulence.0, &settings, &mut rng);
                 feeder.join_contact_world();
                 let mut contact = FibreContact::new(d, friction);
                 contact.web_top = scene.bounce_tolerance;

@@ -641,3 +641,33 @@ fn a_fibre_whose_step_collapsed_before_it_failed_is_rolled_back_to_before_the_co
     assert!(saved.positions.iter().flatten().all(|c| c.is_finite()));
     assert!(saved.landing_time.iter().filter(|t| t.is_finite()).count() > 10);
 }
+
+/// `bounce_check: last_period` in a laid web: every fibre, with and without fibre
+/// contact, watches its own last oscillation period before the end of the feed, and its
+/// verdict is the watched share; `transient` (a lift history frozen fibre does not keep)
+/// and a feed shorter than a period of laid fibre are refused by name.
+#[test]
+fn a_laid_web_watches_each_fibres_last_period() {
+    use crate::rod::BounceCheck;
+    // 40 Hz: a 25 ms period within the 50 ms of laid fibre of a 60 ms feed
+    let scene = LaydownParams { bounce_check: BounceCheck::LastPeriod, oscillation_frequency: 40.0, ..small_scene() };
+    let mut p = LaidWebParams { fibre_spacing: 0.008, ..laid_web_for(&scene, 0.06, 2) };
+    p.feed.oscillation_ramp = 0.01;
+    p.validate().unwrap();
+    for contact in [None, Some(FibreContactSettings::default())] {
+        p.fibre_contact = contact.clone();
+        let web = lay_web(&p, 7, 0, &indicatif::ProgressBar::hidden());
+        for (j, f) in web.fibres.iter().enumerate() {
+            let watch = f.fed.lift_watch.expect("every fibre watched");
+            println!("contact {}: fibre {j} watched {:.4} s, lifted share {:.3}", contact.is_some(), watch.watched(), watch.lifted_fraction());
+            assert!((watch.from - (p.feed_time() - 0.025)).abs() < 1e-12, "window from {}", watch.from);
+            assert!((watch.watched() - 0.025).abs() < 1e-9, "watched {}", watch.watched());
+            assert_eq!(f.valid, !watch.bounced(), "fibre {j}: {:?}", f.invalid_reason);
+        }
+    }
+    let short = LaidWebParams { belt_travel: p.scene.belt_speed * 0.03, ..p.clone() };
+    let err = short.validate().unwrap_err();
+    assert!(err.to_string().contains("bounce_check") && err.to_string().contains("lays fibre for about"), "{err}");
+    let transient = LaidWebParams { scene: LaydownParams { bounce_check: BounceCheck::Transient, ..p.scene.clone() }, ..p.clone() };
+    assert!(transient.validate().unwrap_err().to_string().contains("transient"));
+}

@@ -43,10 +43,9 @@ use super::contact_world::ContactBody;
 use super::integrator::{Simulator, StepControl};
 use super::state::NodeContact;
 use super::recovery::Recovery;
-use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
+use super::metrics::{bounce_reason, laid_polyline, shape_measures, BeltMotion, LaydownResult};
 use super::lift_watch::LiftWatch;
-use super::params::{BounceCheck, LaydownParams};
-use super::scene::last_period_reason;
+use super::params::LaydownParams;
 use crate::geometry::arc_length;
 use super::scene::{build, CustomStart};
 use rand::Rng;
@@ -93,10 +92,6 @@ pub struct FeedSettings {
     /// made by the integration (PHYSICAL_WEBS.md, "A contact web moves on after its feed
     /// stops"). Not a stage parameter: a laid web's length and density assume the full feed.
     pub feed_stop: f64,
-    /// The watch of `bounce_check: last_period` ([`super::lift_watch`]), kept through the
-    /// run and its rollbacks. [`feed_fibre`] and the laid web's contact web set it from the
-    /// scene ([`LaydownParams::lift_watch_until`] their end time); None: not watched.
-    pub lift_watch: Option<LiftWatch>,
 }
 
 impl FeedSettings {
@@ -115,7 +110,7 @@ impl FeedSettings {
 
 impl Default for FeedSettings {
     fn default() -> Self {
-        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0, front_margin: f64::INFINITY, feed_stop: f64::INFINITY, lift_watch: None }
+        FeedSettings { buffer_elements: 3, freeze: true, settle_time: 0.02, lift_tolerance: 1e-5, creep_tolerance: 0.01, freeze_batch: 32, age_limit: 0.2, oscillation_ramp: 0.0, front_margin: f64::INFINITY, feed_stop: f64::INFINITY }
     }
 }
 
@@ -136,7 +131,7 @@ pub struct FedFibre {
     pub final_lift_of_landed: f64,
     /// Index of that node.
     pub final_lift_node: usize,
-    /// The lift watch at the end ([`FeedSettings::lift_watch`]).
+    /// The lift watch at the end ([`Feeder::watch_lift`]; None: not watched).
     pub lift_watch: Option<LiftWatch>,
     /// Simulated time reached (s).
     pub end_time: f64,
@@ -187,21 +182,10 @@ impl FedFibre {
     /// last_period`, for more than half the last oscillation period, or fewer than two
     /// laid nodes.
     pub fn invalid_reason(&self, p: &LaydownParams) -> Option<String> {
-        let last_period = p.bounce_check == BounceCheck::LastPeriod;
         if let Some(err) = &self.error {
             Some(err.clone())
-        } else if last_period {
-            match &self.lift_watch {
-                Some(watch) if watch.bounced() => Some(last_period_reason(watch)),
-                Some(_) if self.laid_nodes() < 2 => Some("fewer than two nodes landed".into()),
-                Some(_) => None,
-                None => Some("bounce_check last_period, but the run kept no lift watch (FeedSettings::lift_watch)".into()),
-            }
-        } else if self.final_lift_of_landed > p.bounce_tolerance {
-            Some(format!(
-                "bounced: landed node {} is {:.3e} m above the belt at the end (bounce_tolerance {:.3e} m)",
-                self.final_lift_node, self.final_lift_of_landed, p.bounce_tolerance
-            ))
+        } else if let Some(bounced) = bounce_reason(p, (self.final_lift_node, self.final_lift_of_landed), self.lift_watch.as_ref()) {
+            Some(bounced)
         } else if self.laid_nodes() < 2 {
             Some("fewer than two nodes landed".into())
         } else {
@@ -315,8 +299,10 @@ pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSett
 /// the oscillation u0 sin(ωt + φ). Imperfections are drawn from `rng` as in the paper's
 /// scene. Never panics on bad input: errors are reported in [`FedFibre::error`].
 pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64, settings: &FeedSettings, rng: &mut R) -> FedFibre {
-    let settings = FeedSettings { lift_watch: p.lift_watch_until(end_time), ..settings.clone() };
-    let mut feeder = Feeder::new(p, phase, &settings, rng);
+    let mut feeder = Feeder::new(p, phase, settings, rng);
+    if let Some(watch) = p.lift_watch_until(end_time) {
+        feeder.watch_lift(watch);
+    }
     feeder.advance_to(end_time);
     feeder.finish()
 }
@@ -397,7 +383,7 @@ impl Feeder {
         let control = StepControl::new(sim.limits.chosen, mpl);
         let nodes = sim.rod.nodes();
         let last_good = sim.rod.x.clone();
-        let book = FeedBook { stuck_since: vec![f64::NAN; nodes], anchors: vec![[0.0; 2]; nodes], landing_reach: f64::NEG_INFINITY, lift_watch: settings.lift_watch };
+        let book = FeedBook { stuck_since: vec![f64::NAN; nodes], anchors: vec![[0.0; 2]; nodes], landing_reach: f64::NEG_INFINITY, lift_watch: None };
         let recovery = Recovery::new(&mut sim, &control, p.rollbacks, (0, book.clone()));
         Feeder {
             control,
@@ -417,6 +403,17 @@ impl Feeder {
             sim,
             recovery,
         }
+    }
+
+    /// Watch the landed fibre's lift over `watch`'s window (`bounce_check: last_period`,
+    /// [`super::lift_watch`]) through the run and its rollbacks; before the first step.
+    /// [`feed_fibre`] watches the last period of the scene before its end time, a laid web
+    /// the last period of its feed time.
+    pub fn watch_lift(&mut self, watch: LiftWatch) {
+        debug_assert_eq!(self.sim.steps, 0, "watch_lift after the run started");
+        self.book.lift_watch = Some(watch);
+        // the first checkpoint holds the watch too
+        self.recovery.checkpoint_now(&mut self.sim, &self.control, (self.frozen.len(), self.book.clone()));
     }
 
     /// Advance as one fibre of a [`ContactWorld`](super::contact_world::ContactWorld):
@@ -530,7 +527,7 @@ impl Feeder {
                 }
             }
             if let Some(watch) = &mut self.book.lift_watch {
-                watch.observe(t, sim.highest_laid_node().map(|n| n.1));
+                watch.observe(t, || sim.highest_laid_node().map(|n| n.1));
             }
             // the step's bookkeeping is done: a checkpoint holds all of it
             let (frozen, book) = (&self.frozen, &self.book);
@@ -576,10 +573,7 @@ impl Feeder {
         let mut laid = Vec::new();
         sim.laid_times(&mut laid);
         landing_time.extend(laid);
-        let (final_lift_node, final_lift_of_landed) = (frozen_nodes..positions.len())
-            .filter(|&i| landing_time[i].is_finite())
-            .map(|i| (i, positions[i][2]))
-            .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+        let (final_lift_node, final_lift_of_landed) = sim.highest_laid_node().map_or((0, 0.0), |(i, h)| (frozen_nodes + i, h.max(0.0)));
         FedFibre {
             positions,
             landing_time,

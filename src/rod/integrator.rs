@@ -404,16 +404,22 @@ impl Simulator {
         self.landing_time[i].min(web)
     }
 
-    /// The highest node laid so far ([`Self::laid_time`] finite) and its height above the
-    /// belt (m): the first of the highest; None when no node has been laid.
+    /// The highest node laid so far and its height above the belt (m): the first of the
+    /// highest; None when no node has been laid. Laid as in [`Self::laid_times`]: with
+    /// fibre contact a node in a span propped over a crossing (followed by a laid node)
+    /// counts. A non-finite height is passed over.
     pub fn highest_laid_node(&self) -> Option<(usize, f64)> {
-        (0..self.rod.nodes())
-            .filter(|&i| self.laid_time(i).is_finite())
-            .map(|i| (i, self.rod.x[i][2]))
-            .fold(None, |best, node| match best {
-                Some(b) if b.1 >= node.1 => Some(b),
-                _ => Some(node),
-            })
+        let spans = self.fibre_contact.is_some();
+        let mut later_laid = false;
+        let mut best: Option<(usize, f64)> = None;
+        for i in (0..self.rod.nodes()).rev() {
+            later_laid = (spans && later_laid) || self.laid_time(i).is_finite();
+            let height = self.rod.x[i][2];
+            if later_laid && height.is_finite() && best.is_none_or(|b| height >= b.1) {
+                best = Some((i, height));
+            }
+        }
+        best
     }
 
     /// [`Self::laid_time`] of every node into `out`, with the spans of a contact web: a

@@ -1,6 +1,8 @@
 //! Result of one replicate and the shape measures of the laid fibre.
 
 use super::integrator::{EnergySample, TimeStepLimits};
+use super::lift_watch::LiftWatch;
+use super::params::{BounceCheck, LaydownParams};
 use crate::geometry::{bending_energy, radius_of_gyration};
 
 /// A column of the stored energy diagnostics: its name and its value in a record.
@@ -24,6 +26,27 @@ pub const ENERGY_COLUMNS: &[EnergyColumn] = &[
     ("work_contact", |d| d.work.contact),
     ("work_feed", |d| d.work.feed),
 ];
+
+/// Why a run bounced by `p.bounce_check` (None: it did not): the highest landed node in
+/// the final profile `final_highest` = (node, height above the belt) for `final`, the
+/// last-period `watch` for `last_period` (a run that kept none is not judged valid).
+/// `transient` needs the lift history of every node and is judged by the vertical start
+/// itself ([`super::scene`]): None here.
+pub(crate) fn bounce_reason(p: &LaydownParams, final_highest: (usize, f64), watch: Option<&LiftWatch>) -> Option<String> {
+    match p.bounce_check {
+        BounceCheck::Final => (final_highest.1 > p.bounce_tolerance).then(|| {
+            format!(
+                "bounced: landed node {} is {:.3e} m above the belt in the final profile (bounce_tolerance {:.3e} m)",
+                final_highest.0, final_highest.1, p.bounce_tolerance
+            )
+        }),
+        BounceCheck::LastPeriod => match watch {
+            Some(w) => w.bounced().then(|| w.bounce_reason()),
+            None => Some("bounce_check last_period, but the run kept no lift watch".into()),
+        },
+        BounceCheck::Transient => None,
+    }
+}
 
 /// Everything one replicate produces (a plain struct the pipeline stage stores).
 #[derive(Clone, Debug, PartialEq)]

@@ -482,7 +482,7 @@ impl LaydownParams {
                 "bounce_check transient needs start: vertical (a fed fibre keeps no lift history of its frozen nodes); use bounce_check: final".into(),
             ));
         }
-        self.check_lift_watch(self.end_time())?;
+        self.check_lift_watch(self.end_time(), "duration, length")?;
         if self.duration > self.length / self.fibre_speed {
             return Err(ParamError::Inconsistent(format!(
                 "duration ({} s) must not exceed length/fibre_speed = {} s: the driven top node would pass through the belt",
@@ -585,17 +585,12 @@ impl LaydownParams {
         }
     }
 
-    /// The watch of `bounce_check: last_period`: the last oscillation period 1/f before
-    /// [`Self::end_time`], at `bounce_tolerance`; None for the other checks.
-    pub fn lift_watch(&self) -> Option<LiftWatch> {
-        self.lift_watch_until(self.end_time())
-    }
-
     /// Whether `bounce_check: last_period` can watch a run that ends at `end_time` (s): it
     /// needs the oscillation, and fibre laid for at least one period 1/f before the end
     /// (the first node lands about z0/v_f after the start). Watched for less, a fibre the
     /// air holds up only after it landed could pass.
-    pub fn check_lift_watch(&self, end_time: f64) -> Result<(), ParamError> {
+    /// `longer` names what makes the run longer (for the message).
+    pub fn check_lift_watch(&self, end_time: f64, longer: &str) -> Result<(), ParamError> {
         if self.bounce_check != BounceCheck::LastPeriod {
             return Ok(());
         }
@@ -609,14 +604,16 @@ impl LaydownParams {
         if !(laid_for >= period) {
             return Err(ParamError::Inconsistent(format!(
                 "bounce_check last_period watches the last oscillation period (1/f = {period:.4e} s) of laid fibre, but the run lays fibre for about {laid_for:.4e} s \
-                 (end time {end_time:.4e} s less the fall z0/v_f = {:.4e} s); run longer (duration, length), raise oscillation_frequency, or use bounce_check: final",
+                 (end time {end_time:.4e} s less the fall z0/v_f = {:.4e} s); run longer ({longer}), raise oscillation_frequency, or use bounce_check: final",
                 self.laydown_height / self.fibre_speed
             )));
         }
         Ok(())
     }
 
-    /// [`Self::lift_watch`] for a run that ends at `end_time` (s), as a fed fibre's does.
+    /// The watch of `bounce_check: last_period` for a run that ends at `end_time` (s): the
+    /// last oscillation period 1/f before it, at `bounce_tolerance`; None for the other
+    /// checks.
     pub fn lift_watch_until(&self, end_time: f64) -> Option<LiftWatch> {
         (self.bounce_check == BounceCheck::LastPeriod).then(|| LiftWatch::new(end_time - 1.0 / self.oscillation_frequency, self.bounce_tolerance))
     }
@@ -714,10 +711,10 @@ mod tests {
         let mut p = LaydownParams { bounce_check: BounceCheck::LastPeriod, ..LaydownParams::default() };
         p.validate().unwrap();
         // Table 1: f = 10 Hz, end time 0.19 s
-        let watch = p.lift_watch().unwrap();
+        let watch = p.lift_watch_until(p.end_time()).unwrap();
         assert!((watch.from - 0.09).abs() < 1e-12 && watch.tolerance == p.bounce_tolerance);
         assert!((p.lift_watch_until(0.5).unwrap().from - 0.4).abs() < 1e-12);
-        assert!(LaydownParams::default().lift_watch().is_none());
+        assert!(LaydownParams::default().lift_watch_until(0.19).is_none());
         p.effects.oscillation = false;
         let err = p.validate().unwrap_err().to_string();
         assert!(err.contains("last_period") && err.contains("effects.oscillation false"), "{err}");
@@ -728,6 +725,6 @@ mod tests {
         p.oscillation_frequency = 5.0;
         let err = p.validate().unwrap_err().to_string();
         assert!(err.contains("lays fibre for about 1.8000e-1 s"), "{err}");
-        assert!(p.check_lift_watch(0.22).is_ok());
+        assert!(p.check_lift_watch(0.22, "duration").is_ok());
     }
 }

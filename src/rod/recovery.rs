@@ -270,8 +270,16 @@ mod tests {
     /// at `corrupt_at` (s; a state gone bad: every retake of the next step fails, down
     /// to the smallest).
     fn feeder(p: &LaydownParams, corrupt_at: Option<f64>, until: f64) -> Feeder {
+        watched_feeder(p, corrupt_at, until, None)
+    }
+
+    /// [`feeder`], watching its lift with `watch`.
+    fn watched_feeder(p: &LaydownParams, corrupt_at: Option<f64>, until: f64, watch: Option<crate::rod::LiftWatch>) -> Feeder {
         let settings = fed_settings(p);
         let mut feeder = Feeder::new(p, 0.0, &settings, &mut replicate_rng(5, 0));
+        if let Some(w) = watch {
+            feeder.watch_lift(w);
+        }
         if let Some(t) = corrupt_at {
             feeder.advance_to(t);
             let sim = feeder.simulator_mut();
@@ -319,6 +327,27 @@ mod tests {
         let rel = |x: f64, y: f64| ((y - x) / x).abs();
         println!("S {:.3e}, e {:.3e} relative", rel(a.1 .0, b.1 .0), rel(a.1 .1, b.1 .1));
         assert!(rel(a.1 .0, b.1 .0) < 0.35 && rel(a.1 .1, b.1 .1) < 0.35, "S, e {:?} against {:?}", a.1, b.1);
+    }
+
+    /// The lift watch of `bounce_check: last_period` rides in the checkpoints: a fibre
+    /// rolled back and retaken has watched each instant once, from its first landing to
+    /// the end, as the run without the fault has.
+    #[test]
+    fn a_rolled_back_fibre_watches_its_lift_once() {
+        use crate::rod::LiftWatch;
+        let watched = |corrupt_at: Option<f64>| {
+            let fibre = watched_feeder(&fed_scene(ROLLBACKS), corrupt_at, T_END, Some(LiftWatch::new(0.0, 2e-5))).finish();
+            let first_landing = fibre.landing_time.iter().copied().filter(|t| t.is_finite()).fold(f64::INFINITY, f64::min);
+            (fibre, first_landing)
+        };
+        for (fibre, first_landing) in [watched(None), watched(Some(0.03))] {
+            let watch = fibre.lift_watch.expect("watched");
+            println!("rollbacks {}: watched {:.6} s from the first landing at {first_landing:.6} s, lifted share {:.3}", fibre.rollbacks, watch.watched(), watch.lifted_fraction());
+            assert!(fibre.error.is_none(), "{:?}", fibre.error);
+            // the fed fibre's lowest node starts on the belt: watched from t = 0 to the end,
+        // each instant once (the step that first landed it stands for its own length)
+            assert!((watch.watched() - (T_END - first_landing)).abs() < 1e-6, "watched {} s", watch.watched());
+        }
     }
 
     #[test]

@@ -5,8 +5,7 @@ use super::contact::BeltContact;
 use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
 use super::recovery::Recovery;
-use super::metrics::{laid_polyline, shape_measures, BeltMotion, LaydownResult};
-use super::lift_watch::LiftWatch;
+use super::metrics::{bounce_reason, laid_polyline, shape_measures, BeltMotion, LaydownResult};
 use super::params::{BounceCheck, FeedEnd, Integrator, LaydownParams, CONVERGED_COIL_STEP};
 use crate::params::ParamCaution;
 use super::twist::Twist;
@@ -275,7 +274,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
     let limits = sim.limits;
     let stride = p.diagnostic_stride.max(1) as u64;
     let mut diagnostics = vec![sim.energy_sample()];
-    let mut watch = p.lift_watch();
+    let mut watch = p.lift_watch_until(end_time);
     let mut last_good = sim.rod.x.clone();
     let mut error = None;
     let mut rejected = 0u64;
@@ -292,7 +291,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
                 break;
             }
             if let Some(w) = &mut watch {
-                w.observe(sim.t, sim.highest_laid_node().map(|n| n.1));
+                w.observe(sim.t, || sim.highest_laid_node().map(|n| n.1));
             }
             if s % stride == 0 || s == steps {
                 let sample = sim.energy_sample();
@@ -335,7 +334,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
                 last_good.copy_from_slice(&sim.rod.x);
             }
             if let Some(w) = &mut watch {
-                w.observe(sim.t, sim.highest_laid_node().map(|n| n.1));
+                w.observe(sim.t, || sim.highest_laid_node().map(|n| n.1));
             }
             let samples = (diagnostics.len(), watch);
             recovery.after_step(sim, &mut control, || samples);
@@ -366,22 +365,16 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
     let final_worst = sim.highest_laid_node().map_or((0, 0.0), |(i, h)| (i, h.max(0.0)));
     if invalid_reason.is_none() {
-        match p.bounce_check {
-            BounceCheck::Final if final_worst.1 > p.bounce_tolerance => {
-                invalid_reason = Some(format!(
-                    "bounced: landed node {} is {:.3e} m above the belt in the final profile (bounce_tolerance {:.3e} m)",
-                    final_worst.0, final_worst.1, p.bounce_tolerance
-                ))
-            }
-            BounceCheck::Transient if worst.1 > p.bounce_tolerance => {
-                invalid_reason = Some(format!(
+        invalid_reason = if p.bounce_check == BounceCheck::Transient {
+            (worst.1 > p.bounce_tolerance).then(|| {
+                format!(
                     "bounced: node {} rose {:.3e} m above the belt after landing (bounce_tolerance {:.3e} m, bounce_check transient)",
                     worst.0, worst.1, p.bounce_tolerance
-                ))
-            }
-            BounceCheck::LastPeriod if watch.is_some_and(|w| w.bounced()) => invalid_reason = Some(last_period_reason(&watch.expect("checked"))),
-            _ => {}
-        }
+                )
+            })
+        } else {
+            bounce_reason(p, final_worst, watch.as_ref())
+        };
     }
     LaydownResult {
         max_lift_after_landing: worst.1,
@@ -486,14 +479,4 @@ mod tests {
         let coarse = LaydownParams { elements: 250, ..table1.clone() };
         assert!(step_caution(&coarse, ds(&coarse)).is_none(), "a coarse mesh at Table 1: its error is the mesh estimate's");
     }
-}
-
-/// Why a replicate failed `bounce_check: last_period`.
-pub(crate) fn last_period_reason(watch: &LiftWatch) -> String {
-    format!(
-        "bounced: landed fibre stood above the belt by more than bounce_tolerance ({:.3e} m) for {:.0} % of the last oscillation period (more than {:.0} %, bounce_check last_period)",
-        watch.tolerance,
-        100.0 * watch.lifted_fraction(),
-        100.0 * super::lift_watch::LIFTED_MAJORITY
-    )
 }

@@ -821,7 +821,7 @@ fn coil_step_converges_e_at_10_m_s() {
 /// when the run stopped at 18.5 ms and 7 at 19 ms (FIBRE_SPEED.md, "Arches come with the
 /// sweep"). `bounce_check: last_period` asks whether the fibre stood up for most of the
 /// last period, and must give one verdict at both ends; a fibre the air holds up for good
-/// (V_air = v_f, lifted 4-6 mm near the touchdown) must stay invalid.
+/// (V_air = v_f, laid fibre 4.5-7.3 mm up at the end) must stay invalid.
 #[test]
 fn last_period_validity_does_not_depend_on_where_the_sweep_ends() {
     use super::lift_watch::LIFTED_MAJORITY;

@@ -60,7 +60,7 @@ pub use stage::LaidWebStage;
 
 use crate::error::InvalidParam;
 use crate::rod::contact_world::{ContactStats, ContactWorld};
-use crate::rod::feed::{feed_fibre, FedFibre, FeedSettings, Feeder};
+use crate::rod::feed::{FedFibre, FeedSettings, Feeder};
 use crate::rod::fibre_contact::FibreContact;
 use crate::rod::{BounceCheck, LaydownParams};
 use crate::rng::stream_rng;
@@ -321,7 +321,7 @@ impl LaidWebParams {
                 "bounce_check transient needs every landed node's lift history, which a laid web does not keep for frozen fibre; use final or last_period".into(),
             ));
         }
-        self.scene.check_lift_watch(self.feed_time()).map_err(|e| InvalidParam::new("bounce_check".into(), e.to_string()))?;
+        self.scene.check_lift_watch(self.feed_time(), "belt_travel").map_err(|e| InvalidParam::new("bounce_check".into(), e.to_string()))?;
         if self.fed_length() <= 2.0 * self.scene.laydown_height {
             return Err(InvalidParam::new("belt_travel".into(), format!(
                 "belt_travel {} m feeds only {:.4} m of fibre at v_f/v_b = {:.1}, less than twice the laydown height {} m: nothing would be laid",
@@ -420,6 +420,18 @@ pub fn fibre_setup(p: &LaidWebParams, seed: u64, replicate: usize, j: usize) -> 
     (rng, turbulence, scene)
 }
 
+/// Fibre j's feeder at t = 0 ([`fibre_setup`]'s scene and phase), watching with
+/// `bounce_check: last_period` the last period of the web's nominal oscillation before
+/// the end of the feed, whatever the fibre's frequency jitter (the period `validate`
+/// checks).
+fn web_feeder<R: rand::Rng + ?Sized>(p: &LaidWebParams, scene: &LaydownParams, phase: f64, rng: &mut R) -> Feeder {
+    let mut feeder = Feeder::new(scene, phase, &p.feed, rng);
+    if let Some(watch) = p.scene.lift_watch_until(p.feed_time()) {
+        feeder.watch_lift(watch);
+    }
+    feeder
+}
+
 /// Lay replicate `replicate` of the web (fibres in parallel on the current rayon pool;
 /// identical for any thread count). `bar` counts fibres done.
 pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::ProgressBar) -> LaidWeb {
@@ -429,7 +441,9 @@ pub fn lay_web(p: &LaidWebParams, seed: u64, replicate: usize, bar: &indicatif::
         None => {
             let fibres = crate::progress::par_map(bar, 0..p.fibres_across, |j| {
                 let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
-                let fed = feed_fibre(&scene, turbulence.0, t_end, &p.feed, &mut rng);
+                let mut feeder = web_feeder(p, &scene, turbulence.0, &mut rng);
+                feeder.advance_to(t_end);
+                let fed = feeder.finish();
                 finish_fibre(p, &scene, j, fed, turbulence, [0; 3])
             });
             (fibres, None)
@@ -500,8 +514,7 @@ impl ContactWeb {
             .map(|j| {
                 let (mut rng, turbulence, scene) = fibre_setup(p, seed, replicate, j);
                 let scene = c.stepped(scene);
-                let settings = FeedSettings { lift_watch: scene.lift_watch_until(p.feed_time()), ..p.feed.clone() };
-                let mut feeder = Feeder::new(&scene, turbulence.0, &settings, &mut rng);
+                let mut feeder = web_feeder(p, &scene, turbulence.0, &mut rng);
                 feeder.join_contact_world();
                 let mut contact = FibreContact::new(d, friction);
                 contact.web_top = scene.bounce_tolerance;

@@ -643,7 +643,7 @@ fn a_fibre_whose_step_collapsed_before_it_failed_is_rolled_back_to_before_the_co
 }
 
 /// `bounce_check: last_period` in a laid web: every fibre, with and without fibre
-/// contact, watches its own last oscillation period before the end of the feed, and its
+/// contact, watches the web's last oscillation period before the end of the feed, and its
 /// verdict is the watched share; `transient` (a lift history frozen fibre does not keep)
 /// and a feed shorter than a period of laid fibre are refused by name.
 #[test]
@@ -651,7 +651,8 @@ fn a_laid_web_watches_each_fibres_last_period() {
     use crate::rod::BounceCheck;
     // 40 Hz: a 25 ms period within the 50 ms of laid fibre of a 60 ms feed
     let scene = LaydownParams { bounce_check: BounceCheck::LastPeriod, oscillation_frequency: 40.0, ..small_scene() };
-    let mut p = LaidWebParams { fibre_spacing: 0.008, ..laid_web_for(&scene, 0.06, 2) };
+    // frequency jitter: each fibre still watches the web's nominal period
+    let mut p = LaidWebParams { fibre_spacing: 0.008, frequency_jitter: 0.1, ..laid_web_for(&scene, 0.06, 2) };
     p.feed.oscillation_ramp = 0.01;
     p.validate().unwrap();
     for contact in [None, Some(FibreContactSettings::default())] {

@@ -591,8 +591,8 @@ fn estimated_node_steps_match_the_steps_taken() {
 
 /// `bounce_check: last_period` on the paper's vertical start: the verdict is the watched
 /// share of the last oscillation period (above one half: invalid, with the share in the
-/// reason), a stricter tolerance counts more of the period as lifted, and the final
-/// profile no longer decides.
+/// reason), a stricter tolerance counts more of the period as lifted, the watch leaves the
+/// run as it was, and a fibre the air holds up is invalid.
 #[test]
 fn last_period_verdict_follows_the_lifted_share_of_the_vertical_start() {
     let watched = |tolerance: f64, r: u64| {
@@ -600,34 +600,27 @@ fn last_period_verdict_follows_the_lifted_share_of_the_vertical_start() {
         let p = LaydownParams { bounce_check: BounceCheck::LastPeriod, bounce_tolerance: tolerance, oscillation_frequency: 40.0, ..reduced() };
         simulate(&p, &mut replicate_rng(5, r))
     };
-    let mut strict_invalid = 0;
     for r in 0..2 {
         let (loose, strict) = (watched(1e-3, r), watched(2e-5, r));
         println!(
             "replicate {r}: lifted share {:.3} at 1 mm, {:.3} at 20 µm; final lift {:.2e} m; {:?}",
             loose.lifted_fraction, strict.lifted_fraction, strict.final_lift_of_landed, strict.invalid_reason
         );
-        for (res, tolerance) in [(&loose, 1e-3), (&strict, 2e-5)] {
+        for res in [&loose, &strict] {
             assert!(res.error.is_none(), "{:?}", res.error);
             assert!((0.0..=1.0).contains(&res.lifted_fraction), "share {}", res.lifted_fraction);
             assert_eq!(res.valid, res.lifted_fraction <= 0.5, "the verdict is the share's");
             if !res.valid {
                 assert!(res.invalid_reason.as_deref().unwrap().contains("last_period"), "{:?}", res.invalid_reason);
             }
-            // the final profile alone no longer decides
-            let final_fails = res.final_lift_of_landed > tolerance;
-            if final_fails && res.valid || !final_fails && !res.valid {
-                println!("replicate {r} at {tolerance:.0e} m: the final profile would have said otherwise");
-            }
         }
         assert!(strict.lifted_fraction >= loose.lifted_fraction);
-        strict_invalid += usize::from(!strict.valid);
+        assert!(strict.lifted_fraction > 0.0, "at 20 µm some of the period is lifted");
         // the same run: the watch does not change the motion
         let unwatched = simulate(&LaydownParams { bounce_tolerance: 2e-5, oscillation_frequency: 40.0, ..reduced() }, &mut replicate_rng(5, r));
         assert_eq!(unwatched.positions, strict.positions);
         assert!(unwatched.lifted_fraction.is_nan());
     }
-    println!("{strict_invalid} of 2 invalid at 20 µm");
     // held up by the air for good (V_air = v_f at 50 m/s): invalid by the watch too, once
     // the run lays fibre for a whole period (0.7 m: 12 ms after the first landing)
     let held_up = LaydownParams { fibre_speed: 50.0, air_speed: 50.0, belt_speed: 2.0, oscillation_frequency: 100.0, bounce_check: BounceCheck::LastPeriod, length: 0.7, ..reduced() };

@@ -68,7 +68,8 @@ pub struct LaydownResult {
     pub final_lift_of_landed: f64,
     /// Share of the last oscillation period in which a landed node stood above
     /// `bounce_tolerance` (`bounce_check` = last_period, which invalidates the replicate
-    /// above one half; NaN with the other checks).
+    /// above one half; NaN with the other checks, or when nothing landed within the
+    /// window).
     pub lifted_fraction: f64,
     /// Per node: highest rise above the belt after landing (m, 0 = never rose or never landed).
     pub lift: Vec<f64>,

@@ -236,7 +236,7 @@ const FIBRE_COLUMNS: &[FibreColumn] = &[
     ("laid_length", "m", "laid length", "arc length of the laid fibre", |f| f.fed.laid_nodes().saturating_sub(1) as f64 * f.fed.element_length),
     ("frozen_nodes", "1", "frozen nodes", "nodes frozen (stuck, carried with the belt at no cost) during the run", |f| f.fed.frozen_nodes as f64),
     ("final_lift_of_landed", "m", "highest landed node at the end", "highest landed node above the belt at the end", |f| f.fed.final_lift_of_landed),
-    ("lifted_fraction", "1", "share of the last period with landed fibre lifted", "share of the fibre's last oscillation period in which a landed node stood above bounce_tolerance (bounce_check = last_period invalidates above 0.5; NaN with final)", |f| f.fed.lift_watch.map_or(f64::NAN, |w| w.lifted_fraction())),
+    ("lifted_fraction", "1", "lifted share of the last period", "share of the fibre's last oscillation period in which a landed node stood above bounce_tolerance (bounce_check = last_period invalidates above 0.5; NaN with final)", |f| f.fed.lift_watch.map_or(f64::NAN, |w| w.lifted_fraction())),
     ("steps", "1", "time steps", "time steps", |f| f.fed.steps as f64),
     ("rollbacks", "1", "rollbacks", "times the fibre was rolled back to a checkpoint after a failed step and the stretch retaken with the recovery scheme (0: none; with fibre_contact every fibre that could touch the failed one goes back with it to the start of the broad-phase interval, and each counts it)", |f| f.fed.rollbacks as f64),
     ("node_steps", "1", "node steps", "sum over steps of the active nodes (the work done)", |f| f.fed.node_steps as f64),

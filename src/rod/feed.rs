@@ -526,9 +526,7 @@ impl Feeder {
                     *anchor = here;
                 }
             }
-            if let Some(watch) = &mut self.book.lift_watch {
-                watch.observe(t, || sim.highest_laid_node().map(|n| n.1));
-            }
+            sim.observe_lift(self.book.lift_watch.as_mut());
             // the step's bookkeeping is done: a checkpoint holds all of it
             let (frozen, book) = (&self.frozen, &self.book);
             self.recovery.after_step(&mut self.sim, &mut self.control, || (frozen.len(), book.clone()));

@@ -75,6 +75,7 @@
 use super::contact::BeltContact;
 use super::fibre_contact::FibreContact;
 use super::forces::{axial_energy_at, axial_energy_of, bending_energy_at, bending_energy_of, Term};
+use super::lift_watch::LiftWatch;
 use super::params::Integrator;
 use super::forces::sym_mul;
 use super::state::{sym_inverse, sym_inverse_xy, NodeContact, Rod, Workspace};
@@ -402,6 +403,14 @@ impl Simulator {
     pub fn laid_time(&self, i: usize) -> f64 {
         let web = self.fibre_contact.as_ref().and_then(|c| c.web_landing_time.get(i)).copied().unwrap_or(f64::NAN);
         self.landing_time[i].min(web)
+    }
+
+    /// Show `watch` (`bounce_check: last_period`, [`super::lift_watch`]) the state just
+    /// reached: the height of [`Self::highest_laid_node`], asked only inside its window.
+    pub fn observe_lift(&self, watch: Option<&mut LiftWatch>) {
+        if let Some(w) = watch {
+            w.observe(self.t, || self.highest_laid_node().map(|n| n.1));
+        }
     }
 
     /// The highest node laid so far and its height above the belt (m): the first of the

@@ -290,9 +290,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
                 error = Some(f.to_string());
                 break;
             }
-            if let Some(w) = &mut watch {
-                w.observe(sim.t, || sim.highest_laid_node().map(|n| n.1));
-            }
+            sim.observe_lift(watch.as_mut());
             if s % stride == 0 || s == steps {
                 let sample = sim.energy_sample();
                 let worst = sim
@@ -333,9 +331,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
                 diagnostics.push(sim.energy_sample());
                 last_good.copy_from_slice(&sim.rod.x);
             }
-            if let Some(w) = &mut watch {
-                w.observe(sim.t, || sim.highest_laid_node().map(|n| n.1));
-            }
+            sim.observe_lift(watch.as_mut());
             let samples = (diagnostics.len(), watch);
             recovery.after_step(sim, &mut control, || samples);
         }

@@ -183,14 +183,11 @@ impl FedFibre {
     /// laid nodes.
     pub fn invalid_reason(&self, p: &LaydownParams) -> Option<String> {
         if let Some(err) = &self.error {
-            Some(err.clone())
-        } else if let Some(bounced) = bounce_reason(p, (self.final_lift_node, self.final_lift_of_landed), self.lift_watch.as_ref()) {
-            Some(bounced)
-        } else if self.laid_nodes() < 2 {
-            Some("fewer than two nodes landed".into())
-        } else {
-            None
+            return Some(err.clone());
         }
+        // no lift history: `bounce_check: transient` is refused for fed fibre
+        bounce_reason(p, (self.final_lift_node, self.final_lift_of_landed), None, self.lift_watch.as_ref())
+            .or_else(|| (self.laid_nodes() < 2).then(|| "fewer than two nodes landed".into()))
     }
 }
 

@@ -29,10 +29,10 @@ pub const ENERGY_COLUMNS: &[EnergyColumn] = &[
 
 /// Why a run bounced by `p.bounce_check` (None: it did not): the highest landed node in
 /// the final profile `final_highest` = (node, height above the belt) for `final`, the
-/// last-period `watch` for `last_period` (a run that kept none is not judged valid).
-/// `transient` needs the lift history of every node and is judged by the vertical start
-/// itself ([`super::scene`]): None here.
-pub(crate) fn bounce_reason(p: &LaydownParams, final_highest: (usize, f64), watch: Option<&LiftWatch>) -> Option<String> {
+/// highest rise after landing `lifted` = (node, height) for `transient` (None: the run
+/// kept no lift history, as a fed fibre does not for its frozen nodes), the last-period
+/// `watch` for `last_period`. A run that kept neither is not judged valid.
+pub(crate) fn bounce_reason(p: &LaydownParams, final_highest: (usize, f64), lifted: Option<(usize, f64)>, watch: Option<&LiftWatch>) -> Option<String> {
     match p.bounce_check {
         BounceCheck::Final => (final_highest.1 > p.bounce_tolerance).then(|| {
             format!(
@@ -44,7 +44,15 @@ pub(crate) fn bounce_reason(p: &LaydownParams, final_highest: (usize, f64), watc
             Some(w) => w.bounced().then(|| w.bounce_reason()),
             None => Some("bounce_check last_period, but the run kept no lift watch".into()),
         },
-        BounceCheck::Transient => None,
+        BounceCheck::Transient => match lifted {
+            Some((node, height)) => (height > p.bounce_tolerance).then(|| {
+                format!(
+                    "bounced: node {node} rose {height:.3e} m above the belt after landing (bounce_tolerance {:.3e} m, bounce_check transient)",
+                    p.bounce_tolerance
+                )
+            }),
+            None => Some("bounce_check transient, but the run kept no lift history".into()),
+        },
     }
 }
 

@@ -6,7 +6,7 @@ use super::forces::{Drag, DragLaw, Oscillation, Term};
 use super::integrator::{stable_time_step, Simulator, StepControl, Work};
 use super::recovery::Recovery;
 use super::metrics::{bounce_reason, laid_polyline, shape_measures, BeltMotion, LaydownResult};
-use super::params::{BounceCheck, FeedEnd, Integrator, LaydownParams, CONVERGED_COIL_STEP};
+use super::params::{FeedEnd, Integrator, LaydownParams, CONVERGED_COIL_STEP};
 use crate::params::ParamCaution;
 use super::twist::Twist;
 use super::state::{Rod, Workspace};
@@ -361,16 +361,7 @@ pub(crate) fn run(sim: &mut Simulator, p: &LaydownParams, end_time: f64) -> Layd
             .fold((0usize, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
     let final_worst = sim.highest_laid_node().map_or((0, 0.0), |(i, h)| (i, h.max(0.0)));
     if invalid_reason.is_none() {
-        invalid_reason = if p.bounce_check == BounceCheck::Transient {
-            (worst.1 > p.bounce_tolerance).then(|| {
-                format!(
-                    "bounced: node {} rose {:.3e} m above the belt after landing (bounce_tolerance {:.3e} m, bounce_check transient)",
-                    worst.0, worst.1, p.bounce_tolerance
-                )
-            })
-        } else {
-            bounce_reason(p, final_worst, watch.as_ref())
-        };
+        invalid_reason = bounce_reason(p, final_worst, Some(worst), watch.as_ref());
     }
     LaydownResult {
         max_lift_after_landing: worst.1,

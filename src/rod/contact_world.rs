@@ -143,6 +143,8 @@ pub trait ContactBody: Send + Sync {
         contact.predicted = predicted;
         (contact.free_velocities, contact.free_mobility) = (free_v, free_w);
         contact.predicted_at = ok.then_some(sim.t);
+        // the holds every solve of this step's contacts judges shares on
+        contact.settle_holds(&sim.landing_time, &sim.rod, sim.t);
         sim.fibre_contact = Some(contact);
     }
     /// What must happen before each step (a fed rod adds its new top node).
@@ -624,7 +626,7 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
         });
         if refreshed {
             refresh(group, local, now, parallel, &mut spare);
-            // the contacts of fibres in the air, for both fibres at once; the copies then
+            // the contacts two fibres share ½, for both fibres at once; the copies then
             // carry the velocities they give
             let mut sims: Vec<&mut Simulator> = group.iter_mut().map(|b| b.simulator_mut()).collect();
             if super::fibre_contact::air::solve_in_air(&mut sims, local, now, until - now, contact_top) {
@@ -700,10 +702,10 @@ fn seen_velocity(sim: &Simulator, i: usize) -> [f64; 3] {
     }
 }
 
-/// After the contacts in the air changed some rods' predicted velocities at `t`
-/// ([`air::solve_in_air`](super::fibre_contact::air::solve_in_air), which changes only
-/// nodes not laid): the velocities of every copy of those rods' segments, as [`refresh`]
-/// sets them; positions and the rest of each copy stay as they are.
+/// After the contacts solved for both fibres changed some rods' predicted velocities at `t`
+/// ([`air::solve_in_air`](super::fibre_contact::air::solve_in_air)): the velocities of
+/// every copy of those rods' segments, as [`refresh`] sets them; positions, and whether
+/// each end rests (settled before the solve), stay as they are.
 fn refresh_velocities<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64) {
     // the velocities each changed rod is seen moving at
     let seen: Vec<Option<Vec<[f64; 3]>>> = group

@@ -62,11 +62,13 @@
 //! and side by side (heights within 0.1 d), each takes ½ (equal masses per length; where
 //! one meets the other off its nodes and the other at a node the two impulses differ and
 //! the pair's momentum changes, by 6 % at a quarter of an element). Where such a ½ pair
-//! meets in the air (neither fibre laid at the contact, below z0), a
+//! meets below z0, in the air or on laid fibre that gives way, a
 //! [`ContactWorld`](super::contact_world) solves its velocity pass for both fibres at once
-//! instead ([`air`]), with equal and opposite impulses
-//! (`a_collision_of_two_free_fibres_conserves_their_momentum`); the position pass still
-//! takes ½ each. A pair
+//! instead, with the belt under their nodes ([`air`]): equal and opposite impulses
+//! (`a_collision_of_two_free_fibres_conserves_their_momentum`,
+//! `a_fibre_meeting_laid_fibre_that_gives_way_conserves_momentum`); the position pass
+//! still takes ½ each. Both decide the shares on the holds settled before the step
+//! ([`FibreContact::settle_holds`]). A pair
 //! closer than d/2 at the start of a step has crossed ([`CROSSED`]) and is left alone.
 //! Tunnelling needs a relative normal motion of more than d in one step while the pair
 //! is not yet a candidate; the candidate margins are twice the motion measured at the
@@ -229,6 +231,8 @@ pub struct FibreContact {
     x_start: Vec<[f64; 3]>,
     t_start: f64,
     held_start: Vec<bool>,
+    /// The time the flags `held_start` were settled for ([`FibreContact::settle_holds`]).
+    held_at: Option<f64>,
     /// Skip the pairs the gap bound shows cannot be in contact (on by default); off,
     /// every candidate is tested in every pass: the reference the pruning is checked
     /// against (it must give the same corrections to the bit).
@@ -243,10 +247,10 @@ pub struct FibreContact {
     pub predicted: Vec<[f64; 3]>,
     pub predicted_at: Option<f64>,
     /// The same step's velocities and inverse node matrices W before the belt (after the
-    /// node-wise implicit update): the basis of the contacts solved in the air ([`air`]).
+    /// node-wise implicit update): the basis of the contacts solved for both fibres ([`air`]).
     pub free_velocities: Vec<[f64; 3]>,
     pub free_mobility: Vec<[f64; 6]>,
-    /// The time t of the step the contacts in the air ([`air`]) were solved for, with this
+    /// The time t of the step the contacts shared ½ ([`air`]) were solved for, with this
     /// rod in at least one of them; the velocity change they give each node in that step
     /// (empty: none); and which candidates they solved (the velocity pass applies no
     /// impulse to those; empty when none). A step retaken smaller from t keeps them: their
@@ -291,6 +295,7 @@ impl FibreContact {
     /// The first `count` nodes left the rod (frozen): the per-node flags follow.
     pub fn drop_front(&mut self, count: usize) {
         self.dropped += count;
+        self.held_at = None;
         for flags in [&mut self.resting, &mut self.was_resting, &mut self.supported, &mut self.on_web] {
             flags.drain(..count.min(flags.len()));
         }
@@ -363,6 +368,29 @@ impl FibreContact {
         }
     }
 
+    /// Bring the gap bounds up to the start of the step from `t` (own nodes at `x`, the
+    /// obstacles just refreshed) for the solve before the velocity pass ([`air`]), and
+    /// return the fastest obstacle's speed (m/s). The pass's own update at `t` then adds
+    /// nothing (the same positions), so the pass is unchanged.
+    pub(super) fn bounds_at(&mut self, x: &[[f64; 3]], t: f64) -> f64 {
+        self.update_travel(x, t, true);
+        self.obstacle_speed.iter().copied().fold(0.0, f64::max)
+    }
+
+    /// Whether own segment k may come within d + `reach` of a candidate, by the row bound
+    /// as brought up to date by [`FibreContact::bounds_at`] (always, with pruning off).
+    pub(super) fn row_may_reach(&self, k: usize, reach: f64) -> bool {
+        !self.pruning || self.row_gap(k) - self.diameter <= reach
+    }
+
+    /// Whether own segment k and candidate c may be within d + `reach` of each other, by
+    /// the pair's gap bound as brought up to date by [`FibreContact::bounds_at`] (always,
+    /// with pruning off or a pair never measured).
+    pub(super) fn pair_may_reach(&self, k: usize, c: usize, reach: f64) -> bool {
+        let q = self.candidates[c] as usize;
+        !self.pruning || self.gap_bound.get(c).is_none_or(|b| b - self.pair_travel(k, q) - self.diameter <= reach)
+    }
+
     /// Whether a pass may skip own segment k whole: pruning is on and no candidate can
     /// come within d + `reach`. Counts the skipped candidates.
     fn skip_row(&mut self, k: usize, reach: f64) -> bool {
@@ -379,6 +407,26 @@ impl FibreContact {
     /// below by fibre the web holds in the last step.
     pub fn rests(&self, k: usize, landing_time: &[f64], x: &[[f64; 3]], v: &[[f64; 3]]) -> bool {
         on_belt(k, landing_time, x, v, self.diameter) || self.resting.get(k) == Some(&true)
+    }
+
+    /// Settle which nodes hold in the step from time `t` ([`FibreContact::rests`], at the
+    /// velocities predicted for the step), before any of its contacts is solved. The
+    /// contacts solved for both fibres at once ([`air`]) and the rod's own passes judge
+    /// every pair's shares ([`yield_share`]) on these flags, although that solve changes
+    /// the predicted velocities [`on_belt`] reads: one decision per pair and step.
+    pub fn settle_holds(&mut self, landing_time: &[f64], rod: &Rod, t: f64) {
+        let mut held = std::mem::take(&mut self.held_start);
+        held.clear();
+        let v = self.before_contact(rod, t);
+        held.extend((0..rod.nodes()).map(|k| self.rests(k, landing_time, &rod.x, v)));
+        self.held_start = held;
+        self.held_at = Some(t);
+    }
+
+    /// Whether node `k` is held in the step from `t`, as [`FibreContact::settle_holds`]
+    /// settled it (false when not settled for `t`).
+    pub(super) fn held(&self, k: usize, t: f64) -> bool {
+        self.held_at == Some(t) && self.held_start.get(k) == Some(&true)
     }
 
     /// The velocities the rod reaches in the step from time `t` before fibre contact
@@ -412,6 +460,11 @@ impl FibreContact {
     pub fn apply_impulses(&mut self, rod: &mut Rod, landing_time: &[f64], mut winv: Option<&mut [[f64; 6]]>, t: f64, dt: f64, free: FreeNodes) {
         let d = self.diameter;
         let (mut impulses, mut skipped) = (0, 0);
+        // (a rod stepped outside a contact world settles its holds here, before `resting`
+        // becomes `was_resting`)
+        if self.held_at != Some(t) || self.held_start.len() != rod.nodes() {
+            self.settle_holds(landing_time, rod, t);
+        }
         // NaN: not settled in this pass (see `share_at_start`)
         self.shares.clear();
         self.shares.resize(self.candidates.len(), f64::NAN);
@@ -432,11 +485,6 @@ impl FibreContact {
         self.begin_pass(dt);
         self.x_start.clone_from(&rod.x);
         self.t_start = t;
-        let mut held = std::mem::take(&mut self.held_start);
-        held.clear();
-        let v = self.before_contact(rod, t);
-        held.extend((0..rod.nodes()).map(|k| on_belt(k, landing_time, &rod.x, v, d) || self.was_resting.get(k) == Some(&true)));
-        self.held_start = held;
         let speed = |v: [f64; 3]| norm(v);
         let fastest_obstacle = self.obstacle_speed.iter().copied().fold(0.0, f64::max);
         for k in 0..rod.rest.len() {
@@ -477,7 +525,7 @@ impl FibreContact {
                 // pass's (which would otherwise add up, step after step, while an
                 // overlap persists)
                 let target = if g >= d { (d - g) / dt } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
-                // solved in the air with the other fibre ([`air`]): no impulse here, but the
+                // solved with the other fibre ([`air`]): no impulse here, but the
                 // node is held along n as for any contact (one the solve brought to its
                 // target is still in contact; what the solve's sweeps and the impulses
                 // after it leave of an approach, the position pass corrects)
@@ -747,7 +795,7 @@ pub const SIDE_BY_SIDE: f64 = 0.1;
 /// (the segment end nearer the contact point, at `u` along the obstacle, lies on the belt
 /// or rests on the web: [`FibreContact::rests`]), the upper one takes it all; otherwise, and side by side (|dz| < 0.1 d),
 /// each takes ½ (equal masses per length; momentum is exchanged, not made, only where the
-/// two contact points are alike, both at nodes or both mid-segment; in the air such
+/// two contact points are alike, both at nodes or both mid-segment; below z0 such
 /// pairs are solved for both fibres at once, [`air`]). Both rods evaluate the same rule on
 /// the same data, so a contact is shared once.
 pub fn yield_share(ob: &ObstacleSegment, u: f64, dz: f64, d: f64, own_landed: bool) -> f64 {

@@ -1,31 +1,43 @@
-//! Contacts between two fibres in the air, solved for both fibres at once.
+//! Contacts between two simulated fibres that share the correction, solved for both
+//! fibres at once, with the belt under them.
 //!
-//! Where two simulated fibres meet and neither is laid at the contact (a collision of two
-//! hanging fibres), each rod's own velocity pass would take half the correction against
-//! where it sees the other moving. The two impulses then differ wherever one contact point
-//! lies at a node and the other between nodes, and the pair's momentum changes (by 6 % at
-//! a quarter of an element, `a_collision_of_two_free_fibres_conserves_their_momentum`).
+//! Where two simulated fibres meet and neither is held at the contact (a collision of two
+//! hanging fibres, or a fibre meeting a laid span that gives way: [`yield_share`] gives
+//! each ½), each rod's own velocity pass would take half the correction against where it
+//! sees the other moving. The two impulses then differ wherever one contact point lies at
+//! a node and the other between nodes, and the pair's momentum changes (by 6 % at a
+//! quarter of an element, `a_collision_of_two_free_fibres_conserves_their_momentum`).
+//! Each rod also sees the other at its prediction v*, which lacks the other's half, so its
+//! position pass pushed, every step, a penetration the other's half already closed: the
+//! laid web's grid-scale motion (`pipelines/studies/PHYSICAL_WEBS.md`, "The belt in the
+//! joint solve").
 //!
 //! So before each lock step of a cluster ([`super::super::contact_world`]), after every rod
-//! has predicted its velocities, the contacts of such pairs are solved together: a
-//! projected Gauss-Seidel over their impulses, [`SWEEPS`] sweeps in a fixed order (rods,
-//! segments, candidates), so threads do not change the result. A pair is solved so when
-//! neither fibre's nodes at it are laid, all four ends lie below z0, the yield rule shares
-//! it ½ each, and both rods have predicted the step. Each contact has a normal impulse
-//! λ ≥ 0 towards the velocity pass's target (reach d at the end of the step, or no
-//! approach while closer) and a friction impulse within μ_ff λ. Each is applied to the
-//! nodes of both rods through their inverse node matrices W before the belt (the velocity
-//! pass's own), equal and opposite, so the pair's momentum is kept; a side whose contact
-//! point can hardly move takes nothing, as `Mobility::shift` refuses, and the impulse then
-//! acts on the other side alone. The change goes into each rod's predicted velocities
-//! (the other rods' copies then carry it, except for nodes resting on a fibre, which they
-//! see at their current velocity) and into its step ([`FibreContact::air_change`]); the
-//! rod's own velocity pass applies no impulse to those pairs but still holds the node along
-//! n, and the position pass treats them as before.
+//! has predicted its velocities and settled its holds ([`FibreContact::settle_holds`]),
+//! the contacts of such pairs are solved together: a projected Gauss-Seidel over their
+//! impulses, [`SWEEPS`] sweeps in a fixed order (rods, segments, candidates, then belt
+//! nodes), so threads do not change the result. A pair is solved so when all four ends lie
+//! below z0, the yield rule shares it ½ each on the holds both rods' passes use, and both
+//! rods have predicted the step. Each contact has a normal impulse λ ≥ 0 towards the
+//! velocity pass's target (reach d at the end of the step, or no approach while closer)
+//! and a friction impulse within μ_ff λ. Each is applied to the nodes of both rods through
+//! their inverse node matrices W before the belt (the velocity pass's own), equal and
+//! opposite, so the pair's momentum is kept; a side whose contact point can hardly move
+//! takes nothing, as `Mobility::shift` refuses, and the impulse then acts on the other side
+//! alone.
 //!
-//! Contacts with laid fibre keep the yield rule ([`yield_share`]): solving every contact of
-//! a cluster together lays sparse webs better but heaves dense ones
-//! (`pipelines/studies/PHYSICAL_WEBS.md`, "The joint contact solve at the contact step").
+//! The belt is part of the same solve: every node of a solved pair that lies within d of
+//! the belt has a belt contact, unilateral (v_z ≥ −z/Δt, the belt pass's own target) with
+//! Coulomb friction μ against the belt's velocity ([`super::super::contact::BeltContact`]'s
+//! law, through W). A node pressed onto the belt then cannot give way to the fibre above
+//! it, and the fibre above takes the whole correction within the solve instead of the belt
+//! undoing half of it afterwards.
+//!
+//! The change goes into each rod's predicted velocities (the other rods' copies then carry
+//! it, except for nodes resting on a fibre, which they see at their current velocity) and
+//! into its step ([`FibreContact::air_change`]); the rod's own velocity pass applies no
+//! impulse to those pairs but still holds the node along n, the belt pass runs after it as
+//! for any node, and the position pass treats the pairs as before.
 
 use super::super::integrator::Simulator;
 use super::super::Integrator;
@@ -67,12 +79,7 @@ fn key(a: (usize, usize), b: (usize, usize)) -> (usize, usize, usize, usize) {
     }
 }
 
-/// Whether node `k` of `sim` is laid (on the belt or on the web).
-fn laid(sim: &Simulator, k: usize) -> bool {
-    sim.laid_time(k).is_finite()
-}
-
-/// Solve the contacts between fibres in the air of one cluster (`sims`, with `local[w]`
+/// Solve the contacts that share ½ between the fibres of one cluster (`sims`, with `local[w]`
 /// the place of world rod w in it) for the step from `t` of length `dt`, each rod having
 /// predicted its velocities for that step. A pair with an end above `top` (the laydown
 /// height z0, where eq 7's oscillator holds the fibre: its W is about 150 times smaller
@@ -84,27 +91,42 @@ fn laid(sim: &Simulator, k: usize) -> bool {
 pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64) -> bool {
     let mut contacts: Vec<AirContact> = Vec::new();
     let mut keys: FxHashSet<(usize, usize, usize, usize)> = FxHashSet::default();
+    // each rod's gap bounds at t, and its fastest obstacle: a segment whose bound shows
+    // no candidate within a pair's reach (below) is skipped whole
+    let fastest_obstacle: Vec<f64> = sims
+        .iter_mut()
+        .map(|sim| {
+            let x = &sim.rod.x;
+            sim.fibre_contact.as_mut().map_or(0.0, |c| c.bounds_at(x, t))
+        })
+        .collect();
     for r in 0..sims.len() {
         let sim = &*sims[r];
         let Some(c) = sim.fibre_contact.as_ref() else { continue };
         let n = sim.rod.nodes();
-        if c.predicted_at != Some(t) || c.free_velocities.len() != n || c.free_mobility.len() != n {
+        if c.predicted_at != Some(t) || c.free_velocities.len() != n || c.free_mobility.len() != n || c.held_at != Some(t) {
             continue;
         }
         let d = c.diameter;
         let (x, v) = (&sim.rod.x, &c.free_velocities);
         for k in 0..sim.rod.rest.len() {
-            if laid(sim, k) || laid(sim, k + 1) {
+            // no pair of the segment closes more than this in the step (see `reach` below)
+            let row_speed = norm(v[k]).max(norm(v[k + 1])).max(fastest_obstacle[r]);
+            let closing = 2.0 * dt * (row_speed + 1.0);
+            if !c.row_may_reach(k, closing) {
                 continue;
             }
             for cand in c.row(k) {
                 let ob = &c.obstacles[c.candidates[cand] as usize];
                 let Some((world, kg)) = ob.source else { continue };
+                if !c.pair_may_reach(k, cand, closing) {
+                    continue;
+                }
                 let (g, kg) = (local[world as usize], kg as usize);
                 let other = &*sims[g];
                 // (a rod that did not predict this step, having failed, takes no part)
                 let predicted = other.fibre_contact.as_ref().is_some_and(|o| o.predicted_at == Some(t) && o.free_velocities.len() == other.rod.nodes());
-                if g == r || !predicted || kg + 1 >= other.rod.nodes() || laid(other, kg) || laid(other, kg + 1) {
+                if g == r || !predicted || kg + 1 >= other.rod.nodes() {
                     continue;
                 }
                 let (q0, q1) = ob.at(t);
@@ -124,7 +146,7 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
                     continue;
                 }
                 let near = if s < 0.5 { k } else { k + 1 };
-                if yield_share(ob, u, gap[2], d, c.resting.get(near) == Some(&true)) != 0.5 || !keys.insert(key((r, k), (g, kg))) {
+                if yield_share(ob, u, gap[2], d, c.held(near, t)) != 0.5 || !keys.insert(key((r, k), (g, kg))) {
                     continue;
                 }
                 contacts.push(AirContact { r, k, cand, s, g, kg, u, n: scale(gap, 1.0 / gl), gap: gl, lambda: 0.0, friction: [0.0; 3] });
@@ -168,6 +190,7 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
     let dt_inv = 1.0 / dt;
     // one world: every rod has its diameter and friction
     let (d, friction) = sims[contacts[0].r].fibre_contact.as_ref().map_or((0.0, None), |c| (c.diameter, c.friction));
+    let mut belt = belt_rows(sims, &contacts, d);
     for _ in 0..SWEEPS {
         for a in contacts.iter_mut() {
             let (r, k, s, g, kg, u) = (a.r, a.k, a.s, a.g, a.kg, a.u);
@@ -204,29 +227,18 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             let Some(mu) = friction else { continue };
             let vrel = relative(&velocity);
             let slip = sub(vrel, scale(a.n, dot(vrel, a.n)));
-            let slip_speed = norm(slip);
-            if !(slip_speed > 0.0) {
-                continue;
-            }
-            let along = scale(slip, 1.0 / slip_speed);
-            let (e_t, _) = respond(along);
-            if !(e_t > 0.0) {
-                continue;
-            }
-            let mut friction = add_scaled(a.friction, along, -slip_speed / e_t);
-            let (size, most) = (norm(friction), mu * a.lambda);
-            if size > most {
-                friction = scale(friction, most / size);
-            }
-            let step = sub(friction, a.friction);
-            let step_size = norm(step);
-            if step_size > 0.0 {
+            if let Some(friction) = coulomb(a.friction, slip, mu * a.lambda, |dir| respond(dir).0) {
+                let step = sub(friction, a.friction);
+                let step_size = norm(step);
                 let (e_step, w) = respond(scale(step, 1.0 / step_size));
                 if e_step > 0.0 {
                     a.friction = friction;
                     apply(&mut velocity, w, step_size);
                 }
             }
+        }
+        for b in belt.iter_mut() {
+            b.sweep(&*sims[b.r], &mut velocity[b.r][b.i], dt_inv);
         }
     }
     for a in &contacts {
@@ -253,23 +265,98 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
     changed
 }
 
+/// The belt under node `i` of rod `r` in the solve, and its impulses so far: normal
+/// (λ ≥ 0, upwards) and friction (horizontal, within μ λ).
+struct BeltRow {
+    r: usize,
+    i: usize,
+    lambda: f64,
+    friction: [f64; 3],
+}
+
+/// The belt contacts of the solve: each free node of a solved pair within `d` of the belt,
+/// of a rod that has a belt, once, in the order of rods and nodes.
+fn belt_rows(sims: &[&mut Simulator], contacts: &[AirContact], d: f64) -> Vec<BeltRow> {
+    let mut rows: Vec<BeltRow> = Vec::new();
+    for a in contacts {
+        for (r, i) in [(a.r, a.k), (a.r, a.k + 1), (a.g, a.kg), (a.g, a.kg + 1)] {
+            let sim = &*sims[r];
+            if sim.contact.is_some() && sim.free_nodes().contains(&i) && sim.rod.x[i][2] <= d {
+                rows.push(BeltRow { r, i, lambda: 0.0, friction: [0.0; 3] });
+            }
+        }
+    }
+    rows.sort_unstable_by_key(|b| (b.r, b.i));
+    rows.dedup_by_key(|b| (b.r, b.i));
+    rows
+}
+
+impl BeltRow {
+    /// One Gauss-Seidel update of this row on its node's velocity `v` (`dt_inv` = 1/Δt):
+    /// the belt's target v_z ≥ −z/Δt (the node reaches the plane at most, as in
+    /// [`super::super::contact::BeltContact::apply`]), then Coulomb friction against the
+    /// slip over the belt, through the node's W.
+    fn sweep(&mut self, sim: &Simulator, v: &mut [f64; 3], dt_inv: f64) {
+        let Some(belt) = sim.contact.as_ref() else { return };
+        let response = |dir: [f64; 3]| node_response(sim, self.i, dir);
+        let up = response([0.0, 0.0, 1.0]);
+        if !(up[2] > 0.0) {
+            return;
+        }
+        let target = -sim.rod.x[self.i][2] * dt_inv;
+        let lambda = (self.lambda + (target - v[2]) / up[2]).max(0.0);
+        *v = add_scaled(*v, up, lambda - self.lambda);
+        self.lambda = lambda;
+        let Some(mu) = belt.friction else { return };
+        let slip = [v[0] - belt.belt_speed, v[1], 0.0];
+        if let Some(friction) = coulomb(self.friction, slip, mu * self.lambda, |dir| dot(response(dir), dir)) {
+            *v = add_scaled(*v, response(sub(friction, self.friction)), 1.0);
+            self.friction = friction;
+        }
+    }
+}
+
+/// One projected Gauss-Seidel update of an accumulated Coulomb friction impulse
+/// `previous`: add what stops the `slip` velocity (`mobility(e)` the contact's mobility
+/// along a unit vector e), then hold the total within `most` (μ λ). The new impulse, or
+/// None where it does not change.
+fn coulomb(previous: [f64; 3], slip: [f64; 3], most: f64, mobility: impl Fn([f64; 3]) -> f64) -> Option<[f64; 3]> {
+    let slip_speed = norm(slip);
+    if !(slip_speed > 0.0) {
+        return None;
+    }
+    let along = scale(slip, 1.0 / slip_speed);
+    let e_t = mobility(along);
+    if !(e_t > 0.0) {
+        return None;
+    }
+    let mut friction = add_scaled(previous, along, -slip_speed / e_t);
+    let size = norm(friction);
+    if size > most {
+        friction = scale(friction, most / size);
+    }
+    (norm(sub(friction, previous)) > 0.0).then_some(friction)
+}
+
+/// W dir of node `i` of `sim` (dir/m for the explicit scheme, which has no W; nothing for
+/// a clamped or driven node).
+fn node_response(sim: &Simulator, i: usize, dir: [f64; 3]) -> [f64; 3] {
+    let w = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.free_mobility[..]);
+    if !sim.free_nodes().contains(&i) {
+        [0.0; 3]
+    } else if sim.integrator != Integrator::Explicit && i < w.len() {
+        super::super::forces::sym_mul(&w[i], &dir)
+    } else {
+        scale(dir, 1.0 / sim.rod.mass[i])
+    }
+}
+
 /// How the point at `s` of segment `k` of `sim` responds to an impulse along the unit
 /// vector `dir`: its mobility Σ β² dirᵀ W dir (β = (1 − s, s)) and the responses W dir
 /// of the two nodes (1/m for the explicit scheme, which has no W; nothing for a clamped
 /// or driven node); nothing where [`point_mobility`] refuses the point.
 fn side(sim: &Simulator, k: usize, s: f64, dir: [f64; 3]) -> (f64, [f64; 3], [f64; 3]) {
-    let free = sim.free_nodes();
-    let w = sim.fibre_contact.as_ref().map_or(&[][..], |c| &c.free_mobility[..]);
-    let response = |i: usize| {
-        if !free.contains(&i) {
-            [0.0; 3]
-        } else if sim.integrator != Integrator::Explicit && i < w.len() {
-            super::super::forces::sym_mul(&w[i], &dir)
-        } else {
-            scale(dir, 1.0 / sim.rod.mass[i])
-        }
-    };
-    let (wi, wj) = (response(k), response(k + 1));
+    let (wi, wj) = (node_response(sim, k, dir), node_response(sim, k + 1, dir));
     match point_mobility(dir, wi, wj, s) {
         Some(e) => (e, wi, wj),
         None => (0.0, [0.0; 3], [0.0; 3]),

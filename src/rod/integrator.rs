@@ -635,7 +635,7 @@ impl Simulator {
             self.ws.v_pred.clone_from(&self.rod.v);
         }
         let need_w = self.integrator != Integrator::Explicit;
-        // the contacts with other fibres in the air, solved for both fibres before the step
+        // the contacts shared ½ with other fibres, solved for both fibres before the step
         if let Some(c) = &self.fibre_contact {
             if c.air_at == Some(t) && c.air_change.len() == n {
                 for (v, change) in self.rod.v.iter_mut().zip(&c.air_change) {

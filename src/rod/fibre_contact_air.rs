@@ -35,9 +35,12 @@
 //!
 //! The change goes into each rod's predicted velocities (the other rods' copies then carry
 //! it, except for nodes resting on a fibre, which they see at their current velocity) and
-//! into its step ([`FibreContact::air_change`]); the rod's own velocity pass applies no
-//! impulse to those pairs but still holds the node along n, the belt pass runs after it as
-//! for any node, and the position pass treats the pairs as before.
+//! into its step ([`FibreContact::air_change`]); a node with a belt contact in the solve is
+//! seen at the velocity the solve gave (its predicted v* already held the belt's action).
+//! The rod's own velocity pass applies no impulse to those pairs but still holds the node
+//! along n, so that node skips the step's belt pass (the solve's belt, without the belt
+//! pass's lagged axial force, is then its only one); the position pass treats the pairs as
+//! before.
 
 use super::super::integrator::Simulator;
 use super::super::Integrator;
@@ -52,7 +55,7 @@ pub const SWEEPS: usize = 4;
 /// n: a pair the solve pushed ends at its target (up to round-off).
 pub const SOLVED_TOLERANCE: f64 = 1e-6;
 
-/// One contact of two fibres in the air: own segment `k` of rod `r` (closest point at
+/// One contact that two simulated fibres share ½: own segment `k` of rod `r` (closest point at
 /// `s`) against segment `kg` of rod `g` (at `u`), normal `n` from the other towards
 /// the own segment, and the impulses found so far.
 struct AirContact {
@@ -251,14 +254,21 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
         }
     }
     let mut changed = false;
-    for (sim, solved) in sims.iter_mut().zip(velocity) {
+    for (r, (sim, solved)) in sims.iter_mut().zip(velocity).enumerate() {
         let Some(c) = sim.fibre_contact.as_mut() else { continue };
         if solved.len() != c.free_velocities.len() || solved == c.free_velocities {
             continue;
         }
         c.air_change = solved.iter().zip(&c.free_velocities).map(|(a, b)| sub(*a, *b)).collect();
+        // v* already holds the belt's action (the prediction's own belt pass); a node with a
+        // belt row has the belt in its change as well, so it moves at what the solve gave
         for (p, change) in c.predicted.iter_mut().zip(&c.air_change) {
             *p = add_scaled(*p, *change, 1.0);
+        }
+        for b in belt.iter().filter(|b| b.r == r) {
+            if let Some(p) = c.predicted.get_mut(b.i) {
+                *p = solved[b.i];
+            }
         }
         changed = true;
     }

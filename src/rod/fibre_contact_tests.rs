@@ -329,8 +329,9 @@ fn fibre_resting_across_another_sags_to_the_belt_as_a_beam_over_a_prop() {
 /// along it makes the explicit step's in-plane grid-scale mode unstable above 0.5-0.6 of
 /// the stable step. At 0.8 (the scenes' default) B and C zig-zag sideways at 1.7-1.8 m/s,
 /// at 0.6 at 0.53 and 0.39 m/s; at [`CONTACT_STEP_FACTOR`] the fastest nodes move at
-/// 2.6 and 2.4 mm/s (C's real slide off B's slope is 0.8 mm/s when C takes every
-/// correction; the half shares keep a little more, as with friction).
+/// 0.25 and 0.82 mm/s (C's real slide off B's slope is 0.8 mm/s when C takes every
+/// correction); 2.6 and 2.4 mm/s before the pairs that share ½ were solved for both fibres
+/// with the belt, laid ones included (2026-12-07).
 #[test]
 fn a_tilted_contact_is_stable_at_the_contact_step_factor() {
     let (mut p, _) = resting_scene(false);
@@ -462,8 +463,8 @@ fn vacuum_collision(offset: f64, speeds: [f64; 2], a_laid: bool) -> f64 {
     (momentum(&rods)[2] - before) / before
 }
 
-/// The pair is solved for both fibres at once (`fibre_contact::air`): measured 3e-7,
-/// 6e-6 and 3e-5 of itself at 0, ¼ and ½ of an element. With the yield rule's ½ each, as
+/// The pair is solved for both fibres at once (`fibre_contact::air`): measured 4e-7,
+/// 1.1e-5 and 2.6e-5 of itself at 0, ¼ and ½ of an element. With the yield rule's ½ each, as
 /// before, it changed by 6.1 % at a quarter of an element (a node or mid-segment of both,
 /// 5e-16): the fibre touched off its nodes is moved more easily and takes the larger
 /// impulse, and each rod corrected the contact once per pair of segments that meets it,
@@ -484,8 +485,8 @@ fn a_collision_of_two_free_fibres_conserves_their_momentum() {
 /// collision, so the yield rule shares the pair ½ each throughout. (A laid node that does
 /// not rise counts as held by the belt, [`on_belt`]: the fibre above then takes the whole
 /// correction.) Nothing else acts, so the pair's momentum must not change, whichever
-/// points meet. Measured 3e-5, 2e-4 and 3e-5 of itself at 0, ¼ and ½ of an element, the
-/// same bits as when A is not laid. Until 2026-12-07 only pairs with neither side laid
+/// points meet. Measured 2.8e-5, 2.1e-4 and 2.8e-5 of itself at 0, ¼ and ½ of an element,
+/// the same to three digits as when A is not laid. Until 2026-12-07 only pairs with neither side laid
 /// were solved for both fibres at once; laid pairs took the rods' own ½ shares, which
 /// changed it by 12.7 % at a quarter of an element.
 #[test]

@@ -417,8 +417,8 @@ fn one_fibre_in_a_contact_world_comes_to_rest_after_its_feed_stops() {
 /// The target for a contact web at rest (PHYSICAL_WEBS.md, "A contact web moves on after
 /// its feed stops"): two fibres 8 mm apart, left alone for 60 ms after their feed stopped,
 /// should come to rest as one fibre does, and without sinking through each other (no laid
-/// pair closer than 0.95 d). Fails: their laid nodes keep a median 0.034 m/s relative to the
-/// belt at 120 ms (90 % 0.14 m/s), 0.057 m/s while fed; the least laid distance is 0.961 d.
+/// pair closer than 0.95 d). Fails: their laid nodes keep a median 0.021 m/s relative to the
+/// belt at 120 ms (90 % 0.092 m/s), 0.030 m/s while fed; the least laid distance is 0.972 d.
 /// Before the pairs that share ½ were solved for both fibres with the belt, laid ones
 /// included (2026-12-07): 0.088 m/s (90 % 0.30 m/s), 0.071 m/s while fed, and 0.933 d.
 #[test]

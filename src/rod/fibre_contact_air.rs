@@ -10,7 +10,7 @@
 //! Each rod also sees the other at its prediction v*, which lacks the other's half, so its
 //! position pass pushed, every step, a penetration the other's half already closed: the
 //! laid web's grid-scale motion (`pipelines/studies/PHYSICAL_WEBS.md`, "The belt in the
-//! joint solve").
+//! joint solve: measured, not kept" and "The belt in the joint solve, landed").
 //!
 //! So before each lock step of a cluster ([`super::super::contact_world`]), after every rod
 //! has predicted its velocities and settled its holds ([`FibreContact::settle_holds`]),
@@ -103,11 +103,18 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             sim.fibre_contact.as_mut().map_or(0.0, |c| c.bounds_at(x, t))
         })
         .collect();
+    // the rods that predicted this step and settled its holds (a rod that failed takes no part)
+    let ready: Vec<bool> = sims
+        .iter()
+        .map(|sim| {
+            let n = sim.rod.nodes();
+            sim.fibre_contact.as_ref().is_some_and(|c| c.predicted_at == Some(t) && c.free_velocities.len() == n && c.free_mobility.len() == n && c.held_at == Some(t))
+        })
+        .collect();
     for r in 0..sims.len() {
         let sim = &*sims[r];
         let Some(c) = sim.fibre_contact.as_ref() else { continue };
-        let n = sim.rod.nodes();
-        if c.predicted_at != Some(t) || c.free_velocities.len() != n || c.free_mobility.len() != n || c.held_at != Some(t) {
+        if !ready[r] {
             continue;
         }
         let d = c.diameter;
@@ -126,10 +133,7 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
                     continue;
                 }
                 let (g, kg) = (local[world as usize], kg as usize);
-                let other = &*sims[g];
-                // (a rod that did not predict this step, having failed, takes no part)
-                let predicted = other.fibre_contact.as_ref().is_some_and(|o| o.predicted_at == Some(t) && o.free_velocities.len() == other.rod.nodes());
-                if g == r || !predicted || kg + 1 >= other.rod.nodes() {
+                if g == r || !ready[g] || kg + 1 >= sims[g].rod.nodes() {
                     continue;
                 }
                 let (q0, q1) = ob.at(t);

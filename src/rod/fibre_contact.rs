@@ -233,6 +233,9 @@ pub struct FibreContact {
     held_start: Vec<bool>,
     /// The time the flags `held_start` were settled for ([`FibreContact::settle_holds`]).
     held_at: Option<f64>,
+    /// The time the joint solve brought the travels up to ([`FibreContact::bounds_at`]),
+    /// until the velocity pass at that time uses it.
+    bounds_for: Option<f64>,
     /// Skip the pairs the gap bound shows cannot be in contact (on by default); off,
     /// every candidate is tested in every pass: the reference the pruning is checked
     /// against (it must give the same corrections to the bit).
@@ -290,12 +293,14 @@ impl FibreContact {
         self.obstacle_travel.clear();
         self.obstacle_last.clear();
         self.obstacle_seen_at = f64::NAN;
+        self.bounds_for = None;
     }
 
     /// The first `count` nodes left the rod (frozen): the per-node flags follow.
     pub fn drop_front(&mut self, count: usize) {
         self.dropped += count;
         self.held_at = None;
+        self.bounds_for = None;
         for flags in [&mut self.resting, &mut self.was_resting, &mut self.supported, &mut self.on_web] {
             flags.drain(..count.min(flags.len()));
         }
@@ -324,11 +329,10 @@ impl FibreContact {
             return;
         }
         self.obstacle_seen_at = t;
-        self.obstacle_speed.clear();
+        self.refresh_obstacle_speed();
         let mut farthest = 0.0f64;
         for (q, ob) in self.obstacles.iter().enumerate() {
             let (a, b) = ob.at(t);
-            self.obstacle_speed.push(norm(ob.va).max(norm(ob.vb)));
             if let Some(&(la, lb)) = self.obstacle_last.get(q) {
                 let step = norm(sub(a, la)).max(norm(sub(b, lb)));
                 self.obstacle_travel[q] += step;
@@ -341,6 +345,12 @@ impl FibreContact {
             }
         }
         self.obstacle_drift += farthest;
+    }
+
+    /// Each obstacle's speed, the faster of its two ends (m/s).
+    fn refresh_obstacle_speed(&mut self) {
+        self.obstacle_speed.clear();
+        self.obstacle_speed.extend(self.obstacles.iter().map(|ob| norm(ob.va).max(norm(ob.vb))));
     }
 
     /// Travel of own segment k's nodes plus that of obstacle q: how far the pair's gap
@@ -371,9 +381,11 @@ impl FibreContact {
     /// Bring the gap bounds up to the start of the step from `t` (own nodes at `x`, the
     /// obstacles just refreshed) for the solve before the velocity pass ([`air`]), and
     /// return the fastest obstacle's speed (m/s). The pass's own update at `t` then adds
-    /// nothing (the same positions), so the pass is unchanged.
+    /// nothing (the same positions), so it only renews the obstacles' speeds, which the
+    /// solve changes.
     pub(super) fn bounds_at(&mut self, x: &[[f64; 3]], t: f64) -> f64 {
         self.update_travel(x, t, true);
+        self.bounds_for = Some(t);
         self.obstacle_speed.iter().copied().fold(0.0, f64::max)
     }
 
@@ -480,8 +492,14 @@ impl FibreContact {
         self.shift.clear();
         self.shift.resize(rod.nodes(), [0.0; 3]);
         self.unconstrained.resize(rod.nodes(), [0.0; 6]);
-        // the obstacles were refreshed before this step
-        self.update_travel(&rod.x, t, true);
+        // the obstacles were refreshed before this step; the joint solve ([`air`]) may have
+        // brought the travels up to t already, the rod not having moved since, and changed
+        // only the obstacles' velocities
+        if self.bounds_for.take() == Some(t) && self.last_x.len() == rod.nodes() {
+            self.refresh_obstacle_speed();
+        } else {
+            self.update_travel(&rod.x, t, true);
+        }
         self.begin_pass(dt);
         self.x_start.clone_from(&rod.x);
         self.t_start = t;

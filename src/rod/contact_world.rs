@@ -629,7 +629,7 @@ fn lock_step<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, t_ne
             // the contacts two fibres share ½, for both fibres at once; the copies then
             // carry the velocities they give
             let mut sims: Vec<&mut Simulator> = group.iter_mut().map(|b| b.simulator_mut()).collect();
-            if super::fibre_contact::air::solve_in_air(&mut sims, local, now, until - now, contact_top) {
+            if super::fibre_contact::air::solve_in_air(&mut sims, local, now, until - now, contact_top, parallel) {
                 refresh_velocities(group, local, now);
             }
         }
@@ -694,7 +694,7 @@ fn refresh<B: ContactBody>(group: &mut [&mut B], local: &[usize], t: f64, parall
 /// The velocity the other rods see node `i` of `sim` move at in the step from its time:
 /// the one it reaches before contact, if predicted; a node held up by another fibre moves
 /// as it did in the last step (its velocity before contact would carry it into that fibre).
-fn seen_velocity(sim: &Simulator, i: usize) -> [f64; 3] {
+pub(super) fn seen_velocity(sim: &Simulator, i: usize) -> [f64; 3] {
     match &sim.fibre_contact {
         Some(c) if c.resting.get(i) == Some(&true) => sim.rod.v[i],
         Some(c) if c.predicted_at == Some(sim.t) && c.predicted.len() == sim.rod.nodes() => c.predicted[i],

@@ -15,8 +15,11 @@
 //! So before each lock step of a cluster ([`super::super::contact_world`]), after every rod
 //! has predicted its velocities and settled its holds ([`FibreContact::settle_holds`]),
 //! the contacts of such pairs are solved together: a projected Gauss-Seidel over their
-//! impulses, [`SWEEPS`] sweeps in a fixed order (rods, segments, candidates, then belt
-//! nodes), so threads do not change the result. A pair is solved so when all four ends lie
+//! impulses, [`SWEEPS`] sweeps in a fixed order (the rod that found the pair, its
+//! segments and candidates, then belt nodes), so threads do not change the result. Each
+//! pair is looked for by one of its two rods only ([`searches`]), the rods' searches run in
+//! parallel, and a sweep passes over a contact that has no impulse and does not approach
+//! its target (most of a laid web's). A pair is solved so when all four ends lie
 //! below z0, the yield rule shares it ½ each on the holds both rods' passes use, and both
 //! rods have predicted the step. Each contact has a normal impulse λ ≥ 0 towards the
 //! velocity pass's target (reach d at the end of the step, or no approach while closer)
@@ -42,10 +45,11 @@
 //! pass's lagged axial force, is then its only one); the position pass treats the pairs as
 //! before.
 
+use super::super::contact_world::seen_velocity;
 use super::super::integrator::Simulator;
 use super::super::Integrator;
 use super::{add_scaled, closest_points, dot, lerp, norm, point_mobility, scale, sub, yield_share, FibreContact, CROSSED, MAX_SEPARATION_SPEED};
-use rustc_hash::FxHashSet;
+use rayon::prelude::*;
 
 /// Gauss-Seidel sweeps over the contacts of a cluster.
 pub const SWEEPS: usize = 4;
@@ -71,14 +75,89 @@ struct AirContact {
     gap: f64,
     lambda: f64,
     friction: [f64; 3],
+    /// The pair's mobility along n and its four nodes' responses (see `side`), once needed.
+    normal_response: Option<(f64, [[f64; 3]; 4])>,
 }
 
-/// The two pairs of segments (rod, segment), in a fixed order, as one key.
-fn key(a: (usize, usize), b: (usize, usize)) -> (usize, usize, usize, usize) {
-    if a < b {
-        (a.0, a.1, b.0, b.1)
-    } else {
-        (b.0, b.1, a.0, a.1)
+/// Whether rod `r` of a cluster searches its pairs with rod `g` (the other one does not):
+/// each pair is found once, and the rods share the search about equally (alternately
+/// the lower and the higher of the two).
+fn searches(r: usize, g: usize) -> bool {
+    (r < g) == ((r + g) % 2 == 0)
+}
+
+/// What the search for the pairs a cluster's rods share ½ reads: the rods (`local[w]` the
+/// place of world rod w among them), which of them take part, how fast their nodes move,
+/// and the step from `t` of length `dt`, below the height `top`.
+struct Search<'a> {
+    sims: &'a [&'a Simulator],
+    local: &'a [usize],
+    ready: &'a [bool],
+    /// Each rod's node speeds, the faster of its velocity before the belt and the one the
+    /// other rods see ([`super::super::contact_world::seen_velocity`]); and per rod, the
+    /// fastest any of its candidates can move (frozen ones included).
+    node_speed: &'a [Vec<f64>],
+    fastest_met: &'a [f64],
+    t: f64,
+    dt: f64,
+    top: f64,
+}
+
+impl Search<'_> {
+    /// The pairs rod `r` finds from its own segments ([`searches`]), in the order of its
+    /// segments and candidates; a pair seen in two periodic images once, in the first.
+    fn rod(&self, r: usize) -> Vec<AirContact> {
+        let mut contacts: Vec<AirContact> = Vec::new();
+        let (sims, t, dt) = (self.sims, self.t, self.dt);
+        let sim = sims[r];
+        let Some(c) = sim.fibre_contact.as_ref() else { return contacts };
+        if !self.ready[r] {
+            return contacts;
+        }
+        let d = c.diameter;
+        let (x, speed) = (&sim.rod.x, &self.node_speed[r]);
+        // no pair closes more than this in the step, at the fastest its four nodes move as
+        // either rod sees them (the same reach whichever rod searches the pair)
+        let closing = |speed: f64| 2.0 * dt * (speed + 1.0);
+        for k in 0..sim.rod.rest.len() {
+            let own_speed = speed[k].max(speed[k + 1]);
+            if !c.row_may_reach(k, closing(own_speed.max(self.fastest_met[r]))) {
+                continue;
+            }
+            let row_start = contacts.len();
+            for cand in c.row(k) {
+                let ob = &c.obstacles[c.candidates[cand] as usize];
+                let Some((world, kg)) = ob.source else { continue };
+                let (g, kg) = (self.local[world as usize], kg as usize);
+                if g == r || !searches(r, g) || !self.ready[g] || kg + 1 >= sims[g].rod.nodes() {
+                    continue;
+                }
+                let pair_speed = own_speed.max(self.node_speed[g][kg]).max(self.node_speed[g][kg + 1]);
+                let reach = d + closing(pair_speed);
+                if !c.pair_may_reach(k, cand, reach - d) {
+                    continue;
+                }
+                let (q0, q1) = ob.at(t);
+                if x[k][2].max(x[k + 1][2]).max(q0[2]).max(q1[2]) > self.top {
+                    continue;
+                }
+                let apart = |a: usize| x[k][a].min(x[k + 1][a]) > q0[a].max(q1[a]) + reach || q0[a].min(q1[a]) > x[k][a].max(x[k + 1][a]) + reach;
+                if apart(0) || apart(1) || apart(2) {
+                    continue;
+                }
+                let (s, u, gap) = closest_points(x[k], x[k + 1], q0, q1);
+                let gl = norm(gap);
+                if !(gl >= CROSSED * d) || gl > reach {
+                    continue;
+                }
+                let near = if s < 0.5 { k } else { k + 1 };
+                if yield_share(ob, u, gap[2], d, c.held(near, t)) != 0.5 || contacts[row_start..].iter().any(|a| a.g == g && a.kg == kg) {
+                    continue;
+                }
+                contacts.push(AirContact { r, k, cand, s, g, kg, u, n: scale(gap, 1.0 / gl), gap: gl, lambda: 0.0, friction: [0.0; 3], normal_response: None });
+            }
+        }
+        contacts
     }
 }
 
@@ -89,11 +168,10 @@ fn key(a: (usize, usize), b: (usize, usize)) -> (usize, usize, usize, usize) {
 /// across the fibre than along it) is left to the rods' own passes. Writes each rod's
 /// velocity change into its [`FibreContact::air_change`], adds it to its predicted
 /// velocities and marks the pairs solved ([`FibreContact::air_pairs`],
-/// [`FibreContact::air_at`]). Returns whether any velocity changed (the other rods'
+/// [`FibreContact::air_at`]); with `parallel`, the rods search and mark in parallel (the
+/// same result). Returns whether any velocity changed (the other rods'
 /// copies are then out of date).
-pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64) -> bool {
-    let mut contacts: Vec<AirContact> = Vec::new();
-    let mut keys: FxHashSet<(usize, usize, usize, usize)> = FxHashSet::default();
+pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64, parallel: bool) -> bool {
     // each rod's gap bounds at t, and its fastest obstacle: a segment whose bound shows
     // no candidate within a pair's reach (below) is skipped whole
     let fastest_obstacle: Vec<f64> = sims
@@ -111,84 +189,54 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             sim.fibre_contact.as_ref().is_some_and(|c| c.predicted_at == Some(t) && c.free_velocities.len() == n && c.free_mobility.len() == n && c.held_at == Some(t))
         })
         .collect();
-    for r in 0..sims.len() {
-        let sim = &*sims[r];
-        let Some(c) = sim.fibre_contact.as_ref() else { continue };
-        if !ready[r] {
-            continue;
-        }
-        let d = c.diameter;
-        let (x, v) = (&sim.rod.x, &c.free_velocities);
-        for k in 0..sim.rod.rest.len() {
-            // no pair of the segment closes more than this in the step (see `reach` below)
-            let row_speed = norm(v[k]).max(norm(v[k + 1])).max(fastest_obstacle[r]);
-            let closing = 2.0 * dt * (row_speed + 1.0);
-            if !c.row_may_reach(k, closing) {
-                continue;
-            }
-            for cand in c.row(k) {
-                let ob = &c.obstacles[c.candidates[cand] as usize];
-                let Some((world, kg)) = ob.source else { continue };
-                if !c.pair_may_reach(k, cand, closing) {
-                    continue;
-                }
-                let (g, kg) = (local[world as usize], kg as usize);
-                if g == r || !ready[g] || kg + 1 >= sims[g].rod.nodes() {
-                    continue;
-                }
-                let (q0, q1) = ob.at(t);
-                if x[k][2].max(x[k + 1][2]).max(q0[2]).max(q1[2]) > top {
-                    continue;
-                }
-                // how far the pair can close in the step, at the speeds of its four nodes
-                let speed = [v[k], v[k + 1], ob.va, ob.vb].iter().map(|&w| norm(w)).fold(0.0, f64::max);
-                let reach = d + 2.0 * dt * (speed + 1.0);
-                let apart = |a: usize| x[k][a].min(x[k + 1][a]) > q0[a].max(q1[a]) + reach || q0[a].min(q1[a]) > x[k][a].max(x[k + 1][a]) + reach;
-                if apart(0) || apart(1) || apart(2) {
-                    continue;
-                }
-                let (s, u, gap) = closest_points(x[k], x[k + 1], q0, q1);
-                let gl = norm(gap);
-                if !(gl >= CROSSED * d) || gl > reach {
-                    continue;
-                }
-                let near = if s < 0.5 { k } else { k + 1 };
-                if yield_share(ob, u, gap[2], d, c.held(near, t)) != 0.5 || !keys.insert(key((r, k), (g, kg))) {
-                    continue;
-                }
-                contacts.push(AirContact { r, k, cand, s, g, kg, u, n: scale(gap, 1.0 / gl), gap: gl, lambda: 0.0, friction: [0.0; 3] });
-            }
-        }
-    }
+    let node_speed: Vec<Vec<f64>> = sims
+        .iter()
+        .zip(&ready)
+        .map(|(sim, &ready)| match &sim.fibre_contact {
+            Some(c) if ready => c.free_velocities.iter().enumerate().map(|(i, &v)| norm(v).max(norm(seen_velocity(sim, i)))).collect(),
+            _ => Vec::new(),
+        })
+        .collect();
+    let fastest_free = node_speed.iter().flatten().copied().fold(0.0, f64::max);
+    let fastest_met: Vec<f64> = fastest_obstacle.iter().map(|&v| v.max(fastest_free)).collect();
+    let view: Vec<&Simulator> = sims.iter().map(|sim| &**sim).collect();
+    let search = Search { sims: &view, local, ready: &ready, node_speed: &node_speed, fastest_met: &fastest_met, t, dt, top };
+    let mut contacts: Vec<AirContact> = if parallel {
+        (0..view.len()).into_par_iter().flat_map_iter(|r| search.rod(r)).collect()
+    } else {
+        (0..view.len()).flat_map(|r| search.rod(r)).collect()
+    };
     // each rod's solved pairs, seen from either side (the other rod's candidates of the
     // pair are those of its segment whose obstacle copies the own segment); a rod in no
     // pair keeps an empty list (emptying it costs nothing, sizing it is left to a pair)
-    for sim in sims.iter_mut() {
-        if let Some(c) = sim.fibre_contact.as_mut() {
-            c.air_pairs.clear();
-            c.air_change.clear();
-            c.air_at = None;
-        }
-    }
-    let mark = |c: &mut FibreContact, cand: usize| {
-        if c.air_pairs.len() != c.candidates.len() {
-            c.air_pairs.resize(c.candidates.len(), false);
-        }
-        c.air_pairs[cand] = true;
-        c.air_at = Some(t);
-    };
-    for a in &contacts {
-        if let Some(c) = sims[a.r].fibre_contact.as_mut() {
-            mark(c, a.cand);
-        }
-        if let Some(c) = sims[a.g].fibre_contact.as_mut() {
+    let mark_rod = |w: usize, sim: &mut Simulator| {
+        let Some(c) = sim.fibre_contact.as_mut() else { return };
+        c.air_pairs.clear();
+        c.air_change.clear();
+        c.air_at = None;
+        let mark = |c: &mut FibreContact, cand: usize| {
+            if c.air_pairs.len() != c.candidates.len() {
+                c.air_pairs.resize(c.candidates.len(), false);
+            }
+            c.air_pairs[cand] = true;
+        };
+        for a in contacts.iter().filter(|a| a.r == w || a.g == w) {
             c.air_at = Some(t);
+            if a.r == w {
+                mark(c, a.cand);
+                continue;
+            }
             for cand in c.row(a.kg) {
                 if c.obstacles[c.candidates[cand] as usize].source.is_some_and(|(world, k)| local[world as usize] == a.r && k as usize == a.k) {
                     mark(c, cand);
                 }
             }
         }
+    };
+    if parallel {
+        sims.par_iter_mut().enumerate().for_each(|(w, sim)| mark_rod(w, sim));
+    } else {
+        sims.iter_mut().enumerate().for_each(|(w, sim)| mark_rod(w, sim));
     }
     if contacts.is_empty() {
         return false;
@@ -220,7 +268,13 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             // the velocity pass's target: reach d at the end of the step, or (closer)
             // no approach and a separation no faster than the position pass's
             let target = if a.gap >= d { (d - a.gap) * dt_inv } else { vn.clamp(0.0, MAX_SEPARATION_SPEED) };
-            let (e, w) = respond(a.n);
+            // a contact that has no impulse and does not approach its target gains none
+            // in this update, normal or friction (most contacts of a laid web)
+            if a.lambda == 0.0 && a.friction == [0.0; 3] && vn >= target {
+                continue;
+            }
+            // the response along n is the same in every sweep (W does not change)
+            let (e, w) = *a.normal_response.get_or_insert_with(|| respond(a.n));
             if !(e > 0.0) {
                 continue;
             }

@@ -94,8 +94,9 @@ struct Search<'a> {
     local: &'a [usize],
     ready: &'a [bool],
     /// Each rod's node speeds, the faster of its velocity before the belt and the one the
-    /// other rods see ([`super::super::contact_world::seen_velocity`]); and per rod, the
-    /// fastest any of its candidates can move (frozen ones included).
+    /// other rods see ([`super::super::contact_world::seen_velocity`]); and per rod, a
+    /// bound on how fast any of its candidates moves: its fastest obstacle (frozen ones
+    /// included) or the fastest node of the cluster, whichever is faster.
     node_speed: &'a [Vec<f64>],
     fastest_met: &'a [f64],
     t: f64,
@@ -209,6 +210,11 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
     // each rod's solved pairs, seen from either side (the other rod's candidates of the
     // pair are those of its segment whose obstacle copies the own segment); a rod in no
     // pair keeps an empty list (emptying it costs nothing, sizing it is left to a pair)
+    let mut of_rod: Vec<Vec<usize>> = vec![Vec::new(); sims.len()];
+    for (i, a) in contacts.iter().enumerate() {
+        of_rod[a.r].push(i);
+        of_rod[a.g].push(i);
+    }
     let mark_rod = |w: usize, sim: &mut Simulator| {
         let Some(c) = sim.fibre_contact.as_mut() else { return };
         c.air_pairs.clear();
@@ -220,7 +226,7 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             }
             c.air_pairs[cand] = true;
         };
-        for a in contacts.iter().filter(|a| a.r == w || a.g == w) {
+        for a in of_rod[w].iter().map(|&i| &contacts[i]) {
             c.air_at = Some(t);
             if a.r == w {
                 mark(c, a.cand);

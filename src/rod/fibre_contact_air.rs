@@ -170,8 +170,8 @@ impl Search<'_> {
 /// velocity change into its [`FibreContact::air_change`], adds it to its predicted
 /// velocities and marks the pairs solved ([`FibreContact::air_pairs`],
 /// [`FibreContact::air_at`]); with `parallel`, the rods search and mark in parallel (the
-/// same result). Returns whether any velocity changed (the other rods'
-/// copies are then out of date).
+/// same result). Returns whether any velocity changed (the other rods' copies are then out
+/// of date).
 pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize], t: f64, dt: f64, top: f64, parallel: bool) -> bool {
     // each rod's gap bounds at t, and its fastest obstacle: a segment whose bound shows
     // no candidate within a pair's reach (below) is skipped whole

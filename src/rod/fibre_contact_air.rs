@@ -190,23 +190,27 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             sim.fibre_contact.as_ref().is_some_and(|c| c.predicted_at == Some(t) && c.free_velocities.len() == n && c.free_mobility.len() == n && c.held_at == Some(t))
         })
         .collect();
-    let node_speed: Vec<Vec<f64>> = sims
-        .iter()
-        .zip(&ready)
-        .map(|(sim, &ready)| match &sim.fibre_contact {
-            Some(c) if ready => c.free_velocities.iter().enumerate().map(|(i, &v)| norm(v).max(norm(seen_velocity(sim, i)))).collect(),
-            _ => Vec::new(),
-        })
-        .collect();
-    let fastest_free = node_speed.iter().flatten().copied().fold(0.0, f64::max);
-    let fastest_met: Vec<f64> = fastest_obstacle.iter().map(|&v| v.max(fastest_free)).collect();
-    let view: Vec<&Simulator> = sims.iter().map(|sim| &**sim).collect();
-    let search = Search { sims: &view, local, ready: &ready, node_speed: &node_speed, fastest_met: &fastest_met, t, dt, top };
-    let mut contacts: Vec<AirContact> = if parallel {
-        (0..view.len()).into_par_iter().flat_map_iter(|r| search.rod(r)).collect()
-    } else {
-        (0..view.len()).flat_map(|r| search.rod(r)).collect()
-    };
+    // (a cluster with fewer than two such rods has no pair to solve)
+    let mut contacts: Vec<AirContact> = Vec::new();
+    if ready.iter().filter(|&&r| r).count() >= 2 {
+        let node_speed: Vec<Vec<f64>> = sims
+            .iter()
+            .zip(&ready)
+            .map(|(sim, &ready)| match &sim.fibre_contact {
+                Some(c) if ready => c.free_velocities.iter().enumerate().map(|(i, &v)| norm(v).max(norm(seen_velocity(sim, i)))).collect(),
+                _ => Vec::new(),
+            })
+            .collect();
+        let fastest_free = node_speed.iter().flatten().copied().fold(0.0, f64::max);
+        let fastest_met: Vec<f64> = fastest_obstacle.iter().map(|&v| v.max(fastest_free)).collect();
+        let view: Vec<&Simulator> = sims.iter().map(|sim| &**sim).collect();
+        let search = Search { sims: &view, local, ready: &ready, node_speed: &node_speed, fastest_met: &fastest_met, t, dt, top };
+        contacts = if parallel {
+            (0..view.len()).into_par_iter().flat_map_iter(|r| search.rod(r)).collect()
+        } else {
+            (0..view.len()).flat_map(|r| search.rod(r)).collect()
+        };
+    }
     // each rod's solved pairs, seen from either side (the other rod's candidates of the
     // pair are those of its segment whose obstacle copies the own segment); a rod in no
     // pair keeps an empty list (emptying it costs nothing, sizing it is left to a pair)

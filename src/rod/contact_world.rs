@@ -370,6 +370,7 @@ impl ContactWorld {
                 contact.diameter = self.diameter;
                 contact.friction = self.friction;
                 contact.clear();
+                contact.world = f as u32;
                 let own_link = usize::from(self.last_frozen[f].is_some());
                 let own_frozen = self.frozen_count[f];
                 // (row, obstacle key): key < active.len() a simulated segment, else frozen

@@ -159,6 +159,14 @@ pub struct FibreContact {
     /// Candidates of own segment row r: `candidates[rows[r] .. rows[r + 1]]`.
     pub rows: Vec<u32>,
     pub candidates: Vec<u32>,
+    /// This rod's index among the rods of its [`ContactWorld`](super::contact_world), the
+    /// first of the `source` an obstacle copying one of its segments carries.
+    pub world: u32,
+    /// Each row's candidates ordered by the segment their obstacle copies: (source packed
+    /// as world rod · 2³² + segment, frozen obstacles last; candidate index), over the same
+    /// ranges as `candidates`. Made on first use after the candidates change
+    /// ([`FibreContact::copying`]).
+    by_source: Vec<(u64, u32)>,
     /// Share of each candidate contact this rod takes in the current step.
     shares: Vec<f64>,
     /// Nodes held up by another fibre in the current step (the nearer node of each
@@ -282,6 +290,7 @@ impl FibreContact {
         self.rows.clear();
         self.rows.push(0);
         self.candidates.clear();
+        self.by_source.clear();
         self.dropped = 0;
         self.gap_bound.clear();
         self.row_bound.clear();
@@ -459,6 +468,29 @@ impl FibreContact {
         } else {
             0..0
         }
+    }
+
+    /// The positions in `by_source` of own segment k's candidates whose obstacle copies
+    /// segment `segment` of world rod `world` (one per periodic image it is met in); the
+    /// candidate indices are `by_source[i].1`.
+    pub(super) fn copying(&mut self, k: usize, world: u32, segment: u32) -> std::ops::Range<usize> {
+        if self.by_source.len() != self.candidates.len() {
+            let (obstacles, candidates) = (&self.obstacles, &self.candidates);
+            self.by_source.clear();
+            self.by_source.extend(candidates.iter().enumerate().map(|(cand, &o)| {
+                let key = obstacles[o as usize].source.map_or(u64::MAX, |(w, k)| (u64::from(w) << 32) | u64::from(k));
+                (key, cand as u32)
+            }));
+            for row in self.rows.windows(2) {
+                self.by_source[row[0] as usize..row[1] as usize].sort_unstable();
+            }
+        }
+        let row = self.row(k);
+        let key = (u64::from(world) << 32) | u64::from(segment);
+        let slice = &self.by_source[row.clone()];
+        let first = slice.partition_point(|e| e.0 < key);
+        let last = slice.partition_point(|e| e.0 <= key);
+        row.start + first..row.start + last
     }
 
     /// Velocity pass at the start of a step at time `t` (see the module docs). It also

@@ -215,6 +215,7 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
     // pair are those of its segment whose obstacle copies the own segment); a rod in no
     // pair keeps an empty list (emptying it costs nothing, sizing it is left to a pair)
     let mut of_rod: Vec<Vec<usize>> = vec![Vec::new(); sims.len()];
+    let world: Vec<u32> = sims.iter().map(|sim| sim.fibre_contact.as_ref().map_or(u32::MAX, |c| c.world)).collect();
     for (i, a) in contacts.iter().enumerate() {
         of_rod[a.r].push(i);
         of_rod[a.g].push(i);
@@ -236,10 +237,9 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
                 mark(c, a.cand);
                 continue;
             }
-            for cand in c.row(a.kg) {
-                if c.obstacles[c.candidates[cand] as usize].source.is_some_and(|(world, k)| local[world as usize] == a.r && k as usize == a.k) {
-                    mark(c, cand);
-                }
+            for i in c.copying(a.kg, world[a.r], a.k as u32) {
+                let cand = c.by_source[i].1 as usize;
+                mark(c, cand);
             }
         }
     };

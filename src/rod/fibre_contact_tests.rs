@@ -745,3 +745,42 @@ fn predicted_velocities_do_not_land_a_propped_span_by_its_lagged_tension() {
     sim.predict_velocities(dt, &mut predicted, None).unwrap();
     assert_eq!(predicted, free, "the lagged tension moved the prediction");
 }
+
+/// The joint solve marks, in the other rod of a pair, every candidate of its segment whose
+/// obstacle copies the searching rod's segment: `copying` finds exactly those (both
+/// periodic images of one segment, not its neighbour, not another rod's segment of the
+/// same index, not frozen ones), in rows counted after dropped nodes too.
+#[test]
+fn a_segment_finds_its_candidates_that_copy_a_given_segment() {
+    let d = 16.2e-6;
+    let mut contact = FibreContact::new(d, None);
+    let copy = |source: Option<(u32, u32)>, cd_shift: f64| ObstacleSegment { a: [0.0, cd_shift, 0.0], b: [1e-3, cd_shift, 0.0], va: [0.0; 3], vb: [0.0; 3], t_ref: 0.0, simulated: source.is_some(), landed: [false; 2], source, cd_shift };
+    // obstacles: rod 3's segment 7 in two images, its segment 8, rod 4's segment 7, a frozen one
+    contact.obstacles = vec![copy(Some((3, 7)), 0.0), copy(Some((3, 8)), 0.0), copy(Some((4, 7)), 0.0), copy(None, 0.0), copy(Some((3, 7)), 8e-3)];
+    // row 0: every obstacle, the second image first; row 1: rod 3's segment 8 only; row 2: none
+    contact.rows = vec![0, 5, 6, 6];
+    contact.candidates = vec![4, 3, 2, 1, 0, 1];
+    let found = |contact: &mut FibreContact, k: usize, world: u32, segment: u32| -> Vec<usize> {
+        let range = contact.copying(k, world, segment);
+        let mut cands: Vec<usize> = range.map(|i| contact.by_source[i].1 as usize).collect();
+        cands.sort_unstable();
+        cands
+    };
+    assert_eq!(found(&mut contact, 0, 3, 7), vec![0, 4], "both images of rod 3's segment 7");
+    assert_eq!(found(&mut contact, 0, 3, 8), vec![3]);
+    assert_eq!(found(&mut contact, 0, 4, 7), vec![2]);
+    assert_eq!(found(&mut contact, 0, 4, 8), Vec::<usize>::new());
+    assert_eq!(found(&mut contact, 1, 3, 8), vec![5]);
+    assert_eq!(found(&mut contact, 1, 3, 7), Vec::<usize>::new());
+    assert_eq!(found(&mut contact, 2, 3, 7), Vec::<usize>::new());
+    assert_eq!(found(&mut contact, 5, 3, 7), Vec::<usize>::new(), "a segment added since preparation has none");
+    // the rod's first node frozen: own segment 0 is row 1 now
+    contact.dropped = 1;
+    assert_eq!(found(&mut contact, 0, 3, 8), vec![5]);
+    // new candidates: the order is made again
+    contact.clear();
+    contact.obstacles = vec![copy(Some((3, 7)), 0.0)];
+    contact.rows = vec![0, 1];
+    contact.candidates = vec![0];
+    assert_eq!(found(&mut contact, 0, 3, 7), vec![0]);
+}

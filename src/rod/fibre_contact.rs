@@ -159,13 +159,15 @@ pub struct FibreContact {
     /// Candidates of own segment row r: `candidates[rows[r] .. rows[r + 1]]`.
     pub rows: Vec<u32>,
     pub candidates: Vec<u32>,
-    /// This rod's index among the rods of its [`ContactWorld`](super::contact_world), the
-    /// first of the `source` an obstacle copying one of its segments carries.
+    /// This rod's index among the rods of its [`ContactWorld`](super::contact_world) (the
+    /// first element of the `source` of an obstacle copying one of its segments), set by
+    /// `ContactWorld::prepare`; 0 on a contact made by [`FibreContact::new`].
     pub world: u32,
     /// Each row's candidates ordered by the segment their obstacle copies: (source packed
-    /// as world rod · 2³² + segment, frozen obstacles last; candidate index), over the same
-    /// ranges as `candidates`. Made on first use after the candidates change
-    /// ([`FibreContact::copying`]).
+    /// as world rod · 2³² + segment, obstacles without a source last; candidate index),
+    /// over the same ranges as `candidates`. Made by [`FibreContact::copying`] when its
+    /// length differs from the candidates'; emptied by [`FibreContact::clear`], which code
+    /// that replaces the candidates calls first.
     by_source: Vec<(u64, u32)>,
     /// Share of each candidate contact this rod takes in the current step.
     shares: Vec<f64>,
@@ -471,7 +473,8 @@ impl FibreContact {
     }
 
     /// The positions in `by_source` of own segment k's candidates whose obstacle copies
-    /// segment `segment` of world rod `world` (one per periodic image it is met in); the
+    /// segment `segment` of world rod `world` (at most one from `ContactWorld::prepare`,
+    /// which gives each row the image nearest it; every match if a row holds more); the
     /// candidate indices are `by_source[i].1`.
     pub(super) fn copying(&mut self, k: usize, world: u32, segment: u32) -> std::ops::Range<usize> {
         if self.by_source.len() != self.candidates.len() {

@@ -747,9 +747,10 @@ fn predicted_velocities_do_not_land_a_propped_span_by_its_lagged_tension() {
 }
 
 /// The joint solve marks, in the other rod of a pair, every candidate of its segment whose
-/// obstacle copies the searching rod's segment: `copying` finds exactly those (both
-/// periodic images of one segment, not its neighbour, not another rod's segment of the
-/// same index, not frozen ones), in rows counted after dropped nodes too.
+/// obstacle copies the searching rod's segment: `copying` finds exactly those (every image
+/// of one segment a row holds, not its neighbour, not another rod's segment of the same
+/// index, not an obstacle without a source), in rows counted after dropped nodes too, and
+/// anew after the candidates are prepared again.
 #[test]
 fn a_segment_finds_its_candidates_that_copy_a_given_segment() {
     let d = 16.2e-6;
@@ -777,10 +778,12 @@ fn a_segment_finds_its_candidates_that_copy_a_given_segment() {
     // the rod's first node frozen: own segment 0 is row 1 now
     contact.dropped = 1;
     assert_eq!(found(&mut contact, 0, 3, 8), vec![5]);
-    // new candidates: the order is made again
+    assert_eq!(found(&mut contact, 0, 0, 0), Vec::<usize>::new(), "an obstacle without a source copies nothing");
+    // prepared again, as many candidates with other sources: the order is made again
     contact.clear();
-    contact.obstacles = vec![copy(Some((3, 7)), 0.0)];
-    contact.rows = vec![0, 1];
-    contact.candidates = vec![0];
-    assert_eq!(found(&mut contact, 0, 3, 7), vec![0]);
+    contact.obstacles = vec![copy(Some((5, 1)), 0.0), copy(Some((3, 7)), 0.0)];
+    contact.rows = vec![0, 6, 6, 6];
+    contact.candidates = vec![0, 0, 0, 0, 0, 1];
+    assert_eq!(found(&mut contact, 0, 3, 7), vec![5]);
+    assert_eq!(found(&mut contact, 0, 5, 1), vec![0, 1, 2, 3, 4]);
 }

@@ -775,10 +775,10 @@ fn a_segment_finds_its_candidates_that_copy_a_given_segment() {
     assert_eq!(found(&mut contact, 1, 3, 7), Vec::<usize>::new());
     assert_eq!(found(&mut contact, 2, 3, 7), Vec::<usize>::new());
     assert_eq!(found(&mut contact, 5, 3, 7), Vec::<usize>::new(), "a segment added since preparation has none");
+    assert_eq!(found(&mut contact, 0, 0, 0), Vec::<usize>::new(), "an obstacle without a source copies nothing");
     // the rod's first node frozen: own segment 0 is row 1 now
     contact.dropped = 1;
     assert_eq!(found(&mut contact, 0, 3, 8), vec![5]);
-    assert_eq!(found(&mut contact, 0, 0, 0), Vec::<usize>::new(), "an obstacle without a source copies nothing");
     // prepared again, as many candidates with other sources: the order is made again
     contact.clear();
     contact.obstacles = vec![copy(Some((5, 1)), 0.0), copy(Some((3, 7)), 0.0)];

@@ -82,7 +82,7 @@ fn main() {
     let runs: Vec<Replicate> = (0..replicates)
         .into_par_iter()
         .map(|r| {
-            let mut feeder = Feeder::new(&scene, 0.0, &settings, &mut replicate_rng(2024, r));
+            let mut feeder = Feeder::new(&scene, scene.element_length(), 0.0, &settings, &mut replicate_rng(2024, r));
             let mut heights: Vec<f64> = Vec::with_capacity(times.len());
             feeder.advance_observed(end, |sim| {
                 // a rollback steps back in time: drop the samples it undid

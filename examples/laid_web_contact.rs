@@ -37,7 +37,7 @@ use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::{closest_points, laid_self_gaps};
 use laydown::rod::LaydownParams;
-use laydown::stages::laid_web::{fibre_setup, ContactWeb, FibreContactSettings, LaidWebParams, Turbulence};
+use laydown::stages::laid_web::{fibre_setup, web_feeder, ContactWeb, FibreContactSettings, LaidWebParams, Turbulence};
 use std::time::Instant;
 
 /// A segment's end points and whether it is frozen.
@@ -473,7 +473,7 @@ fn main() {
         feeders = (0..fibres)
             .map(|j| {
                 let (mut rng, turbulence, scene) = fibre_setup(&p, seed, 0, j);
-                let mut f = Feeder::new(&scene, turbulence.0, &p.feed, &mut rng);
+                let mut f = web_feeder(&p, &scene, turbulence.0, &mut rng);
                 f.advance_to(t_end);
                 f
             })

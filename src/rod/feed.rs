@@ -296,7 +296,7 @@ pub fn simulate_fed_with<R: Rng + ?Sized>(p: &LaydownParams, settings: &FeedSett
 /// the oscillation u0 sin(ωt + φ). Imperfections are drawn from `rng` as in the paper's
 /// scene. Never panics on bad input: errors are reported in [`FedFibre::error`].
 pub fn feed_fibre<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, end_time: f64, settings: &FeedSettings, rng: &mut R) -> FedFibre {
-    let mut feeder = Feeder::new(p, phase, settings, rng);
+    let mut feeder = Feeder::new(p, p.element_length(), phase, settings, rng);
     if let Some(watch) = p.lift_watch_until(end_time) {
         feeder.watch_lift(watch);
     }
@@ -345,10 +345,11 @@ struct FeedBook {
 }
 
 impl Feeder {
-    /// The fibre at t = 0: vertical up to the feed height, moving down at v_f.
-    pub fn new<R: Rng + ?Sized>(p: &LaydownParams, phase: f64, settings: &FeedSettings, rng: &mut R) -> Self {
+    /// The fibre at t = 0: vertical up to the feed height, moving down at v_f, fed in
+    /// elements of `element_length` Δs (m; [`feed_fibre`] passes `p.element_length()`).
+    pub fn new<R: Rng + ?Sized>(p: &LaydownParams, element_length: f64, phase: f64, settings: &FeedSettings, rng: &mut R) -> Self {
         let clock = Instant::now();
-        let ds = p.element_length();
+        let ds = element_length;
         let start_elements = ((p.laydown_height / ds).ceil() as usize + settings.buffer_elements).max(2);
         let feed_height = start_elements as f64 * ds;
         let mut positions: Vec<[f64; 3]> = (0..=start_elements).map(|i| [0.0, 0.0, i as f64 * ds]).collect();

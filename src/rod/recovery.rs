@@ -276,7 +276,7 @@ mod tests {
     /// [`feeder`], watching its lift with `watch`.
     fn watched_feeder(p: &LaydownParams, corrupt_at: Option<f64>, until: f64, watch: Option<crate::rod::LiftWatch>) -> Feeder {
         let settings = fed_settings(p);
-        let mut feeder = Feeder::new(p, 0.0, &settings, &mut replicate_rng(5, 0));
+        let mut feeder = Feeder::new(p, p.element_length(), 0.0, &settings, &mut replicate_rng(5, 0));
         if let Some(w) = watch {
             feeder.watch_lift(w);
         }

@@ -654,7 +654,7 @@ fn an_observed_fed_run_is_the_same_run_and_sees_every_step() {
     let t_end = 0.02;
     let scene = LaydownParams { length: p.fibre_speed * t_end, elements: 100, ..p.clone() };
     let settings = fed_settings(&p);
-    let feeder = || Feeder::new(&scene, 0.0, &settings, &mut replicate_rng(2024, 0));
+    let feeder = || Feeder::new(&scene, scene.element_length(), 0.0, &settings, &mut replicate_rng(2024, 0));
     let mut plain = feeder();
     plain.advance_to(t_end);
     let mut observed = feeder();
@@ -691,7 +691,7 @@ fn a_fibre_whose_feed_stops_falls_and_comes_to_rest() {
     let scene = LaydownParams { length: p.fibre_speed * t_end, elements: 500, ..p.clone() };
     let fed = FeedSettings { freeze: false, ..FeedSettings::default() };
     let stopping = FeedSettings { feed_stop: t_stop, ..fed.clone() };
-    let feeder = |s: &FeedSettings| Feeder::new(&scene, 0.0, s, &mut replicate_rng(2024, 0));
+    let feeder = |s: &FeedSettings| Feeder::new(&scene, scene.element_length(), 0.0, s, &mut replicate_rng(2024, 0));
     let (mut a, mut b) = (feeder(&fed), feeder(&stopping));
     a.advance_to(t_stop);
     b.advance_to(t_stop);

@@ -209,12 +209,16 @@ impl LaidWebParams {
     pub fn interior_areal_density(&self) -> f64 {
         self.scene.mass_per_length() / (self.fibre_spacing * self.belt_speed_ratio())
     }
-    /// The scene of one fibre: fed length L = v_f T in elements of Δs (refined by
-    /// coil_resolution), oscillation frequency and amplitude scaled by the fibre's jitter.
+    /// The scene of one fibre: fed length L = v_f T, covered by whole elements of
+    /// [`Self::resolved_element_length`] (`elements`; coil_resolution is then off, the
+    /// refinement being made), oscillation frequency and amplitude scaled by the fibre's
+    /// jitter. The fibre is fed in elements of exactly that Δs ([`web_feeder`]), not of
+    /// L/elements, which would change with the belt travel.
     pub fn fibre_scene(&self, frequency_scale: f64, amplitude_scale: f64) -> LaydownParams {
         let mut s = self.scene.clone();
         s.length = self.fed_length();
-        s.elements = (s.length / self.element_length).round().max(1.0) as usize;
+        s.elements = (s.length / self.resolved_element_length()).ceil().max(1.0) as usize;
+        s.coil_resolution = 0.0;
         s.duration = 0.0;
         s.oscillation_frequency *= frequency_scale;
         s.oscillation_amplitude *= amplitude_scale;
@@ -229,10 +233,19 @@ impl LaidWebParams {
         // no imposed motion: an infinite limit, and the user's interval
         c.interval.min(BROAD_PHASE_TRAVEL * self.resolved_element_length() / imposed_speed)
     }
-    /// Element length actually used (m).
+    /// Element length Δs actually used (m): `element_length`, or the coil scale over the
+    /// scene's coil_resolution where that is shorter (the longest element the scene's
+    /// `resolved_elements` allows). It does not depend on the belt travel, so a web laid
+    /// over a longer travel begins exactly as the shorter one
+    /// (`a_longer_web_begins_as_the_shorter_one`).
     pub fn resolved_element_length(&self) -> f64 {
-        let s = self.fibre_scene(1.0, 1.0);
-        s.element_length()
+        let s = &self.scene;
+        let coil_resolved = s.coil_scale() / s.coil_resolution;
+        if s.coil_resolution > 0.0 && coil_resolved < self.element_length {
+            coil_resolved
+        } else {
+            self.element_length
+        }
     }
     /// Feed height z_f = z0 + buffer (m), as [`feed_fibre`] places it.
     pub fn feed_height(&self) -> f64 {
@@ -424,8 +437,8 @@ pub fn fibre_setup(p: &LaidWebParams, seed: u64, replicate: usize, j: usize) -> 
 /// `bounce_check: last_period` the last period of the web's nominal oscillation before
 /// the end of the feed, whatever the fibre's frequency jitter (the period `validate`
 /// checks).
-fn web_feeder<R: rand::Rng + ?Sized>(p: &LaidWebParams, scene: &LaydownParams, phase: f64, rng: &mut R) -> Feeder {
-    let mut feeder = Feeder::new(scene, phase, &p.feed, rng);
+pub fn web_feeder<R: rand::Rng + ?Sized>(p: &LaidWebParams, scene: &LaydownParams, phase: f64, rng: &mut R) -> Feeder {
+    let mut feeder = Feeder::new(scene, p.resolved_element_length(), phase, &p.feed, rng);
     if let Some(watch) = p.scene.lift_watch_until(p.feed_time()) {
         feeder.watch_lift(watch);
     }

@@ -148,11 +148,8 @@ pub const CPU_SECONDS_PER_NODE_STEP: f64 = 1.2e-7;
 
 /// With fibre contact a node-step costs 1 + a (ρ_L Δs)^0.6 times more, ρ_L = v_f/(v_b Δw)
 /// the fibre length laid per belt area and Δs the element length (the other fibres'
-/// segments within reach of one). a = 5 fitted the 10.6, 22 and 77 times measured on
-/// 2026-11-30 at ρ_L Δs = 3.1, 12.5 and 87 (Table 1 webs at Δw = 8 and 2 mm, Table 4
-/// density). With the joint contact solve the same webs measured 19, 31 and 115 times
-/// (2026-12-07; a = 9.3, 6.6 and 7.8): a = 5 is kept, so that the estimate stays below every
-/// web measured (README, "Run time").
+/// segments within reach of one). a = 5 keeps the estimate below every contact web
+/// measured (README, "Run time", where the fits are).
 pub const CONTACT_COST_SCALE: f64 = 5.0;
 
 /// Elements a node at the largest imposed speed may travel between two broad-phase
@@ -244,7 +241,7 @@ impl LaidWebParams {
     pub fn resolved_element_length(&self) -> f64 {
         let s = &self.scene;
         let coil_resolved = s.coil_scale() / s.coil_resolution;
-        if s.coil_resolution > 0.0 && coil_resolved < self.element_length {
+        if s.coil_resolution > 0.0 && coil_resolved.is_finite() && coil_resolved > 0.0 && coil_resolved < self.element_length {
             coil_resolved
         } else {
             self.element_length

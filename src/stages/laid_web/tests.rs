@@ -606,7 +606,10 @@ fn a_contact_web_goes_back_together_when_a_fibre_fails() {
 
 /// A real failure, not a planted one: fibre 15 of a web of `table4_contact.yaml`'s c = 0.07
 /// (stage `laid_c007`'s scene, seed 2008, replicate 0; found by laying fibres 0-34 of seeds
-/// 2000-2059 for 20 ms without rollbacks, where 5 of the 2 100 fibres failed) stops at
+/// 2000-2059 for 20 ms without rollbacks, where 5 of the 2 100 fibres failed), fed as the
+/// stage fed it until 2026-12-07: in elements of the fed length over a whole number of
+/// them (`feed_fibre` on the fibre's scene, 0.58741 mm; the stage now feeds exactly the
+/// resolved 0.58763 mm, [`LaidWebParams::resolved_element_length`]). It stops at
 /// 4.2 ms with a node past the speed limit after its step collapsed to 2.3 ns. Checkpoints
 /// are not taken while the step has collapsed (`recovery::COLLAPSED_STEP`), so a rollback
 /// goes back to before the collapse, and with rollbacks the fibre is laid (whether a
@@ -684,12 +687,10 @@ fn feeder_bits(f: &Feeder) -> String {
     format!("{:?}", (sim.t, &sim.rod.x, &sim.rod.v, f.frozen()))
 }
 
-/// The element length does not depend on the belt travel (it was the fed length over the
-/// nearest whole number of elements: 1.00146 mm for 13.7 mm of belt here, 1.00100 mm for
-/// 20.1 mm), so the same web laid over a longer travel is the shorter one, to the bit, up
-/// to the shorter one's end: without contact to its feed time, with contact over the
-/// intervals the shorter feed completes. Before, they parted at once (dense contact webs
-/// laid over 6 and 7 mm of belt took 339 and 342 lock steps in their first interval).
+/// The element length does not depend on the belt travel, so the same web laid over a
+/// longer travel is the shorter one, to the bit, up to the shorter one's end: without
+/// contact to its feed time, with contact over the broad-phase intervals the shorter feed
+/// completes.
 #[test]
 fn a_longer_web_begins_as_the_shorter_one() {
     let mut short = laid_web_for(&small_scene(), 0.0, 2);

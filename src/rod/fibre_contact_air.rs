@@ -17,8 +17,9 @@
 //! the contacts of such pairs are solved together: a projected Gauss-Seidel over their
 //! impulses, [`SWEEPS`] sweeps in a fixed order (the rod that found the pair, its
 //! segments and candidates, then belt nodes), so threads do not change the result. Each
-//! pair is looked for by one of its two rods only ([`searches`]), the rods' searches run in
-//! parallel, and a sweep passes over a contact that has no impulse and does not approach
+//! pair is looked for by one of its two rods only ([`searches`]; a fibre meeting its own
+//! simulated stretch under `self_contact`, from the lower of its two segments), the rods'
+//! searches run in parallel, and a sweep passes over a contact that has no impulse and does not approach
 //! its target (most of a laid web's). A pair is solved so when all four ends lie
 //! below z0, the yield rule shares it ½ each on the holds both rods' passes use, and both
 //! rods have predicted the step. Each contact has a normal impulse λ ≥ 0 towards the
@@ -130,7 +131,9 @@ impl Search<'_> {
                 let ob = &c.obstacles[c.candidates[cand] as usize];
                 let Some((world, kg)) = ob.source else { continue };
                 let (g, kg) = (self.local[world as usize], kg as usize);
-                if g == r || !searches(r, g) || !self.ready[g] || kg + 1 >= sims[g].rod.nodes() {
+                // a pair within one rod (self-contact) is found from its lower segment
+                let found_here = if g == r { kg > k } else { searches(r, g) };
+                if !found_here || !self.ready[g] || kg + 1 >= sims[g].rod.nodes() {
                     continue;
                 }
                 let pair_speed = own_speed.max(self.node_speed[g][kg]).max(self.node_speed[g][kg + 1]);
@@ -190,9 +193,9 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             sim.fibre_contact.as_ref().is_some_and(|c| c.predicted_at == Some(t) && c.free_velocities.len() == n && c.free_mobility.len() == n && c.held_at == Some(t))
         })
         .collect();
-    // (a cluster with fewer than two such rods has no pair to solve)
+    // (a rod alone can meet itself: self-contact pairs are solved here too)
     let mut contacts: Vec<AirContact> = Vec::new();
-    if ready.iter().filter(|&&r| r).count() >= 2 {
+    if ready.iter().any(|&r| r) {
         let node_speed: Vec<Vec<f64>> = sims
             .iter()
             .zip(&ready)
@@ -218,7 +221,9 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
     let world: Vec<u32> = sims.iter().map(|sim| sim.fibre_contact.as_ref().map_or(u32::MAX, |c| c.world)).collect();
     for (i, a) in contacts.iter().enumerate() {
         of_rod[a.r].push(i);
-        of_rod[a.g].push(i);
+        if a.g != a.r {
+            of_rod[a.g].push(i);
+        }
     }
     let mark_rod = |w: usize, sim: &mut Simulator| {
         let Some(c) = sim.fibre_contact.as_mut() else { return };
@@ -235,7 +240,9 @@ pub(in crate::rod) fn solve_in_air(sims: &mut [&mut Simulator], local: &[usize],
             c.air_at = Some(t);
             if a.r == w {
                 mark(c, a.cand);
-                continue;
+                if a.g != w {
+                    continue;
+                }
             }
             for i in c.copying(a.kg, world[a.r], a.k as u32) {
                 let cand = c.by_source[i].1 as usize;

@@ -18,9 +18,9 @@
 //! impulses, [`SWEEPS`] sweeps in a fixed order (the rod that found the pair, its
 //! segments and candidates, then belt nodes), so threads do not change the result. Each
 //! pair is looked for by one of its two rods only ([`searches`]; a fibre meeting its own
-//! simulated stretch under `self_contact`, from the lower of its two segments), the rods'
-//! searches run in parallel, and a sweep passes over a contact that has no impulse and does not approach
-//! its target (most of a laid web's). A pair is solved so when all four ends lie
+//! simulated stretch under `self_contact`, from the lower-numbered of its two segments),
+//! the rods' searches run in parallel, and a sweep passes over a contact that has no
+//! impulse and does not approach its target (most of a laid web's). A pair is solved so when all four ends lie
 //! below z0, the yield rule shares it ½ each on the holds both rods' passes use, and both
 //! rods have predicted the step. Each contact has a normal impulse λ ≥ 0 towards the
 //! velocity pass's target (reach d at the end of the step, or no approach while closer)
@@ -60,9 +60,9 @@ pub const SWEEPS: usize = 4;
 /// n: a pair the solve pushed ends at its target (up to round-off).
 pub const SOLVED_TOLERANCE: f64 = 1e-6;
 
-/// One contact that two simulated fibres share ½: own segment `k` of rod `r` (closest point at
-/// `s`) against segment `kg` of rod `g` (at `u`), normal `n` from the other towards
-/// the own segment, and the impulses found so far.
+/// One contact that two simulated fibres (or two segments of one, `g == r`) share ½: own
+/// segment `k` of rod `r` (closest point at `s`) against segment `kg` of rod `g` (at `u`),
+/// normal `n` from the other towards the own segment, and the impulses found so far.
 struct AirContact {
     r: usize,
     k: usize,
@@ -131,7 +131,8 @@ impl Search<'_> {
                 let ob = &c.obstacles[c.candidates[cand] as usize];
                 let Some((world, kg)) = ob.source else { continue };
                 let (g, kg) = (self.local[world as usize], kg as usize);
-                // a pair within one rod (self-contact) is found from its lower segment
+                // a pair within one rod (self-contact) is found from its lower-numbered segment
+                // (the two are at least `SELF_GAP` apart, so they share no node)
                 let found_here = if g == r { kg > k } else { searches(r, g) };
                 if !found_here || !self.ready[g] || kg + 1 >= sims[g].rod.nodes() {
                     continue;

@@ -526,16 +526,10 @@ fn self_collision_in_vacuum(offset: f64) -> (f64, u64) {
 
 /// A fibre meeting its own simulated stretch (`self_contact`) shares the correction ½
 /// between its two segments as two fibres do, and the pair is solved for both segments at
-/// once (`fibre_contact::air`). Touched at nodes of both stretches, the fibre's momentum
-/// is kept to round-off (8.7e-15 of itself); until 2026-12-07 (session 57) each segment
-/// took its ½ in the rod's own velocity pass against the other's copy, which changed it
-/// by 9.0e-4. Touched between nodes it still changes (by 5.8e-4, 1.85e-2, 2.4e-3, 3.6e-3
-/// of itself at 0.1, ¼, 0.4 and ½ of an element): the length projection holds the node
-/// nearer each contact point along n as if the other stretch could not move, and the
-/// holds' reactions are external to the rod (with them switched off in a scratch build,
-/// round-off at every offset; `pipelines/studies/PHYSICAL_WEBS.md`, "Self-contact in the
-/// joint solve"). Here it asks that the stretches meet at every offset and for round-off
-/// at the node.
+/// once (`fibre_contact::air`): in this layout, touched at nodes of both stretches, the
+/// fibre's momentum is kept to round-off (each segment's ½ in the rod's own pass changed it
+/// by 9.0e-4). Between nodes the length projection's holds still change it; the figures
+/// are in `pipelines/studies/PHYSICAL_WEBS.md`, "Self-contact in the joint solve".
 #[test]
 fn a_fibre_colliding_with_itself_at_a_node_conserves_its_momentum() {
     for offset in [0.0, 0.25, 0.5] {

@@ -20,9 +20,9 @@
 //! pair is looked for by one of its two rods only ([`searches`]; a fibre meeting its own
 //! simulated stretch under `self_contact`, from the lower-numbered of its two segments),
 //! the rods' searches run in parallel, and a sweep passes over a contact that has no
-//! impulse and does not approach its target (most of a laid web's). A pair is solved so when all four ends lie
-//! below z0, the yield rule shares it ½ each on the holds both rods' passes use, and both
-//! rods have predicted the step. Each contact has a normal impulse λ ≥ 0 towards the
+//! impulse and does not approach its target (most of a laid web's). A pair is solved so
+//! when all four ends lie below z0, the yield rule shares it ½ each on the holds both
+//! rods' passes use, and both rods have predicted the step. Each contact has a normal impulse λ ≥ 0 towards the
 //! velocity pass's target (reach d at the end of the step, or no approach while closer)
 //! and a friction impulse within μ_ff λ. Each is applied to the nodes of both rods through
 //! their inverse node matrices W before the belt (the velocity pass's own), equal and

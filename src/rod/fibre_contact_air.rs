@@ -22,13 +22,13 @@
 //! the rods' searches run in parallel, and a sweep passes over a contact that has no
 //! impulse and does not approach its target (most of a laid web's). A pair is solved so
 //! when all four ends lie below z0, the yield rule shares it ½ each on the holds both
-//! rods' passes use, and both rods have predicted the step. Each contact has a normal impulse λ ≥ 0 towards the
-//! velocity pass's target (reach d at the end of the step, or no approach while closer)
-//! and a friction impulse within μ_ff λ. Each is applied to the nodes of both rods through
-//! their inverse node matrices W before the belt (the velocity pass's own), equal and
-//! opposite, so the pair's momentum is kept; a side whose contact point can hardly move
-//! takes nothing, as `Mobility::shift` refuses, and the impulse then acts on the other side
-//! alone.
+//! rods' passes use, and both rods have predicted the step. Each contact has a normal
+//! impulse λ ≥ 0 towards the velocity pass's target (reach d at the end of the step, or
+//! no approach while closer) and a friction impulse within μ_ff λ. Each is applied to the
+//! nodes of both rods through their inverse node matrices W before the belt (the velocity
+//! pass's own), equal and opposite, so the pair's momentum is kept; a side whose contact
+//! point can hardly move takes nothing, as `Mobility::shift` refuses, and the impulse then
+//! acts on the other side alone.
 //!
 //! The belt is part of the same solve: every node of a solved pair that lies within d of
 //! the belt has a belt contact, unilateral (v_z ≥ −z/Δt, the belt pass's own target) with

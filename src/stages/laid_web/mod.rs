@@ -233,6 +233,14 @@ impl LaidWebParams {
         // no imposed motion: an infinite limit, and the user's interval
         c.interval.min(BROAD_PHASE_TRAVEL * self.resolved_element_length() / imposed_speed)
     }
+    /// `scene` at the step the web's fibres take: with fibre contact, held to
+    /// `contact_step_factor` ([`FibreContactSettings::stepped`]).
+    pub fn stepped_scene(&self, scene: LaydownParams) -> LaydownParams {
+        match &self.fibre_contact {
+            Some(c) => c.stepped(scene),
+            None => scene,
+        }
+    }
     /// Element length Δs actually used (m): `element_length`, or the coil scale over the
     /// scene's coil_resolution where that is shorter (the longest element the scene's
     /// `resolved_elements` allows). It does not depend on the belt travel, so a web laid
@@ -269,12 +277,7 @@ impl LaidWebParams {
     /// tests.
     pub fn estimated_node_steps(&self) -> f64 {
         let ds = self.resolved_element_length();
-        // with contact, the contact step (`contact_step_factor`)
-        let scene = self.fibre_scene(1.0, 1.0);
-        let scene = match &self.fibre_contact {
-            Some(c) => c.stepped(scene),
-            None => scene,
-        };
+        let scene = self.stepped_scene(self.fibre_scene(1.0, 1.0));
         let dt = crate::rod::scene::time_step_limits(&scene, ds, true).chosen;
         let t = self.feed_time();
         let steps = t / dt;

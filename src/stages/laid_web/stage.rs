@@ -156,8 +156,7 @@ impl Stage for LaidWebStage {
     }
     fn cautions(&self, p: &ParamSet) -> Vec<ParamCaution> {
         let lw = laid_web_params(p);
-        // the step the fibres take: with contact, held to contact_step_factor
-        let scene = lw.fibre_contact.as_ref().map_or_else(|| lw.scene.clone(), |c| c.stepped(lw.scene.clone()));
+        let scene = lw.stepped_scene(lw.scene.clone());
         crate::rod::scene::cautions(&scene, lw.resolved_element_length())
     }
     /// [`LaidWebParams::estimated_cpu_seconds`] of one web; with fibre contact what it

@@ -32,7 +32,10 @@
 //! speed of the laid nodes still simulated relative to the belt (median, 90th percentile,
 //! largest), the highest of them, and how many nodes are neither on the belt nor resting
 //! on laid fibre (hanging, or spans over crossings): with `feed_stop=` and `freeze=0`,
-//! whether a web left alone comes to rest.
+//! whether a web left alone comes to rest. With `TRACE=j:i,...` (contact only) it prints,
+//! after every contact interval from `TRACE_AFTER` (s, default 0), the height and the
+//! velocity relative to the belt of node i of fibre j (simulated node numbers, as
+//! `DUMP_LAID` prints them): with `interval=` about one step, how a node moves step by step.
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::{closest_points, laid_self_gaps};
@@ -251,6 +254,29 @@ fn not_laid_downstream(feeders: &[Feeder], d: f64) {
     }
 }
 
+/// The nodes `TRACE=j:i,...` names, as (fibre, node); panics on a fibre out of range.
+fn traced_nodes(fibres: usize) -> Vec<(usize, usize)> {
+    let Ok(spec) = std::env::var("TRACE") else { return Vec::new() };
+    spec.split(',')
+        .map(|item| {
+            let (j, i) = item.split_once(':').expect("TRACE: fibre:node, comma separated");
+            let (j, i): (usize, usize) = (j.parse().expect("TRACE: fibre"), i.parse().expect("TRACE: node"));
+            assert!(j < fibres, "TRACE: fibre {j} of {fibres}");
+            (j, i)
+        })
+        .collect()
+}
+
+/// One `TRACE` line: node `i` of fibre `j` at time `t`, height in diameters, velocity
+/// relative to the belt (m/s); a node not (or no longer) simulated says so.
+fn trace_line(f: &Feeder, j: usize, i: usize, d: f64, vb: f64, t: f64) -> String {
+    let rod = &f.simulator().rod;
+    match (rod.x.get(i), rod.v.get(i)) {
+        (Some(x), Some(v)) => format!("trace t {t:.7} s fibre {j} node {i}: z {:.4} d, v - v_b ({:+.4} {:+.4} {:+.4}) m/s", x[2] / d, v[0] - vb, v[1], v[2]),
+        _ => format!("trace t {t:.7} s fibre {j} node {i}: not simulated ({} nodes)", rod.nodes()),
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let num: Vec<&String> = args.iter().filter(|a| !a.contains('=')).collect();
@@ -322,10 +348,17 @@ fn main() {
         let disp_window: f64 = std::env::var("DISP_WINDOW").ok().map_or(0.0, |v| v.parse().unwrap());
         let mut snapshot: Option<Vec<LaidNodes>> = None;
         let vb = p.scene.belt_speed;
+        let traced = traced_nodes(fibres);
+        let trace_after: f64 = std::env::var("TRACE_AFTER").ok().map_or(0.0, |v| v.parse().expect("TRACE_AFTER (s)"));
         for k in 0..n {
             let (_, t1) = web.run_interval(k);
             if speeds_every > 0 && (k + 1) % speeds_every == 0 {
                 println!("{}", speeds_line(&web.feeders, d, t1));
+            }
+            if t1 >= trace_after {
+                for &(j, i) in &traced {
+                    println!("{}", trace_line(&web.feeders[j], j, i, d, vb, t1));
+                }
             }
             if disp_window > 0.0 && snapshot.is_none() && t1 >= t_end - disp_window {
                 snapshot = Some(laid_in_belt_frame(&web.feeders, vb, t1));

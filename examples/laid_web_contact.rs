@@ -34,8 +34,9 @@
 //! on laid fibre (hanging, or spans over crossings): with `feed_stop=` and `freeze=0`,
 //! whether a web left alone comes to rest. With `TRACE=j:i,...` (contact only) it prints,
 //! after every contact interval from `TRACE_AFTER` (s, default 0), the height and the
-//! velocity relative to the belt of node i of fibre j (simulated node numbers, as
-//! `DUMP_LAID` prints them): with `interval=` about one step, how a node moves step by step.
+//! velocity relative to the belt of node i of fibre j, numbered from the fibre's start with
+//! frozen nodes counted (with `freeze=0` the numbers `DUMP_LAID` prints): with `interval=`
+//! about one step, how a node moves step by step.
 use laydown::rod::contact_world::{ContactBody, ContactStats};
 use laydown::rod::feed::Feeder;
 use laydown::rod::fibre_contact::{closest_points, laid_self_gaps};
@@ -258,6 +259,8 @@ fn not_laid_downstream(feeders: &[Feeder], d: f64) {
 fn traced_nodes(fibres: usize) -> Vec<(usize, usize)> {
     let Ok(spec) = std::env::var("TRACE") else { return Vec::new() };
     spec.split(',')
+        .map(str::trim)
+        .filter(|item| !item.is_empty())
         .map(|item| {
             let (j, i) = item.split_once(':').expect("TRACE: fibre:node, comma separated");
             let (j, i): (usize, usize) = (j.parse().expect("TRACE: fibre"), i.parse().expect("TRACE: node"));
@@ -267,13 +270,17 @@ fn traced_nodes(fibres: usize) -> Vec<(usize, usize)> {
         .collect()
 }
 
-/// One `TRACE` line: node `i` of fibre `j` at time `t`, height in diameters, velocity
-/// relative to the belt (m/s); a node not (or no longer) simulated says so.
+/// One `TRACE` line: node `i` of fibre `j` (from the fibre's start, frozen nodes counted)
+/// at time `t`, height in diameters, velocity relative to the belt (m/s); a node frozen or
+/// not yet fed says so.
 fn trace_line(f: &Feeder, j: usize, i: usize, d: f64, vb: f64, t: f64) -> String {
-    let rod = &f.simulator().rod;
-    match (rod.x.get(i), rod.v.get(i)) {
+    let (frozen, rod) = (f.frozen().len(), &f.simulator().rod);
+    if i < frozen {
+        return format!("trace t {t:.7} s fibre {j} node {i}: frozen");
+    }
+    match (rod.x.get(i - frozen), rod.v.get(i - frozen)) {
         (Some(x), Some(v)) => format!("trace t {t:.7} s fibre {j} node {i}: z {:.4} d, v - v_b ({:+.4} {:+.4} {:+.4}) m/s", x[2] / d, v[0] - vb, v[1], v[2]),
-        _ => format!("trace t {t:.7} s fibre {j} node {i}: not simulated ({} nodes)", rod.nodes()),
+        _ => format!("trace t {t:.7} s fibre {j} node {i}: not fed yet ({} fed)", frozen + rod.nodes()),
     }
 }
 
@@ -349,7 +356,7 @@ fn main() {
         let mut snapshot: Option<Vec<LaidNodes>> = None;
         let vb = p.scene.belt_speed;
         let traced = traced_nodes(fibres);
-        let trace_after: f64 = std::env::var("TRACE_AFTER").ok().map_or(0.0, |v| v.parse().expect("TRACE_AFTER (s)"));
+        let trace_after: f64 = if traced.is_empty() { 0.0 } else { std::env::var("TRACE_AFTER").ok().map_or(0.0, |v| v.parse().expect("TRACE_AFTER (s)")) };
         for k in 0..n {
             let (_, t1) = web.run_interval(k);
             if speeds_every > 0 && (k + 1) % speeds_every == 0 {

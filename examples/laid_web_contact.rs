@@ -24,6 +24,8 @@
 //! moved relative to the belt over the last s seconds (creep, not only speed); it also
 //! names, per fibre, simulated nodes far downstream that do not count as laid. `drag=0`
 //! switches the air drag off; `age_limit=` (s) freezes laid nodes that old whatever they do;
+//! `settle_time=` (s, the stage's `settle_time`) is how long a laid node must stay put, and
+//! the least time since it landed, before it may freeze;
 //! `front_margin=` (m) freezes laid nodes that far downstream of where any fibre has landed
 //! (with `contact=0`, of where each fibre itself has landed, and only nodes on the belt).
 //! `feed_stop=` (s) stops the feed then: each fibre is cut at the feed point and falls,
@@ -296,6 +298,7 @@ fn main() {
     let mut step_factor = laydown::rod::fibre_contact::CONTACT_STEP_FACTOR;
     let mut age_limit: Option<f64> = None;
     let mut front_margin: Option<f64> = None;
+    let mut settle_time: Option<f64> = None;
     let mut feed_stop: Option<f64> = None;
     let mut freeze = true;
     let mut speeds_every = 0usize;
@@ -313,6 +316,7 @@ fn main() {
             "drag" => scene.effects.drag = v != "0",
             "age_limit" => age_limit = Some(v.parse().unwrap()),
             "front_margin" => front_margin = Some(v.parse().unwrap()),
+            "settle_time" => settle_time = Some(v.parse().unwrap()),
             "feed_stop" => feed_stop = Some(v.parse().unwrap()),
             "freeze" => freeze = v != "0",
             "speeds" => speeds_every = v.parse().unwrap(),
@@ -326,6 +330,9 @@ fn main() {
     p.feed.oscillation_ramp = ramp;
     if let Some(m) = front_margin {
         p.feed.front_margin = m;
+    }
+    if let Some(s) = settle_time {
+        p.feed.settle_time = s;
     }
     if let Some(a) = age_limit {
         p.feed.age_limit = a;

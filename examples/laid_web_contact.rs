@@ -24,8 +24,9 @@
 //! moved relative to the belt over the last s seconds (creep, not only speed); it also
 //! names, per fibre, simulated nodes far downstream that do not count as laid. `drag=0`
 //! switches the air drag off; `age_limit=` (s) freezes laid nodes that old whatever they do;
-//! `settle_time=` (s, the stage's `settle_time`) is how long a laid node must stay put, and
-//! the least time since it landed, before it may freeze;
+//! `settle_time=` (s, the stage's `settle_time`, default 0.02) is how long a laid node must
+//! stay put (creep below 1 % of an element), and the least time since it landed, before it
+//! may freeze;
 //! `front_margin=` (m) freezes laid nodes that far downstream of where any fibre has landed
 //! (with `contact=0`, of where each fibre itself has landed, and only nodes on the belt).
 //! `feed_stop=` (s) stops the feed then: each fibre is cut at the feed point and falls,
